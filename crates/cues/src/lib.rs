@@ -1,0 +1,1 @@
+//! splatseg `cues` stage (being written).

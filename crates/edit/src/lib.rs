@@ -1,0 +1,1 @@
+//! splatseg `edit` stage (being written).

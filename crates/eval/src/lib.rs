@@ -1,0 +1,1 @@
+//! splatseg `eval` stage (being written).

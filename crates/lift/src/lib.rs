@@ -1,0 +1,1 @@
+//! splatseg `lift` stage (being written).

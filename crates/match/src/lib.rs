@@ -1,0 +1,1 @@
+//! splatseg `match` stage (being written).

@@ -1,0 +1,1 @@
+//! splatseg `merge` stage (being written).

@@ -1,0 +1,1 @@
+//! splatseg `render` stage (being written).

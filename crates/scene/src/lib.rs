@@ -1,0 +1,31 @@
+//! `scene` stage: everything splatseg reads and writes in formats people already have.
+//!
+//! - [`camera`]: intrinsics, lens distortion and `world_from_cam` poses (see `CONVENTIONS.md`).
+//! - [`colmap`]: COLMAP sparse models, binary and text, read and write.
+//! - [`transforms`]: NeRF/Blender `transforms_*.json` and instant-ngp/nerfstudio `transforms.json`.
+//! - [`gaussians`] + [`ply`]: the INRIA 3DGS PLY layout, with round-tripped extra properties.
+//! - [`rle`] + [`sam`]: Segment Anything automatic-mask output (COCO RLE JSON and PNG folders).
+//! - [`labels`]: 8/16-bit label-map PNGs (0 = unlabelled).
+//! - [`npy`]: NumPy `.npy`/`.npz` arrays (dense features, depth).
+//! - [`plane`]: the row-major 2D array type every per-pixel map uses.
+//! - [`atomic`]: write-to-temp-then-rename helpers: nothing half-written.
+
+pub mod atomic;
+pub mod camera;
+pub mod colmap;
+pub mod error;
+pub mod gaussians;
+pub mod labels;
+pub mod load;
+pub mod npy;
+pub mod plane;
+pub mod ply;
+pub mod rle;
+pub mod sam;
+pub mod transforms;
+
+pub use camera::{Camera, CameraModel, Distortion, Pose};
+pub use error::{SceneError, SceneResult};
+pub use gaussians::Gaussians;
+pub use load::{load_scene, LoadOptions, Scene, SparsePoint, View};
+pub use plane::Plane;

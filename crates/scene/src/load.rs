@@ -1,0 +1,119 @@
+//! [`Scene`]: cameras, posed views and optional sparse points, whatever format they came from,
+//! and [`load_scene`], which detects the format of a folder.
+
+use crate::camera::{Camera, Pose};
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Which on-disk format a scene was read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SceneFormat {
+    /// COLMAP `sparse/0/{cameras,images,points3D}.bin`.
+    ColmapBinary,
+    /// COLMAP `sparse/0/{cameras,images,points3D}.txt`.
+    ColmapText,
+    /// NeRF synthetic / Blender `transforms_{train,val,test}.json`.
+    Blender,
+    /// instant-ngp / nerfstudio `transforms.json`.
+    InstantNgp,
+}
+
+/// A 2D keypoint of a COLMAP image, kept so models round-trip.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Keypoint {
+    /// Pixel position (pixel-corner origin).
+    pub xy: DVec2,
+    /// The 3D point it observes, or -1.
+    pub point3d_id: i64,
+}
+
+/// One posed image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct View {
+    /// Image name as the model lists it (COLMAP `NAME`, or the transforms `file_path` with the
+    /// extension that was found), relative to the images folder.
+    pub name: String,
+    /// File stem of `name` (no folders, no extension): the key that matches per-view inputs such
+    /// as `masks/<stem>.json` or `features/<stem>.npy`.
+    pub stem: String,
+    /// Resolved path of the image file at the chosen resolution.
+    pub image_path: PathBuf,
+    /// Index into [`Scene::cameras`].
+    pub camera_index: usize,
+    /// Camera-to-world transform, OpenCV camera axes (see `CONVENTIONS.md`).
+    pub world_from_cam: Pose,
+    /// COLMAP `IMAGE_ID` (1-based order of appearance for transforms.json scenes).
+    pub image_id: u32,
+    /// COLMAP 2D keypoints (empty for other formats).
+    pub keypoints: Vec<Keypoint>,
+}
+
+/// A COLMAP sparse 3D point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SparsePoint {
+    /// COLMAP `POINT3D_ID`.
+    pub id: u64,
+    /// Position in world coordinates.
+    pub xyz: DVec3,
+    /// Colour.
+    pub rgb: [u8; 3],
+    /// Mean reprojection error.
+    pub error: f64,
+    /// Observations as `(IMAGE_ID, POINT2D_IDX)`.
+    pub track: Vec<(u32, u32)>,
+}
+
+/// A multi-view capture: cameras, posed views and (for COLMAP) sparse points.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Scene {
+    /// The folder the scene was loaded from.
+    pub root: PathBuf,
+    /// The format it was read from.
+    pub format: SceneFormat,
+    /// Intrinsics at the chosen resolution.
+    pub cameras: Vec<Camera>,
+    /// Posed views in file order (COLMAP: sorted by image name, as 3DGS does).
+    pub views: Vec<View>,
+    /// Sparse points, when the format has them.
+    pub points: Option<Vec<SparsePoint>>,
+    /// Non-fatal problems found while loading (e.g. listed images that are missing), to be
+    /// shown to the user once; loading does not print them itself.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// The camera of `view`.
+    pub fn camera(&self, view: &View) -> &Camera {
+        &self.cameras[view.camera_index]
+    }
+
+    /// The view whose image stem is `stem`.
+    pub fn view_by_stem(&self, stem: &str) -> Option<&View> {
+        self.views.iter().find(|v| v.stem == stem)
+    }
+}
+
+/// How to load a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LoadOptions {
+    /// Image down-scaling factor as 3DGS's `--resolution` (1, 2, 4 or 8). Uses `images_<f>/`
+    /// when present, otherwise images are resized on load.
+    pub resolution: u32,
+    /// Background RGB in [0, 1] that RGBA images (Blender scenes) are composited onto.
+    pub background: [f32; 3],
+    /// Which Blender split to read (`train`, `val`, `test`); ignored for other formats.
+    pub split: String,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions { resolution: 1, background: [1.0, 1.0, 1.0], split: "train".to_string() }
+    }
+}
+
+/// Loads the scene at `path`, detecting its format. Written by the scene-loading work.
+pub fn load_scene(path: &std::path::Path, options: &LoadOptions) -> crate::SceneResult<Scene> {
+    let _ = options;
+    Err(crate::SceneError::missing("scene loaders (not built yet)", path))
+}

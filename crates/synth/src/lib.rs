@@ -1,0 +1,1 @@
+//! splatseg `synth` stage (being written).

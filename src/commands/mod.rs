@@ -1,0 +1,31 @@
+//! Subcommands. Each lives in its own file with its clap arguments and a `run` function.
+
+use clap::{Parser, Subcommand};
+
+/// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
+///
+/// Turns a multi-view capture (COLMAP or transforms.json) and its 3DGS PLY into refined per-view
+/// masks with global object ids and Gaussians labelled by object. Start with `splatseg demo`.
+#[derive(Debug, Parser)]
+#[command(name = "splatseg", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {}
+
+/// Runs the chosen subcommand.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {}
+}
+
+/// Logs to stderr; `RUST_LOG=debug` for more.
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).init();
+}
