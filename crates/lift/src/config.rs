@@ -1,0 +1,46 @@
+//! [`LiftConfig`]: parameters of visibility, fusion and filtering. Defaults are the paper's
+//! where it gives one (τ_var = 0.05) and documented choices elsewhere.
+
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the lifting stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct LiftConfig {
+    /// Visibility: a Gaussian is visible in a view when its camera depth `z` satisfies
+    /// `z ≤ D · (1 + depth_rel_tol) + depth_sigma_tol · σ_ray`, where `D` is the surface depth
+    /// at its centre pixel and `σ_ray` its own standard deviation along the viewing ray.
+    pub depth_rel_tol: f32,
+    /// See `depth_rel_tol`.
+    pub depth_sigma_tol: f32,
+    /// Surface depth `D` of a pixel: the depth at which front-to-back transmittance first drops
+    /// below this (0.5 = the "median depth" of the composited footprints).
+    pub surface_transmittance: f32,
+    /// Paper τ_var: Gaussians whose identity-feature variance over their views exceeds this are
+    /// unreliable and get no id (`-1`).
+    pub tau_var: f32,
+    /// Rendering label maps back, unreliable Gaussians vote for their majority id with their
+    /// blending weight scaled by this (reliable ones: 1).
+    pub unreliable_render_weight: f32,
+    /// Gaussians seen in fewer views than this get no id.
+    pub min_views: u32,
+    /// Floor of the frontal factor of the fusion weight (so grazing views still count a little).
+    pub min_frontal: f32,
+    /// Near plane: Gaussians closer to the camera than this are skipped.
+    pub near: f32,
+}
+
+impl Default for LiftConfig {
+    fn default() -> Self {
+        LiftConfig {
+            depth_rel_tol: 0.03,
+            depth_sigma_tol: 1.0,
+            surface_transmittance: 0.5,
+            tau_var: 0.05,
+            unreliable_render_weight: 0.25,
+            min_views: 1,
+            min_frontal: 0.05,
+            near: 0.01,
+        }
+    }
+}

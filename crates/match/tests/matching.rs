@@ -1,0 +1,184 @@
+//! Behaviour of `match_masks` on hand-made views.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use splatseg_match::{match_masks, MatchConfig, MatchError, MatchInput, ViewMasks, ViewObservations};
+
+/// A view whose masks have the given 2D descriptors and area 100.
+fn view(features: &[[f32; 2]]) -> ViewMasks {
+    ViewMasks { features: features.iter().flatten().copied().collect(), areas_px: vec![100; features.len()] }
+}
+
+/// Observations of one view: `(first Gaussian, count, label)` runs, in increasing Gaussian order.
+fn observed(runs: &[(u32, u32, u32)]) -> ViewObservations {
+    let mut obs = ViewObservations::default();
+    for &(start, count, label) in runs {
+        obs.gaussians.extend(start..start + count);
+        obs.labels.extend(std::iter::repeat_n(label, count as usize));
+    }
+    obs
+}
+
+const A: [f32; 2] = [1.0, 0.0];
+const B: [f32; 2] = [0.0, 1.0];
+
+#[test]
+fn descriptors_alone_give_consistent_stable_ids() {
+    // View 1 lists the objects in the other order; ids follow first appearance (view 0).
+    let input =
+        MatchInput { dim: 2, views: vec![view(&[A, B]), view(&[B, A]), view(&[A, B])], observations: None };
+    let m = match_masks(&input, &MatchConfig::default()).unwrap();
+    assert_eq!(m.n_objects, 2);
+    assert_eq!(m.global_of_label, vec![vec![0, 1, 2], vec![0, 2, 1], vec![0, 1, 2]]);
+    assert!((m.object_feature(1).unwrap()[0] - 1.0).abs() < 1e-6);
+    assert!((m.object_feature(2).unwrap()[1] - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn below_tau_match_stays_apart() {
+    // cos = 0.6 < 0.7.
+    let input = MatchInput { dim: 2, views: vec![view(&[A]), view(&[[0.6, 0.8]])], observations: None };
+    let m = match_masks(&input, &MatchConfig::default()).unwrap();
+    assert_eq!(m.n_objects, 2);
+}
+
+#[test]
+fn union_find_refuses_two_masks_of_one_view() {
+    // View 0 has two fragments both similar to view 1's mask: only the better one joins it.
+    let near = [0.95, 0.312_25];
+    let input = MatchInput { dim: 2, views: vec![view(&[near, A]), view(&[A])], observations: None };
+    let m = match_masks(&input, &MatchConfig::default()).unwrap();
+    assert_eq!(m.n_objects, 2);
+    assert_eq!(m.global_of_label[1][1], m.global_of_label[0][2], "the exact match wins");
+    assert_ne!(m.global_of_label[0][1], m.global_of_label[0][2]);
+    assert_eq!(m.stats.refused_same_view, 1);
+}
+
+#[test]
+fn disjoint_gaussians_keep_identical_looking_masks_apart() {
+    // White-on-white: two objects with the same descriptor. View 0 sees object P (Gaussians
+    // 0..50) in its mask, object Q (50..100) unlabelled; view 1 the opposite.
+    let views = vec![view(&[A]), view(&[A])];
+    let without = MatchInput { dim: 2, views: views.clone(), observations: None };
+    assert_eq!(match_masks(&without, &MatchConfig::default()).unwrap().n_objects, 1);
+    let obs = vec![observed(&[(0, 50, 1), (50, 50, 0)]), observed(&[(0, 50, 0), (50, 50, 1)])];
+    let with = MatchInput { dim: 2, views, observations: Some(obs) };
+    let m = match_masks(&with, &MatchConfig::default()).unwrap();
+    assert_eq!(m.n_objects, 2);
+    assert_eq!(m.stats.cannot_links, 1);
+}
+
+#[test]
+fn cannot_link_blocks_a_descriptor_chain() {
+    // Views 0 and 2 see disjoint Gaussians in their masks (cannot-link); view 1's mask has no
+    // 3D support with either (it sees nothing), so descriptors alone would chain all three.
+    let views = vec![view(&[A]), view(&[A]), view(&[A])];
+    let obs = vec![
+        observed(&[(0, 50, 1), (50, 50, 0)]),
+        ViewObservations::default(),
+        observed(&[(0, 50, 0), (50, 50, 1)]),
+    ];
+    let m =
+        match_masks(&MatchInput { dim: 2, views, observations: Some(obs) }, &MatchConfig::default()).unwrap();
+    assert_eq!(m.n_objects, 2);
+    assert_eq!(m.stats.refused_cannot_link, 1);
+    assert_eq!(m.global_of_label[1][1], 1, "view 1 joins view 0 first (lower mask index)");
+}
+
+#[test]
+fn shared_gaussians_join_masks_whose_descriptors_differ() {
+    // cos = 0.6: below τ_match, above the 3D-backed gate of 0.5; same Gaussians in both views.
+    let views = vec![view(&[A]), view(&[[0.6, 0.8]])];
+    let obs = vec![observed(&[(0, 60, 1)]), observed(&[(0, 60, 1)])];
+    let m =
+        match_masks(&MatchInput { dim: 2, views, observations: Some(obs) }, &MatchConfig::default()).unwrap();
+    assert_eq!(m.n_objects, 1);
+    assert_eq!(m.stats.edges_3d, 1);
+}
+
+#[test]
+fn a_fragment_joins_its_whole_by_containment() {
+    // View 0: one mask over Gaussians 0..100. View 1: the object split in two fragments
+    // (0..70 and 70..100). The larger fragment has more shared Gaussians... both are fully
+    // contained (overlap 1); the tie is broken by cosine, then index: only one may join.
+    let views = vec![view(&[A]), view(&[A, [0.9, 0.435_89]])];
+    let obs = vec![observed(&[(0, 100, 1)]), observed(&[(0, 70, 1), (70, 30, 2)])];
+    let m =
+        match_masks(&MatchInput { dim: 2, views, observations: Some(obs) }, &MatchConfig::default()).unwrap();
+    assert_eq!(m.global_of_label[1][1], m.global_of_label[0][1]);
+    assert_ne!(m.global_of_label[1][2], m.global_of_label[0][1]);
+}
+
+fn random_input(seed: u64) -> MatchInput {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let dim = 8;
+    let centres: Vec<Vec<f32>> =
+        (0..6).map(|_| (0..dim).map(|_| rng.gen_range(-1.0..1.0)).collect()).collect();
+    let mut views = Vec::new();
+    let mut observations = Vec::new();
+    for _ in 0..7 {
+        let mut masks = ViewMasks::default();
+        let mut obs = ViewObservations::default();
+        for (o, c) in centres.iter().enumerate() {
+            if rng.gen_bool(0.8) {
+                masks.features.extend(c.iter().map(|x| x + rng.gen_range(-0.2..0.2)));
+                masks.areas_px.push(rng.gen_range(50..500));
+                let label = masks.len() as u32;
+                for g in (o as u32 * 40)..(o as u32 * 40 + 40) {
+                    if rng.gen_bool(0.7) {
+                        obs.gaussians.push(g);
+                        obs.labels.push(if rng.gen_bool(0.9) { label } else { 0 });
+                    }
+                }
+            }
+        }
+        views.push(masks);
+        observations.push(obs);
+    }
+    MatchInput { dim, views, observations: Some(observations) }
+}
+
+#[test]
+fn deterministic_across_runs_and_thread_counts() {
+    for seed in 0..4 {
+        let input = random_input(seed);
+        let config = MatchConfig::default();
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let a = one.install(|| match_masks(&input, &config).unwrap());
+        let b = two.install(|| match_masks(&input, &config).unwrap());
+        let c = match_masks(&input, &config).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a, c);
+        // Each view's masks got distinct ids, and ids are numbered by first appearance.
+        let mut seen = 0;
+        for ids in &a.global_of_label {
+            let mut sorted = ids[1..].to_vec();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), ids.len() - 1, "two masks of one view share an id");
+            for &id in &ids[1..] {
+                assert!(id <= seen + 1, "id {id} appears before id {}", seen + 1);
+                seen = seen.max(id);
+            }
+        }
+        // The 6 underlying objects are recovered (each object's masks share Gaussians).
+        assert_eq!(a.n_objects, 6, "seed {seed}");
+    }
+}
+
+#[test]
+fn inconsistent_inputs_are_errors() {
+    let bad = MatchInput {
+        dim: 2,
+        views: vec![ViewMasks { features: vec![1.0], areas_px: vec![1] }],
+        observations: None,
+    };
+    assert!(matches!(match_masks(&bad, &MatchConfig::default()), Err(MatchError::Shape { view: 0, .. })));
+    let obs = vec![observed(&[(0, 5, 3)])];
+    let bad = MatchInput { dim: 2, views: vec![view(&[A])], observations: Some(obs) };
+    let err = match_masks(&bad, &MatchConfig::default()).unwrap_err();
+    assert!(matches!(err, MatchError::UnknownLabel { view: 0, label: 3, masks: 1 }), "{err}");
+    let nan = MatchInput { dim: 2, views: vec![view(&[[f32::NAN, 0.0]])], observations: None };
+    assert!(matches!(match_masks(&nan, &MatchConfig::default()), Err(MatchError::NonFinite { .. })));
+}
