@@ -1,0 +1,128 @@
+//! Tile binning: which splats touch which 16×16 tile, each tile's list sorted front to back.
+//!
+//! Work mapping: tile rectangles and counts per splat in parallel (one splat per work item);
+//! the counting sort into tiles is sequential over splats in index order (so every tile's list
+//! starts in index order); then each tile's list is sorted by depth in parallel (one tile per
+//! work item, stable sort: ties keep index order). The result is independent of the thread count.
+//!
+//! A splat covers tiles `floor((mean − r) / 16) .. ceil((mean + r) / 16)` (half-open, clamped to
+//! the image), per axis, as gsplat's `isect_tiles`.
+
+use crate::project::Splat2d;
+use rayon::prelude::*;
+
+/// Tile edge length in pixels.
+pub const TILE_SIZE: usize = 16;
+
+/// Per-tile lists of splat indices, front to back.
+#[derive(Clone, Debug, Default)]
+pub struct TileBins {
+    /// Tiles per row.
+    pub tiles_x: usize,
+    /// Tile rows.
+    pub tiles_y: usize,
+    /// `[tiles_x · tiles_y + 1]`: tile `t`'s list is `ids[offsets[t]..offsets[t + 1]]`;
+    /// tiles are numbered row-major.
+    pub offsets: Vec<usize>,
+    /// `[n_intersections]` splat indices, grouped by tile, each group sorted by depth.
+    pub ids: Vec<u32>,
+}
+
+impl TileBins {
+    /// Splat indices of tile `t`, front to back.
+    pub fn tile(&self, t: usize) -> &[u32] {
+        &self.ids[self.offsets[t]..self.offsets[t + 1]]
+    }
+
+    /// Number of (splat, tile) pairs.
+    pub fn intersection_count(&self) -> usize {
+        self.ids.len()
+    }
+}
+
+/// Half-open tile rectangle `[x0, x1) × [y0, y1)` a splat covers.
+pub fn tile_rect(s: &Splat2d, tiles_x: usize, tiles_y: usize) -> [usize; 4] {
+    if s.is_culled() {
+        return [0; 4];
+    }
+    let ts = TILE_SIZE as f32;
+    let (rx, ry) = (s.radii[0] as f32 / ts, s.radii[1] as f32 / ts);
+    let (mx, my) = (s.mean2d[0] / ts, s.mean2d[1] / ts);
+    let clamp = |v: f32, hi: usize| v.clamp(0.0, hi as f32) as usize;
+    [
+        clamp((mx - rx).floor(), tiles_x),
+        clamp((mx + rx).ceil(), tiles_x),
+        clamp((my - ry).floor(), tiles_y),
+        clamp((my + ry).ceil(), tiles_y),
+    ]
+}
+
+/// Bins `splats [N]` into the tiles of a `width × height` image.
+pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
+    let tiles_x = width.div_ceil(TILE_SIZE);
+    let tiles_y = height.div_ceil(TILE_SIZE);
+    let n_tiles = tiles_x * tiles_y;
+    let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
+    let mut counts = vec![0usize; n_tiles + 1];
+    for r in &rects {
+        for ty in r[2]..r[3] {
+            for c in &mut counts[ty * tiles_x + r[0]..ty * tiles_x + r[1]] {
+                *c += 1;
+            }
+        }
+    }
+    let mut offsets = vec![0usize; n_tiles + 1];
+    for t in 0..n_tiles {
+        offsets[t + 1] = offsets[t] + counts[t];
+    }
+    let mut cursor = offsets.clone();
+    let mut ids = vec![0u32; offsets[n_tiles]];
+    for (i, r) in rects.iter().enumerate() {
+        for ty in r[2]..r[3] {
+            for tx in r[0]..r[1] {
+                let t = ty * tiles_x + tx;
+                ids[cursor[t]] = i as u32;
+                cursor[t] += 1;
+            }
+        }
+    }
+    sort_tiles_by_depth(&mut ids, &offsets, splats);
+    TileBins { tiles_x, tiles_y, offsets, ids }
+}
+
+fn sort_tiles_by_depth(ids: &mut [u32], offsets: &[usize], splats: &[Splat2d]) {
+    let mut lists: Vec<&mut [u32]> = Vec::with_capacity(offsets.len());
+    let mut rest = ids;
+    for w in offsets.windows(2) {
+        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
+        lists.push(head);
+        rest = tail;
+    }
+    lists.par_iter_mut().for_each(|list| {
+        list.sort_by(|&a, &b| splats[a as usize].depth.total_cmp(&splats[b as usize].depth));
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn splat(x: f32, y: f32, r: i32, depth: f32) -> Splat2d {
+        Splat2d { mean2d: [x, y], conic: [1.0, 0.0, 1.0], opacity: 0.5, depth, radii: [r, r] }
+    }
+
+    #[test]
+    fn bins_cover_footprints_and_sort_by_depth() {
+        let splats = [splat(8.0, 8.0, 4, 3.0), splat(20.0, 8.0, 10, 1.0), splat(40.0, 40.0, 0, 1.0)];
+        let bins = bin(&splats, 48, 32);
+        assert_eq!((bins.tiles_x, bins.tiles_y), (3, 2));
+        // splat 0 covers tile 0 only; splat 1 covers x in [10, 30] → tiles 0, 1 in row 0 and
+        // (y in [-2, 18]) rows 0 and 1; splat 2 is culled.
+        assert_eq!(bins.tile(0), &[1, 0]);
+        assert_eq!(bins.tile(1), &[1]);
+        assert_eq!(bins.tile(2), &[] as &[u32]);
+        assert_eq!(bins.tile(3), &[1]);
+        assert_eq!(bins.tile(4), &[1]);
+        assert_eq!(bins.intersection_count(), 5);
+    }
+}

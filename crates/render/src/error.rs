@@ -1,0 +1,26 @@
+//! The one error type of the `render` crate.
+
+/// Result alias for this crate.
+pub type RenderResult<T> = Result<T, RenderError>;
+
+/// What can go wrong when rendering. Inputs come from files users give us, so inconsistent
+/// shapes are reported, never panicked on.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// An input array has the wrong length for the number of Gaussians or pixels.
+    #[error("{what} has {got} values, expected {expected}")]
+    Shape {
+        /// Which array, e.g. "sh_rest".
+        what: &'static str,
+        /// Its length.
+        got: usize,
+        /// The length it should have.
+        expected: usize,
+    },
+    /// A camera that cannot be rendered (zero size, non-finite or non-positive focal length, ...).
+    #[error("invalid camera: {0}")]
+    Camera(String),
+    /// A gradient was given for an output the forward pass did not produce.
+    #[error("gradient given for `{0}`, which the render request did not ask for")]
+    GradientWithoutOutput(&'static str),
+}

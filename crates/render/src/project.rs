@@ -1,0 +1,330 @@
+//! Projection of 3D Gaussians to screen-space splats (EWA splatting) and its backward.
+//!
+//! Work mapping: one Gaussian per rayon work item (`into_par_iter` over indices, output in index
+//! order); every Gaussian is independent, so results do not depend on the thread count.
+//!
+//! Math (gsplat's `_fully_fused_projection` / `_persp_proj` / `_quat_scale_to_covar_preci`):
+//! `Σ = R S Sᵀ Rᵀ` with `R` from the normalised quaternion `(w, x, y, z)` and `S = diag(exp
+//! log_scales)`; `p_c = W p + t`, `Σ_c = W Σ Wᵀ` (`W, t` = cam_from_world); the Jacobian of the
+//! pinhole at `(tx', ty', tz)` where `tx' = tz · clamp(tx / tz, −(cx/fx + 0.3·tanfov_x),
+//! (w − cx)/fx + 0.3·tanfov_x)` (likewise y); `Σ_2d = J Σ_c Jᵀ + eps2d·I`; conic = `Σ_2d⁻¹`
+//! (determinant clamped at 1e-10); mean `(fx·tx/tz + cx, fy·ty/tz + cy)` with the unclamped
+//! `tx, ty`. Culled (radius 0): depth ≤ near or ≥ far, or a footprint entirely off-image.
+
+use crate::camera::RenderCamera;
+use crate::settings::{Extent, RasterSettings};
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use splatseg_scene::Gaussians;
+
+/// One Gaussian as seen by a camera: what the rasteriser needs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Splat2d {
+    /// Projected centre, px (pixel-corner origin).
+    pub mean2d: [f32; 2],
+    /// Inverse 2D covariance `(a, b, c)` = `[[a, b], [b, c]]`, 1/px².
+    pub conic: [f32; 3],
+    /// Opacity in (0, 1) (sigmoid of the raw opacity).
+    pub opacity: f32,
+    /// Camera-space z of the centre (metric depth).
+    pub depth: f32,
+    /// Footprint half-widths `(x, y)` in px; `[0, 0]` = culled.
+    pub radii: [i32; 2],
+}
+
+impl Splat2d {
+    /// True when the Gaussian is culled (not binned to any tile).
+    pub fn is_culled(&self) -> bool {
+        self.radii[0] <= 0 || self.radii[1] <= 0
+    }
+}
+
+/// Camera constants shared by every Gaussian.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ProjCam {
+    pub w: Mat3,
+    pub t: Vec3,
+    pub fx: f32,
+    pub fy: f32,
+    pub cx: f32,
+    pub cy: f32,
+    pub width: f32,
+    pub height: f32,
+    pub near: f32,
+    pub far: f32,
+    lim_x: (f32, f32),
+    lim_y: (f32, f32),
+}
+
+impl ProjCam {
+    pub fn new(camera: &RenderCamera) -> Self {
+        let (r, t) = camera.cam_from_world_f32();
+        let w = Mat3::from_cols(
+            Vec3::new(r[0][0], r[1][0], r[2][0]),
+            Vec3::new(r[0][1], r[1][1], r[2][1]),
+            Vec3::new(r[0][2], r[1][2], r[2][2]),
+        );
+        let (width, height) = (camera.width as f32, camera.height as f32);
+        let tan_x = 0.5 * width / camera.fx;
+        let tan_y = 0.5 * height / camera.fy;
+        ProjCam {
+            w,
+            t: Vec3::from(t),
+            fx: camera.fx,
+            fy: camera.fy,
+            cx: camera.cx,
+            cy: camera.cy,
+            width,
+            height,
+            near: camera.near,
+            far: camera.far,
+            lim_x: (-(camera.cx / camera.fx + 0.3 * tan_x), (width - camera.cx) / camera.fx + 0.3 * tan_x),
+            lim_y: (-(camera.cy / camera.fy + 0.3 * tan_y), (height - camera.cy) / camera.fy + 0.3 * tan_y),
+        }
+    }
+}
+
+/// Rotation matrix of the normalised quaternion `q = (w, x, y, z)`; also returns the norm.
+pub(crate) fn quat_to_mat(q: [f32; 4]) -> (Mat3, [f32; 4], f32) {
+    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt().max(1e-12);
+    let [w, x, y, z] = q.map(|v| v / n);
+    let m = Mat3::from_cols(
+        Vec3::new(1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)),
+        Vec3::new(2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + w * x)),
+        Vec3::new(2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)),
+    );
+    (m, [w, x, y, z], n)
+}
+
+/// Gradient w.r.t. the raw quaternion given `d_r = ∂L/∂R` (R = rotation of the normalised q).
+pub(crate) fn quat_to_mat_bwd(qn: [f32; 4], norm: f32, d_r: Mat3) -> [f32; 4] {
+    let [w, x, y, z] = qn;
+    let g = |i: usize, j: usize| d_r.col(j)[i];
+    let dw = 2.0 * (-z * g(0, 1) + y * g(0, 2) + z * g(1, 0) - x * g(1, 2) - y * g(2, 0) + x * g(2, 1));
+    let dx = 2.0
+        * (y * g(0, 1) + z * g(0, 2) + y * g(1, 0) - 2.0 * x * g(1, 1) - w * g(1, 2)
+            + z * g(2, 0)
+            + w * g(2, 1)
+            - 2.0 * x * g(2, 2));
+    let dy = 2.0
+        * (-2.0 * y * g(0, 0) + x * g(0, 1) + w * g(0, 2) + x * g(1, 0) + z * g(1, 2) - w * g(2, 0)
+            + z * g(2, 1)
+            - 2.0 * y * g(2, 2));
+    let dz = 2.0
+        * (-2.0 * z * g(0, 0) - w * g(0, 1) + x * g(0, 2) + w * g(1, 0) - 2.0 * z * g(1, 1)
+            + y * g(1, 2)
+            + x * g(2, 0)
+            + y * g(2, 1));
+    let dqn = [dw, dx, dy, dz];
+    let dot: f32 = (0..4).map(|i| dqn[i] * qn[i]).sum();
+    [0, 1, 2, 3].map(|i| (dqn[i] - qn[i] * dot) / norm)
+}
+
+/// Intermediate values of one Gaussian's projection, kept for the backward.
+struct Forward {
+    rot: Mat3,
+    qn: [f32; 4],
+    qnorm: f32,
+    scales: Vec3,
+    m: Mat3,
+    p_c: Vec3,
+    cov_c: Mat3,
+    txc: f32,
+    tyc: f32,
+    clamped_x: bool,
+    clamped_y: bool,
+    j0: Vec3,
+    j1: Vec3,
+    cov2d: [f32; 3],
+    det: f32,
+    det_clamped: bool,
+}
+
+fn forward_one(cam: &ProjCam, mean: [f32; 3], log_scales: [f32; 3], quat: [f32; 4], eps2d: f32) -> Forward {
+    let (rot, qn, qnorm) = quat_to_mat(quat);
+    let scales = Vec3::from(log_scales.map(f32::exp));
+    let m = Mat3::from_cols(rot.x_axis * scales.x, rot.y_axis * scales.y, rot.z_axis * scales.z);
+    let cov = m * m.transpose();
+    let p_c = cam.w * Vec3::from(mean) + cam.t;
+    let cov_c = cam.w * cov * cam.w.transpose();
+    let tz = p_c.z;
+    let (rx, ry) = (p_c.x / tz, p_c.y / tz);
+    let clamped_x = !(rx >= cam.lim_x.0 && rx <= cam.lim_x.1);
+    let clamped_y = !(ry >= cam.lim_y.0 && ry <= cam.lim_y.1);
+    let txc = tz * rx.clamp(cam.lim_x.0, cam.lim_x.1);
+    let tyc = tz * ry.clamp(cam.lim_y.0, cam.lim_y.1);
+    let j0 = Vec3::new(cam.fx / tz, 0.0, -cam.fx * txc / (tz * tz));
+    let j1 = Vec3::new(0.0, cam.fy / tz, -cam.fy * tyc / (tz * tz));
+    let s0 = cov_c * j0;
+    let s1 = cov_c * j1;
+    let cov2d = [j0.dot(s0) + eps2d, j0.dot(s1), j1.dot(s1) + eps2d];
+    let det_raw = cov2d[0] * cov2d[2] - cov2d[1] * cov2d[1];
+    Forward {
+        rot,
+        qn,
+        qnorm,
+        scales,
+        m,
+        p_c,
+        cov_c,
+        txc,
+        tyc,
+        clamped_x,
+        clamped_y,
+        j0,
+        j1,
+        cov2d,
+        det: det_raw.max(1e-10),
+        det_clamped: det_raw.is_nan() || det_raw < 1e-10,
+    }
+}
+
+fn footprint(extent: Extent, cov2d: [f32; 3], det: f32) -> [f32; 2] {
+    match extent {
+        Extent::MaxEigen { sigmas } => {
+            let b = 0.5 * (cov2d[0] + cov2d[2]);
+            let v1 = b + (b * b - det).max(0.1).sqrt();
+            let r = (sigmas * v1.sqrt()).ceil();
+            [r, r]
+        }
+        Extent::PerAxis { sigmas } => [(sigmas * cov2d[0].sqrt()).ceil(), (sigmas * cov2d[2].sqrt()).ceil()],
+    }
+}
+
+/// Projects Gaussian `i` (no colour).
+pub(crate) fn project_one(cam: &ProjCam, g: &Gaussians, i: usize, settings: &RasterSettings) -> Splat2d {
+    let f = forward_one(cam, g.means[i], g.log_scales[i], g.rotations[i], settings.eps2d);
+    let depth = f.p_c.z;
+    let mean2d = [cam.fx * f.p_c.x / depth + cam.cx, cam.fy * f.p_c.y / depth + cam.cy];
+    let conic = [f.cov2d[2] / f.det, -f.cov2d[1] / f.det, f.cov2d[0] / f.det];
+    let opacity = 1.0 / (1.0 + (-g.raw_opacities[i]).exp());
+    let mut r = footprint(settings.extent, f.cov2d, f.det);
+    let valid = depth > cam.near && depth < cam.far;
+    let inside = mean2d[0] + r[0] > 0.0
+        && mean2d[0] - r[0] < cam.width
+        && mean2d[1] + r[1] > 0.0
+        && mean2d[1] - r[1] < cam.height;
+    let finite = mean2d.iter().chain(conic.iter()).all(|v| v.is_finite()) && r.iter().all(|v| v.is_finite());
+    if !valid || !inside || !finite {
+        r = [0.0, 0.0];
+    }
+    Splat2d { mean2d, conic, opacity, depth, radii: [r[0] as i32, r[1] as i32] }
+}
+
+/// Projects every Gaussian: `[N]` splats in input order.
+pub fn project(gaussians: &Gaussians, camera: &RenderCamera, settings: &RasterSettings) -> Vec<Splat2d> {
+    let cam = ProjCam::new(camera);
+    (0..gaussians.len()).into_par_iter().map(|i| project_one(&cam, gaussians, i, settings)).collect()
+}
+
+/// Gradients reaching one splat from the rasteriser and the depth channel.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SplatGrad {
+    /// ∂L/∂mean2d, px⁻¹.
+    pub mean2d: [f32; 2],
+    /// ∂L/∂conic `(a, b, c)`, `b` counted once.
+    pub conic: [f32; 3],
+    /// ∂L/∂opacity (after the sigmoid).
+    pub opacity: f32,
+    /// ∂L/∂depth (camera z), e.g. from rendered depth.
+    pub depth: f32,
+}
+
+/// Gradients of one Gaussian's raw parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ParamGrad {
+    /// ∂L/∂mean `[3]`.
+    pub mean: [f32; 3],
+    /// ∂L/∂log_scales `[3]`.
+    pub log_scales: [f32; 3],
+    /// ∂L/∂rotation `[4]` (w, x, y, z; raw, unnormalised quaternion).
+    pub rotation: [f32; 4],
+    /// ∂L/∂raw_opacity.
+    pub raw_opacity: f32,
+}
+
+/// Backward of [`project`] for Gaussian `i` (not culled).
+pub(crate) fn project_one_bwd(
+    cam: &ProjCam,
+    g: &Gaussians,
+    i: usize,
+    settings: &RasterSettings,
+    grad: &SplatGrad,
+) -> ParamGrad {
+    let f = forward_one(cam, g.means[i], g.log_scales[i], g.rotations[i], settings.eps2d);
+    let tz = f.p_c.z;
+    // conic = [c11, -c01, c00] / det
+    let [a, b, c] = [f.cov2d[2] / f.det, -f.cov2d[1] / f.det, f.cov2d[0] / f.det];
+    let [ga, gb, gc] = grad.conic;
+    let g_det = if f.det_clamped { 0.0 } else { -(ga * a + gb * b + gc * c) / f.det };
+    let g00 = gc / f.det + g_det * f.cov2d[2];
+    let g11 = ga / f.det + g_det * f.cov2d[0];
+    let g01 = -gb / f.det - 2.0 * g_det * f.cov2d[1];
+    // cov2d = J Σc Jᵀ with rows j0, j1.
+    let outer = |u: Vec3, v: Vec3| Mat3::from_cols(u * v.x, u * v.y, u * v.z);
+    let g_cov_c = outer(f.j0, f.j0) * g00 + outer(f.j0, f.j1) * g01 + outer(f.j1, f.j1) * g11;
+    let g_j0 = f.cov_c * f.j0 * (2.0 * g00) + f.cov_c * f.j1 * g01;
+    let g_j1 = f.cov_c * f.j1 * (2.0 * g11) + f.cov_c * f.j0 * g01;
+    let (fx, fy) = (cam.fx, cam.fy);
+    let tz2 = tz * tz;
+    let tz3 = tz2 * tz;
+    let mut g_p_c = Vec3::ZERO;
+    g_p_c.z += -fx / tz2 * g_j0.x + 2.0 * fx * f.txc / tz3 * g_j0.z - fy / tz2 * g_j1.y
+        + 2.0 * fy * f.tyc / tz3 * g_j1.z;
+    let g_txc = -fx / tz2 * g_j0.z;
+    let g_tyc = -fy / tz2 * g_j1.z;
+    if f.clamped_x {
+        g_p_c.z += g_txc * f.txc / tz;
+    } else {
+        g_p_c.x += g_txc;
+    }
+    if f.clamped_y {
+        g_p_c.z += g_tyc * f.tyc / tz;
+    } else {
+        g_p_c.y += g_tyc;
+    }
+    let [gmx, gmy] = grad.mean2d;
+    g_p_c.x += fx / tz * gmx;
+    g_p_c.y += fy / tz * gmy;
+    g_p_c.z += -fx * f.p_c.x / tz2 * gmx - fy * f.p_c.y / tz2 * gmy + grad.depth;
+    let g_mean = cam.w.transpose() * g_p_c;
+    // Σc = W Σ Wᵀ; Σ = M Mᵀ; M = R diag(s).
+    let g_cov = cam.w.transpose() * g_cov_c * cam.w;
+    let g_m = (g_cov + g_cov.transpose()) * f.m;
+    let s = f.scales;
+    let g_rot = Mat3::from_cols(g_m.x_axis * s.x, g_m.y_axis * s.y, g_m.z_axis * s.z);
+    let g_s =
+        Vec3::new(g_m.x_axis.dot(f.rot.x_axis), g_m.y_axis.dot(f.rot.y_axis), g_m.z_axis.dot(f.rot.z_axis));
+    let o = 1.0 / (1.0 + (-g.raw_opacities[i]).exp());
+    ParamGrad {
+        mean: g_mean.to_array(),
+        log_scales: (g_s * s).to_array(),
+        rotation: quat_to_mat_bwd(f.qn, f.qnorm, g_rot),
+        raw_opacity: grad.opacity * o * (1.0 - o),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quaternion_backward_matches_finite_differences() {
+        let q = [0.8f32, -0.3, 0.5, 0.2];
+        let weights = Mat3::from_cols_array(&[0.3, -1.2, 0.7, 0.4, 0.9, -0.5, 1.1, 0.2, -0.8]);
+        let loss = |q: [f32; 4]| {
+            let (m, _, _) = quat_to_mat(q);
+            (0..3).map(|j| m.col(j).dot(weights.col(j))).sum::<f32>()
+        };
+        let (_, qn, n) = quat_to_mat(q);
+        let g = quat_to_mat_bwd(qn, n, weights);
+        for k in 0..4 {
+            let h = 1e-3;
+            let (mut up, mut dn) = (q, q);
+            up[k] += h;
+            dn[k] -= h;
+            let fd = (loss(up) - loss(dn)) / (2.0 * h);
+            assert!((fd - g[k]).abs() < 1e-3, "component {k}: fd {fd} analytic {}", g[k]);
+        }
+    }
+}

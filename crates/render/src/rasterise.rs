@@ -1,0 +1,420 @@
+//! Front-to-back alpha blending of depth-sorted splats per 16×16 tile, and its backward.
+//!
+//! Work mapping: one rayon work item per **row of tiles** (a 16-pixel band of the image), whose
+//! tiles are processed left to right; every pixel is computed independently of the others, so
+//! outputs do not depend on the thread count. Inside a tile the loop runs over the tile's splats
+//! (outer) and the pixels of the splat's footprint (inner), with per-pixel state kept for the
+//! 256 pixels; a tile stops when all its pixels are done.
+//!
+//! Blending rules (3DGS / gsplat): pixel centre `(x + 0.5, y + 0.5)`; `σ = ½(a·dx² + c·dy²) +
+//! b·dx·dy`; `α = min(alpha_max, opacity · exp(−σ))`; skipped if `σ < 0` or `α < alpha_min`;
+//! the pixel stops *before* a splat that would bring its transmittance to `transmittance_min` or
+//! below. Output `Σ_i c_i α_i T_i + T_final · background`.
+//!
+//! Backward (as 3DGS): no per-pixel per-splat storage; the forward keeps per pixel only the final
+//! transmittance and how far down its tile list it blended, and the backward walks each tile's
+//! list back to front, recovering `T_i = T_{i+1} / (1 − α_i)`. Per-(splat, tile) partial
+//! gradients are written to a buffer laid out like the tile lists (bands own disjoint slices),
+//! then added into per-splat totals sequentially in list order: deterministic for any thread
+//! count. The buffer is processed in groups of bands to bound its memory.
+
+use crate::bin::{TileBins, TILE_SIZE};
+use crate::project::Splat2d;
+use crate::settings::RasterSettings;
+use rayon::prelude::*;
+
+const TILE_PIXELS: usize = TILE_SIZE * TILE_SIZE;
+
+/// What to blend.
+#[derive(Clone, Copy, Debug)]
+pub struct RasterInputs<'a> {
+    /// `[N]` projected splats.
+    pub splats: &'a [Splat2d],
+    /// `[N, channel_count]` per-splat values to blend (colour, features, depth, ...).
+    pub channels: &'a [f32],
+    /// Number of channels C.
+    pub channel_count: usize,
+    /// `[C]` value behind everything (weighted by the final transmittance).
+    pub background: &'a [f32],
+    /// Image width, px.
+    pub width: usize,
+    /// Image height, px.
+    pub height: usize,
+    /// Blending rules.
+    pub settings: &'a RasterSettings,
+}
+
+/// Blended images and what the backward needs.
+#[derive(Clone, Debug, Default)]
+pub struct RasterOutput {
+    /// `[H · W, C]` blended channels including the background term.
+    pub channels: Vec<f32>,
+    /// `[H · W]` final transmittance (accumulated alpha = 1 − T).
+    pub final_t: Vec<f32>,
+    /// `[H · W]` 1 + position in its tile's list of the last splat blended into the pixel (0 = none).
+    pub walked: Vec<u32>,
+    /// `[H · W]` index of the splat with the largest blending weight `α·T` (−1 = none; the
+    /// first one wins ties).
+    pub max_weight_ids: Vec<i32>,
+}
+
+/// Pixel rectangle of tile `(tx, ty)`: `(x0, x1, y0, y1)`, half-open, clipped to the image.
+fn tile_pixels(tx: usize, ty: usize, width: usize, height: usize) -> (usize, usize, usize, usize) {
+    let x0 = tx * TILE_SIZE;
+    let y0 = ty * TILE_SIZE;
+    (x0, (x0 + TILE_SIZE).min(width), y0, (y0 + TILE_SIZE).min(height))
+}
+
+/// Pixels of tile rect `tile` where the splat's α can reach `alpha_min` (the ellipse
+/// `σ ≤ ln(opacity / alpha_min)` plus a 1 px margin); `None` if there are none.
+fn footprint_in_tile(
+    s: &Splat2d,
+    alpha_min: f32,
+    tile: (usize, usize, usize, usize),
+) -> Option<(usize, usize, usize, usize)> {
+    if s.opacity < alpha_min {
+        return None;
+    }
+    let [a, b, c] = s.conic;
+    let det = a * c - b * b;
+    let (x0, x1, y0, y1) = tile;
+    if det.is_nan() || det <= 0.0 || a.is_nan() || a <= 0.0 {
+        return Some(tile);
+    }
+    let two_smax = 2.0 * (s.opacity / alpha_min).ln();
+    let ex = (two_smax * c / det).sqrt() + 1.0;
+    let ey = (two_smax * a / det).sqrt() + 1.0;
+    // Pixel x has its centre at x + 0.5: keep x with |mean − x − 0.5| ≤ ex.
+    let lo = |m: f32, e: f32, lo: usize| ((m - e - 0.5).ceil().max(lo as f32)) as usize;
+    let hi = |m: f32, e: f32, hi: usize| ((m + e - 0.5).floor() + 1.0).clamp(0.0, hi as f32) as usize;
+    let (bx0, bx1) = (lo(s.mean2d[0], ex, x0), hi(s.mean2d[0], ex, x1));
+    let (by0, by1) = (lo(s.mean2d[1], ey, y0), hi(s.mean2d[1], ey, y1));
+    (bx0 < bx1 && by0 < by1).then_some((bx0, bx1, by0, by1))
+}
+
+/// σ and α of splat `s` at pixel `(px, py)`; `None` when it is skipped (σ < 0 or α too small).
+/// Also returns `(dx, dy) = mean − pixel centre` and whether α was clamped.
+#[inline(always)]
+fn splat_alpha(
+    s: &Splat2d,
+    px: usize,
+    py: usize,
+    settings: &RasterSettings,
+) -> Option<(f32, f32, f32, f32, bool)> {
+    let dx = s.mean2d[0] - (px as f32 + 0.5);
+    let dy = s.mean2d[1] - (py as f32 + 0.5);
+    let [a, b, c] = s.conic;
+    let sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy;
+    let raw = s.opacity * (-sigma).exp();
+    let alpha = raw.min(settings.alpha_max);
+    if sigma < 0.0 || alpha < settings.alpha_min {
+        return None;
+    }
+    Some((alpha, raw, dx, dy, raw > settings.alpha_max))
+}
+
+/// Per-pixel state of one tile in the forward pass.
+struct TileState {
+    t: Vec<f32>,
+    done: Vec<bool>,
+    walked: Vec<u32>,
+    best_w: Vec<f32>,
+    best_id: Vec<i32>,
+    acc: Vec<f32>,
+}
+
+impl TileState {
+    fn new(c: usize) -> Self {
+        TileState {
+            t: vec![1.0; TILE_PIXELS],
+            done: vec![false; TILE_PIXELS],
+            walked: vec![0; TILE_PIXELS],
+            best_w: vec![0.0; TILE_PIXELS],
+            best_id: vec![-1; TILE_PIXELS],
+            acc: vec![0.0; TILE_PIXELS * c],
+        }
+    }
+
+    fn reset(&mut self) {
+        self.t.fill(1.0);
+        self.done.fill(false);
+        self.walked.fill(0);
+        self.best_w.fill(0.0);
+        self.best_id.fill(-1);
+        self.acc.fill(0.0);
+    }
+}
+
+/// Mutable views of one band of the outputs.
+struct BandOut<'b> {
+    channels: &'b mut [f32],
+    final_t: &'b mut [f32],
+    walked: &'b mut [u32],
+    ids: &'b mut [i32],
+}
+
+fn rasterise_tile(inp: &RasterInputs, list: &[u32], tile: (usize, usize, usize, usize), st: &mut TileState) {
+    let c_count = inp.channel_count;
+    let (x0, x1, y0, y1) = tile;
+    let n_pix = (x1 - x0) * (y1 - y0);
+    let mut n_done = 0;
+    for (k, &gid) in list.iter().enumerate() {
+        if n_done == n_pix {
+            break;
+        }
+        let s = &inp.splats[gid as usize];
+        let Some((bx0, bx1, by0, by1)) = footprint_in_tile(s, inp.settings.alpha_min, tile) else {
+            continue;
+        };
+        let colour = &inp.channels[gid as usize * c_count..(gid as usize + 1) * c_count];
+        for py in by0..by1 {
+            for px in bx0..bx1 {
+                let li = (py - y0) * TILE_SIZE + (px - x0);
+                if st.done[li] {
+                    continue;
+                }
+                let Some((alpha, ..)) = splat_alpha(s, px, py, inp.settings) else {
+                    continue;
+                };
+                let t = st.t[li];
+                let next_t = t * (1.0 - alpha);
+                if next_t <= inp.settings.transmittance_min {
+                    st.done[li] = true;
+                    n_done += 1;
+                    continue;
+                }
+                let w = alpha * t;
+                for (acc, &v) in st.acc[li * c_count..(li + 1) * c_count].iter_mut().zip(colour) {
+                    *acc += w * v;
+                }
+                if w > st.best_w[li] {
+                    st.best_w[li] = w;
+                    st.best_id[li] = gid as i32;
+                }
+                st.t[li] = next_t;
+                st.walked[li] = k as u32 + 1;
+            }
+        }
+    }
+}
+
+fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, st: &mut TileState) {
+    let (w, c_count) = (inp.width, inp.channel_count);
+    for tx in 0..bins.tiles_x {
+        let tile = tile_pixels(tx, ty, inp.width, inp.height);
+        st.reset();
+        rasterise_tile(inp, bins.tile(ty * bins.tiles_x + tx), tile, st);
+        let (x0, x1, y0, y1) = tile;
+        for py in y0..y1 {
+            for px in x0..x1 {
+                let li = (py - y0) * TILE_SIZE + (px - x0);
+                let pi = (py - y0) * w + px;
+                let t = st.t[li];
+                let dst = &mut out.channels[pi * c_count..(pi + 1) * c_count];
+                for ((d, &a), &bg) in dst.iter_mut().zip(&st.acc[li * c_count..]).zip(inp.background) {
+                    *d = a + t * bg;
+                }
+                out.final_t[pi] = t;
+                out.walked[pi] = st.walked[li];
+                out.ids[pi] = st.best_id[li];
+            }
+        }
+    }
+}
+
+/// Blends the binned splats into an image.
+pub fn rasterise(inp: &RasterInputs, bins: &TileBins) -> RasterOutput {
+    let (w, h, c) = (inp.width, inp.height, inp.channel_count);
+    let mut out = RasterOutput {
+        channels: vec![0.0; w * h * c],
+        final_t: vec![1.0; w * h],
+        walked: vec![0; w * h],
+        max_weight_ids: vec![-1; w * h],
+    };
+    let band = TILE_SIZE * w;
+    out.channels
+        .par_chunks_mut(band * c.max(1))
+        .zip(out.final_t.par_chunks_mut(band))
+        .zip(out.walked.par_chunks_mut(band))
+        .zip(out.max_weight_ids.par_chunks_mut(band))
+        .enumerate()
+        .for_each_init(
+            || TileState::new(c),
+            |st, (ty, (((channels, final_t), walked), ids))| {
+                rasterise_band(inp, bins, ty, BandOut { channels, final_t, walked, ids }, st);
+            },
+        );
+    out
+}
+
+/// Gradients of the loss w.r.t. the rasteriser's outputs.
+#[derive(Clone, Copy, Debug)]
+pub struct RasterOutputGrads<'a> {
+    /// `[H · W, C]` ∂L/∂channels (of the blended output, background term included).
+    pub channels: &'a [f32],
+    /// `[H · W]` ∂L/∂final transmittance (= −∂L/∂alpha), or `None` for zero.
+    pub final_t: Option<&'a [f32]>,
+}
+
+/// Per-splat gradients from the rasteriser.
+#[derive(Clone, Debug, Default)]
+pub struct RasterGrads {
+    /// `[N]` ∂L/∂mean2d, px⁻¹.
+    pub mean2d: Vec<[f32; 2]>,
+    /// `[N]` ∂L/∂conic `(a, b, c)`.
+    pub conic: Vec<[f32; 3]>,
+    /// `[N]` ∂L/∂opacity.
+    pub opacity: Vec<f32>,
+    /// `[N, C]` ∂L/∂channels.
+    pub channels: Vec<f32>,
+}
+
+/// Number of floats in one (splat, tile) gradient record: mean2d 2, conic 3, opacity 1, C.
+fn record_len(c: usize) -> usize {
+    6 + c
+}
+
+/// Per-pixel state of one tile in the backward pass.
+struct BwdState {
+    t: Vec<f32>,
+    behind: Vec<f32>,
+}
+
+fn rasterise_tile_bwd(
+    inp: &RasterInputs,
+    fwd: &RasterOutput,
+    grads: &RasterOutputGrads,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    records: &mut [f32],
+    st: &mut BwdState,
+) {
+    let (c_count, w) = (inp.channel_count, inp.width);
+    let rl = record_len(c_count);
+    let (x0, x1, y0, y1) = tile;
+    let mut max_walked = 0usize;
+    for py in y0..y1 {
+        for px in x0..x1 {
+            let (li, pi) = ((py - y0) * TILE_SIZE + (px - x0), py * w + px);
+            st.t[li] = fwd.final_t[pi];
+            st.behind[li * c_count..(li + 1) * c_count].fill(0.0);
+            max_walked = max_walked.max(fwd.walked[pi] as usize);
+        }
+    }
+    for k in (0..max_walked).rev() {
+        let gid = list[k] as usize;
+        let s = &inp.splats[gid];
+        let Some((bx0, bx1, by0, by1)) = footprint_in_tile(s, inp.settings.alpha_min, tile) else {
+            continue;
+        };
+        let colour = &inp.channels[gid * c_count..(gid + 1) * c_count];
+        let rec = &mut records[k * rl..(k + 1) * rl];
+        let [a, b, c] = s.conic;
+        for py in by0..by1 {
+            for px in bx0..bx1 {
+                let (li, pi) = ((py - y0) * TILE_SIZE + (px - x0), py * w + px);
+                if k >= fwd.walked[pi] as usize {
+                    continue;
+                }
+                let Some((alpha, raw, dx, dy, clamped)) = splat_alpha(s, px, py, inp.settings) else {
+                    continue;
+                };
+                let t_after = st.t[li];
+                let t_before = t_after / (1.0 - alpha);
+                let weight = alpha * t_before;
+                let g_out = &grads.channels[pi * c_count..(pi + 1) * c_count];
+                let t_final = fwd.final_t[pi];
+                let mut g_t_final = grads.final_t.map_or(0.0, |g| g[pi]);
+                let mut g_alpha = 0.0;
+                let behind = &mut st.behind[li * c_count..(li + 1) * c_count];
+                for ch in 0..c_count {
+                    g_t_final += inp.background[ch] * g_out[ch];
+                    g_alpha += g_out[ch] * (colour[ch] * t_before - behind[ch] / (1.0 - alpha));
+                    rec[6 + ch] += weight * g_out[ch];
+                    behind[ch] += colour[ch] * weight;
+                }
+                g_alpha -= g_t_final * t_final / (1.0 - alpha);
+                st.t[li] = t_before;
+                if clamped {
+                    continue;
+                }
+                let vis = raw / s.opacity;
+                rec[5] += g_alpha * vis;
+                let g_sigma = -g_alpha * alpha;
+                rec[0] += g_sigma * (a * dx + b * dy);
+                rec[1] += g_sigma * (b * dx + c * dy);
+                rec[2] += g_sigma * 0.5 * dx * dx;
+                rec[3] += g_sigma * dx * dy;
+                rec[4] += g_sigma * 0.5 * dy * dy;
+            }
+        }
+    }
+}
+
+/// Largest number of (splat, tile) records held at once by the backward.
+const MAX_RECORDS_PER_GROUP: usize = 1 << 20;
+
+/// Backward of [`rasterise`]: per-splat gradients given the output gradients.
+pub fn rasterise_bwd(
+    inp: &RasterInputs,
+    bins: &TileBins,
+    fwd: &RasterOutput,
+    grads: &RasterOutputGrads,
+) -> RasterGrads {
+    let n = inp.splats.len();
+    let c = inp.channel_count;
+    let rl = record_len(c);
+    let mut out = RasterGrads {
+        mean2d: vec![[0.0; 2]; n],
+        conic: vec![[0.0; 3]; n],
+        opacity: vec![0.0; n],
+        channels: vec![0.0; n * c],
+    };
+    let band_start = |ty: usize| bins.offsets[(ty * bins.tiles_x).min(bins.tiles_x * bins.tiles_y)];
+    let mut records: Vec<f32> = Vec::new();
+    let mut ty0 = 0;
+    while ty0 < bins.tiles_y {
+        let mut ty1 = ty0 + 1;
+        while ty1 < bins.tiles_y && band_start(ty1 + 1) - band_start(ty0) <= MAX_RECORDS_PER_GROUP {
+            ty1 += 1;
+        }
+        let (first, last) = (band_start(ty0), band_start(ty1));
+        records.clear();
+        records.resize((last - first) * rl, 0.0);
+        let mut slices: Vec<(usize, &mut [f32])> = Vec::with_capacity(ty1 - ty0);
+        let mut rest = records.as_mut_slice();
+        for ty in ty0..ty1 {
+            let (head, tail) = rest.split_at_mut((band_start(ty + 1) - band_start(ty)) * rl);
+            slices.push((ty, head));
+            rest = tail;
+        }
+        slices.into_par_iter().for_each_init(
+            || BwdState { t: vec![0.0; TILE_PIXELS], behind: vec![0.0; TILE_PIXELS * c] },
+            |st, (ty, band_records)| {
+                let base = band_start(ty);
+                for tx in 0..bins.tiles_x {
+                    let t = ty * bins.tiles_x + tx;
+                    let (lo, hi) = (bins.offsets[t] - base, bins.offsets[t + 1] - base);
+                    let tile = tile_pixels(tx, ty, inp.width, inp.height);
+                    let recs = &mut band_records[lo * rl..hi * rl];
+                    rasterise_tile_bwd(inp, fwd, grads, bins.tile(t), tile, recs, st);
+                }
+            },
+        );
+        for (r, &gid) in bins.ids[first..last].iter().enumerate() {
+            let rec = &records[r * rl..(r + 1) * rl];
+            let g = gid as usize;
+            out.mean2d[g][0] += rec[0];
+            out.mean2d[g][1] += rec[1];
+            for k in 0..3 {
+                out.conic[g][k] += rec[2 + k];
+            }
+            out.opacity[g] += rec[5];
+            for (d, &v) in out.channels[g * c..(g + 1) * c].iter_mut().zip(&rec[6..]) {
+                *d += v;
+            }
+        }
+        ty0 = ty1;
+    }
+    out
+}
