@@ -1,1 +1,23 @@
-//! splatseg `edit` stage (being written).
+//! `edit` stage: acting on a labelled PLY (one whose Gaussians carry `object_id`, as
+//! `splatseg run` writes it).
+//!
+//! - [`select`]: [`extract`] and [`remove`] objects by id.
+//! - [`recolor`](mod@recolor): flat palette colours per object, for viewing a segmentation.
+//! - [`objects`](mod@objects): the object table (id, Gaussian count, bounding box, colour, views).
+//! - [`viewer`]: stripping splatseg's extra properties so standard viewers open the output.
+//! - [`io`]: reading a labelled PLY with a helpful error, writing an edited one atomically.
+
+pub mod error;
+pub mod io;
+pub mod objects;
+pub mod recolor;
+pub mod select;
+#[cfg(test)]
+mod testing;
+pub mod viewer;
+
+pub use error::EditError;
+pub use objects::{ids_in_label_map, objects, ObjectInfo, ObjectTable};
+pub use recolor::{palette_colour, recolor, UnlabelledStyle};
+pub use select::{extract, ids_present, remove};
+pub use viewer::{for_output, ExtraFields};

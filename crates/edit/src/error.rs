@@ -1,0 +1,73 @@
+//! The one error type of the `edit` crate.
+
+use std::path::PathBuf;
+
+/// What can go wrong editing a labelled PLY. Messages say what is wrong and what to do, with
+/// the file last.
+#[derive(Debug, thiserror::Error)]
+pub enum EditError {
+    /// The Gaussians carry no `object_id`.
+    #[error(
+        "the PLY has no `object_id` property, so there are no objects to edit: run `splatseg run` first and use its gaussians.ply{}",
+        location(.path)
+    )]
+    NoObjectIds {
+        /// The PLY, when known.
+        path: Option<PathBuf>,
+    },
+    /// Requested ids that no Gaussian carries.
+    #[error("no Gaussian has object id {}; ids present: {}{}", list(.missing), list(.available), location(.path))]
+    UnknownIds {
+        /// The requested ids that are absent.
+        missing: Vec<i32>,
+        /// Every id present, sorted (−1 = unlabelled).
+        available: Vec<i32>,
+        /// The PLY, when known.
+        path: Option<PathBuf>,
+    },
+    /// An empty id list.
+    #[error("no object id given (use e.g. `--ids 3,7`)")]
+    NoIdsGiven,
+    /// Per-Gaussian arrays of inconsistent lengths.
+    #[error("{what} has {got} entries for {expected} Gaussians{}", location(.path))]
+    LengthMismatch {
+        /// Which array.
+        what: &'static str,
+        /// Its length.
+        got: usize,
+        /// The number of Gaussians.
+        expected: usize,
+        /// The PLY, when known.
+        path: Option<PathBuf>,
+    },
+    /// Reading or writing a file failed.
+    #[error(transparent)]
+    Scene(#[from] splatseg_scene::SceneError),
+}
+
+impl EditError {
+    /// Attaches the PLY path to errors that lack one.
+    pub fn with_path(self, p: &std::path::Path) -> Self {
+        match self {
+            EditError::NoObjectIds { path: None } => EditError::NoObjectIds { path: Some(p.to_path_buf()) },
+            EditError::UnknownIds { missing, available, path: None } => {
+                EditError::UnknownIds { missing, available, path: Some(p.to_path_buf()) }
+            }
+            EditError::LengthMismatch { what, got, expected, path: None } => {
+                EditError::LengthMismatch { what, got, expected, path: Some(p.to_path_buf()) }
+            }
+            other => other,
+        }
+    }
+}
+
+fn location(path: &Option<PathBuf>) -> String {
+    path.as_ref().map(|p| format!(": {}", p.display())).unwrap_or_default()
+}
+
+fn list(ids: &[i32]) -> String {
+    if ids.is_empty() {
+        return "none".to_string();
+    }
+    ids.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
+}

@@ -1,0 +1,20 @@
+//! Reading a labelled PLY and writing an edited one.
+
+use crate::error::EditError;
+use crate::select::object_ids;
+use crate::viewer::{for_output, ExtraFields};
+use splatseg_scene::Gaussians;
+use std::path::Path;
+
+/// Reads a 3DGS PLY that must carry `object_id`; the error says to run `splatseg run` if not.
+pub fn read_labelled_ply(path: &Path) -> Result<Gaussians, EditError> {
+    let g = splatseg_scene::ply::read_ply(path)?;
+    object_ids(&g).map_err(|e| e.with_path(path))?;
+    Ok(g)
+}
+
+/// Writes `g` atomically as a binary 3DGS PLY, with non-INRIA properties handled per `extras`.
+pub fn write_edited_ply(path: &Path, g: Gaussians, extras: ExtraFields) -> Result<(), EditError> {
+    splatseg_scene::ply::write_ply(path, &for_output(g, extras))?;
+    Ok(())
+}

@@ -1,0 +1,35 @@
+//! [`EvalConfig`]: the choices the metrics depend on, defaulting to the paper's.
+
+use serde::{Deserialize, Serialize};
+
+/// How predicted pixels over unlabelled ground truth (value 0) are counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UnlabelledGt {
+    /// Ground-truth 0 is background: a predicted mask spilling onto it is wrong and its pixels
+    /// count in the union (the default; what a plain per-image IoU does).
+    #[default]
+    Background,
+    /// Ground-truth 0 is "don't care" (e.g. void classes): those pixels are left out of every
+    /// union, so predictions there are neither rewarded nor penalised.
+    Ignore,
+}
+
+/// Metric settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct EvalConfig {
+    /// Radius ε of the disk of the boundary band `(M ⊕ ε) \ (M ⊖ ε)`, in pixels (paper: 5).
+    pub band_radius_px: u32,
+    /// Treatment of ground-truth pixels with value 0.
+    pub unlabelled_gt: UnlabelledGt,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        EvalConfig {
+            band_radius_px: crate::band::PAPER_BAND_RADIUS_PX,
+            unlabelled_gt: UnlabelledGt::Background,
+        }
+    }
+}
