@@ -59,3 +59,66 @@ pub fn assert_close(what: &str, got: &[f32], want: &[f32], atol: f32, rtol: f32)
         );
     }
 }
+
+/// A safetensors fixture, every tensor converted to f64 (exact for f32 and i32).
+pub struct Fixture {
+    /// File name, for messages.
+    pub name: String,
+    tensors: std::collections::BTreeMap<String, (Vec<usize>, Vec<f64>)>,
+}
+
+impl Fixture {
+    /// Reads `tests/fixtures/<name>.safetensors`.
+    pub fn load(name: &str) -> Fixture {
+        let path = format!("{}/tests/fixtures/{name}.safetensors", env!("CARGO_MANIFEST_DIR"));
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("cannot read {path}: {e}"));
+        let st = safetensors::SafeTensors::deserialize(&bytes).expect("valid safetensors");
+        let mut tensors = std::collections::BTreeMap::new();
+        for (key, view) in st.tensors() {
+            let data = view.data();
+            let values: Vec<f64> = match view.dtype() {
+                safetensors::Dtype::F32 => {
+                    data.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap()) as f64).collect()
+                }
+                safetensors::Dtype::F64 => {
+                    data.chunks_exact(8).map(|b| f64::from_le_bytes(b.try_into().unwrap())).collect()
+                }
+                safetensors::Dtype::I32 => {
+                    data.chunks_exact(4).map(|b| i32::from_le_bytes(b.try_into().unwrap()) as f64).collect()
+                }
+                other => panic!("{path}: {key} has unsupported dtype {other:?}"),
+            };
+            tensors.insert(key, (view.shape().to_vec(), values));
+        }
+        Fixture { name: name.to_string(), tensors }
+    }
+
+    /// Shape of tensor `key`.
+    pub fn shape(&self, key: &str) -> &[usize] {
+        &self.get(key).0
+    }
+
+    fn get(&self, key: &str) -> &(Vec<usize>, Vec<f64>) {
+        self.tensors.get(key).unwrap_or_else(|| panic!("{}: no tensor {key}", self.name))
+    }
+
+    /// Tensor `key` as f64, row-major.
+    pub fn f64(&self, key: &str) -> Vec<f64> {
+        self.get(key).1.clone()
+    }
+
+    /// Tensor `key` as f32, row-major.
+    pub fn f32(&self, key: &str) -> Vec<f32> {
+        self.get(key).1.iter().map(|&v| v as f32).collect()
+    }
+
+    /// Tensor `key` as i32.
+    pub fn i32(&self, key: &str) -> Vec<i32> {
+        self.get(key).1.iter().map(|&v| v as i32).collect()
+    }
+
+    /// Tensor `key` `[N, K]` as `N` fixed-size rows.
+    pub fn rows<const K: usize>(&self, key: &str) -> Vec<[f32; K]> {
+        self.f32(key).chunks_exact(K).map(|c| c.try_into().unwrap()).collect()
+    }
+}
