@@ -1,1 +1,144 @@
-//! (being written)
+//! Label maps (8/16-bit grey PNGs, value = object id, 0 = unlabelled), the one id → colour
+//! palette every output uses, and readable colour overlays.
+
+use crate::atomic::write_bytes_atomic;
+use crate::error::{SceneError, SceneResult};
+use crate::plane::Plane;
+use image::{DynamicImage, ImageBuffer, ImageFormat, Luma, RgbImage};
+use std::path::Path;
+
+const FORMAT: &str = "label map PNG";
+
+/// Reads a label map: an 8- or 16-bit greyscale PNG whose value is the object id
+/// (0 = unlabelled). Returns `[height, width]` ids.
+pub fn read_label_png(path: &Path) -> SceneResult<Plane<u32>> {
+    let bytes = std::fs::read(path).map_err(|e| SceneError::io("cannot read", path, e))?;
+    let img = image::load_from_memory_with_format(&bytes, ImageFormat::Png)
+        .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?;
+    let (width, height) = (img.width() as usize, img.height() as usize);
+    let data: Vec<u32> = match img {
+        DynamicImage::ImageLuma8(g) => g.into_raw().into_iter().map(u32::from).collect(),
+        DynamicImage::ImageLuma16(g) => g.into_raw().into_iter().map(u32::from).collect(),
+        other => {
+            return Err(SceneError::invalid(
+                FORMAT,
+                path,
+                format!("colour type {:?}; a label map must be 8- or 16-bit greyscale", other.color()),
+            ))
+        }
+    };
+    Ok(Plane { width, height, data })
+}
+
+/// Writes a label map (`[height, width]` ids) as a 16-bit greyscale PNG, atomically. Fails if
+/// an id exceeds 65535 (naming the first such pixel).
+pub fn write_label_png(path: &Path, labels: &Plane<u32>) -> SceneResult<()> {
+    if let Some(i) = labels.data.iter().position(|&id| id > u16::MAX as u32) {
+        let (x, y) = (i % labels.width.max(1), i / labels.width.max(1));
+        return Err(SceneError::invalid(
+            FORMAT,
+            path,
+            format!("id {} at pixel ({x}, {y}) does not fit a 16-bit label map (max 65535)", labels.data[i]),
+        ));
+    }
+    let data: Vec<u16> = labels.data.iter().map(|&id| id as u16).collect();
+    let img: ImageBuffer<Luma<u16>, Vec<u16>> =
+        ImageBuffer::from_raw(labels.width as u32, labels.height as u32, data)
+            .ok_or_else(|| SceneError::invalid(FORMAT, path, "label plane size disagrees with its data"))?;
+    write_png(path, &DynamicImage::ImageLuma16(img))
+}
+
+/// Writes an RGB image as PNG, atomically.
+pub fn write_png_rgb(path: &Path, img: &RgbImage) -> SceneResult<()> {
+    write_png(path, &DynamicImage::ImageRgb8(img.clone()))
+}
+
+fn write_png(path: &Path, img: &DynamicImage) -> SceneResult<()> {
+    let mut bytes = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), ImageFormat::Png)
+        .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?;
+    write_bytes_atomic(path, &bytes)
+}
+
+/// HSV (all in [0, 1]) to 8-bit RGB.
+fn hsv_to_rgb(hue: f64, saturation: f64, value: f64) -> [u8; 3] {
+    let h6 = (hue.fract() * 6.0).clamp(0.0, 5.999_999);
+    let sector = h6.floor();
+    let f = h6 - sector;
+    let (p, q, t) =
+        (value * (1.0 - saturation), value * (1.0 - saturation * f), value * (1.0 - saturation * (1.0 - f)));
+    let (r, g, b) = match sector as u8 {
+        0 => (value, t, p),
+        1 => (q, value, p),
+        2 => (p, value, t),
+        3 => (p, q, value),
+        4 => (t, p, value),
+        _ => (value, p, q),
+    };
+    [r, g, b].map(|c| (c * 255.0).round() as u8)
+}
+
+/// The colour of object `id`: black for 0, otherwise a bright colour from a fixed sequence
+/// (hue stepped by the golden ratio, saturation/value cycled over four levels so that ids whose
+/// hues nearly repeat, 13 or 21 apart, still differ) so nearby ids look different.
+/// Deterministic: the same id has the same colour in every output.
+pub fn colour_of_id(id: u32) -> [u8; 3] {
+    /// (saturation, value) levels, cycled by id.
+    const LEVELS: [(f64, f64); 4] = [(0.85, 0.95), (0.5, 1.0), (1.0, 0.7), (0.6, 0.8)];
+    if id == 0 {
+        return [0, 0, 0];
+    }
+    let hue = (id as f64 * 0.618_033_988_749_895).fract();
+    let (s, v) = LEVELS[(id % 4) as usize];
+    hsv_to_rgb(hue, s, v)
+}
+
+/// The label map in palette colours (`[height, width]` ids → RGB, 0 = black).
+pub fn label_colour_image(labels: &Plane<u32>) -> RgbImage {
+    let raw: Vec<u8> = labels.data.iter().flat_map(|&id| colour_of_id(id)).collect();
+    RgbImage::from_raw(labels.width as u32, labels.height as u32, raw).unwrap_or_default()
+}
+
+/// Factor applied to label-boundary pixels so regions stay readable.
+const BOUNDARY_DARKEN: f32 = 0.3;
+
+/// Blends palette colours over `rgb` with weight `alpha` (0 = image only, 1 = colours only) on
+/// labelled pixels and darkens pixels on a boundary between different labels. `labels`
+/// (`[h, w]` ids) may have another size than the image: it is sampled nearest-neighbour.
+pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
+    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    let mut out = rgb.clone();
+    if labels.width == 0 || labels.height == 0 {
+        return out;
+    }
+    let alpha = alpha.clamp(0.0, 1.0);
+    let col: Vec<usize> = (0..w).map(|x| x * labels.width / w).collect();
+    let row: Vec<usize> = (0..h).map(|y| y * labels.height / h).collect();
+    let label_at = |x: usize, y: usize| labels.data[row[y] * labels.width + col[x]];
+    for y in 0..h {
+        for x in 0..w {
+            let id = label_at(x, y);
+            let differs = |nx: usize, ny: usize| label_at(nx, ny) != id;
+            let boundary = (x > 0 && differs(x - 1, y))
+                || (x + 1 < w && differs(x + 1, y))
+                || (y > 0 && differs(x, y - 1))
+                || (y + 1 < h && differs(x, y + 1));
+            if id == 0 && !boundary {
+                continue;
+            }
+            let px = out.get_pixel_mut(x as u32, y as u32);
+            let colour = colour_of_id(id);
+            for (channel, &tint) in px.0.iter_mut().zip(&colour) {
+                let mut v = *channel as f32;
+                if id != 0 {
+                    v = (1.0 - alpha) * v + alpha * tint as f32;
+                }
+                if boundary {
+                    v *= BOUNDARY_DARKEN;
+                }
+                *channel = v.round().clamp(0.0, 255.0) as u8;
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,150 @@
+//! Writing: validation, the header in the INRIA property order, rows encoded in parallel
+//! chunks, then one atomic write.
+
+use super::scalar::ScalarType;
+use super::FORMAT;
+use crate::atomic::write_bytes_atomic;
+use crate::error::{SceneError, SceneResult};
+use crate::gaussians::Gaussians;
+use rayon::prelude::*;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Rows encoded by one parallel task.
+const ROWS_PER_TASK: usize = 16 * 1024;
+
+/// Writes `g` as a binary little-endian 3DGS PLY, atomically (temp file + rename).
+/// Property order: `x y z [nx ny nz] f_dc_0..2 f_rest_* opacity scale_0..2 rot_0..3
+/// [object_id] [feat_*]` then the extras in their order with their types. Fails (naming the
+/// file) if [`Gaussians::validate`] does.
+pub fn write_ply(path: &Path, g: &Gaussians) -> SceneResult<()> {
+    let bytes = to_ply_bytes(g).map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
+    write_bytes_atomic(path, &bytes)
+}
+
+/// The bytes of the file [`write_ply`] writes. The error says what is wrong with `g`.
+pub fn to_ply_bytes(g: &Gaussians) -> Result<Vec<u8>, String> {
+    g.validate()?;
+    let extra_types: Vec<ScalarType> = g
+        .extra
+        .iter()
+        .map(|e| ScalarType::from_name(&e.ply_type).ok_or_else(|| format!("unknown type '{}'", e.ply_type)))
+        .collect::<Result<_, _>>()?;
+    let header = header_text(g);
+    let stride = row_bytes(g, &extra_types);
+    let n = g.len();
+    let mut bytes = vec![0u8; header.len() + n * stride];
+    let (head, body) = bytes.split_at_mut(header.len());
+    head.copy_from_slice(header.as_bytes());
+    if stride > 0 {
+        body.par_chunks_mut(ROWS_PER_TASK * stride).enumerate().for_each(|(chunk, rows)| {
+            let first = chunk * ROWS_PER_TASK;
+            for (k, row) in rows.chunks_exact_mut(stride).enumerate() {
+                encode_row(g, first + k, &extra_types, row);
+            }
+        });
+    }
+    Ok(bytes)
+}
+
+/// The header text, ending with `end_header\n`.
+fn header_text(g: &Gaussians) -> String {
+    let mut h = String::new();
+    let mut prop = |ty: &str, name: &str| {
+        // Writing into a String cannot fail.
+        let _ = writeln!(h, "property {ty} {name}");
+    };
+    for name in ["x", "y", "z"] {
+        prop("float", name);
+    }
+    if g.normals.is_some() {
+        for name in ["nx", "ny", "nz"] {
+            prop("float", name);
+        }
+    }
+    for c in 0..3 {
+        prop("float", &format!("f_dc_{c}"));
+    }
+    for k in 0..3 * g.rest_per_channel() {
+        prop("float", &format!("f_rest_{k}"));
+    }
+    prop("float", "opacity");
+    for k in 0..3 {
+        prop("float", &format!("scale_{k}"));
+    }
+    for k in 0..4 {
+        prop("float", &format!("rot_{k}"));
+    }
+    if g.object_ids.is_some() {
+        prop("int", "object_id");
+    }
+    if let Some(f) = &g.features {
+        for d in 0..f.dim {
+            prop("float", &format!("feat_{d}"));
+        }
+    }
+    for e in &g.extra {
+        prop(&e.ply_type, &e.name);
+    }
+    format!("ply\nformat binary_little_endian 1.0\nelement vertex {}\n{h}end_header\n", g.len())
+}
+
+/// Bytes per vertex row.
+fn row_bytes(g: &Gaussians, extra_types: &[ScalarType]) -> usize {
+    let floats = 3
+        + if g.normals.is_some() { 3 } else { 0 }
+        + 3
+        + 3 * g.rest_per_channel()
+        + 1
+        + 3
+        + 4
+        + g.features.as_ref().map_or(0, |f| f.dim);
+    let ids = if g.object_ids.is_some() { 4 } else { 0 };
+    4 * floats + ids + extra_types.iter().map(|t| t.size()).sum::<usize>()
+}
+
+/// Appends little-endian values to a row.
+struct RowWriter<'a> {
+    row: &'a mut [u8],
+    pos: usize,
+}
+
+impl RowWriter<'_> {
+    #[inline(always)]
+    fn bytes(&mut self, b: &[u8]) {
+        self.row[self.pos..self.pos + b.len()].copy_from_slice(b);
+        self.pos += b.len();
+    }
+
+    #[inline(always)]
+    fn floats(&mut self, values: &[f32]) {
+        for v in values {
+            self.bytes(&v.to_le_bytes());
+        }
+    }
+}
+
+/// Encodes Gaussian `i` into `row` (`[stride]` bytes).
+fn encode_row(g: &Gaussians, i: usize, extra_types: &[ScalarType], row: &mut [u8]) {
+    let k3 = 3 * g.rest_per_channel();
+    let mut w = RowWriter { row, pos: 0 };
+    w.floats(&g.means[i]);
+    if let Some(normals) = &g.normals {
+        w.floats(&normals[i]);
+    }
+    w.floats(&g.sh_dc[i]);
+    w.floats(&g.sh_rest[i * k3..(i + 1) * k3]);
+    w.floats(&[g.raw_opacities[i]]);
+    w.floats(&g.log_scales[i]);
+    w.floats(&g.rotations[i]);
+    if let Some(ids) = &g.object_ids {
+        w.bytes(&ids[i].to_le_bytes());
+    }
+    if let Some(f) = &g.features {
+        w.floats(&f.values[i * f.dim..(i + 1) * f.dim]);
+    }
+    for (e, ty) in g.extra.iter().zip(extra_types) {
+        ty.write_le(e.values[i], &mut w.row[w.pos..]);
+        w.pos += ty.size();
+    }
+}
