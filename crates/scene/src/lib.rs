@@ -15,6 +15,7 @@ pub mod camera;
 pub mod colmap;
 pub mod error;
 pub mod gaussians;
+pub mod images;
 pub mod labels;
 pub mod load;
 pub mod npy;

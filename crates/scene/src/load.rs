@@ -2,9 +2,14 @@
 //! and [`load_scene`], which detects the format of a folder.
 
 use crate::camera::{Camera, Pose};
+use crate::colmap::{find_model_dir, read_colmap};
+use crate::error::{SceneError, SceneResult};
+use crate::transforms::{find_transforms_file, read_transforms};
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+pub use crate::images::load_image_rgb;
 
 /// Which on-disk format a scene was read from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -112,8 +117,71 @@ impl Default for LoadOptions {
     }
 }
 
-/// Loads the scene at `path`, detecting its format. Written by the scene-loading work.
-pub fn load_scene(path: &std::path::Path, options: &LoadOptions) -> crate::SceneResult<Scene> {
-    let _ = options;
-    Err(crate::SceneError::missing("scene loaders (not built yet)", path))
+/// Loads the scene at `path`, detecting its format:
+///
+/// - a folder with `sparse/0/` (or `sparse/`) holding `cameras.{bin,txt}` and an `images/`
+///   folder beside it → COLMAP (checked first, as 3DGS does);
+/// - a folder with `transforms_<split>.json` → NeRF/Blender;
+/// - a folder with `transforms.json`, or a `.json` file → instant-ngp / nerfstudio;
+/// - a COLMAP model folder itself (`cameras.*` inside) → COLMAP, with images in the first of
+///   `../images`, `../../images` and `images/` that exists.
+///
+/// Non-fatal problems (e.g. listed images that are missing) are returned in
+/// [`Scene::warnings`]; nothing is printed.
+pub fn load_scene(path: &Path, options: &LoadOptions) -> SceneResult<Scene> {
+    if !path.exists() {
+        return Err(SceneError::missing("scene folder", path));
+    }
+    if path.is_file() {
+        return match path.extension().and_then(|e| e.to_str()) {
+            Some("json") => read_transforms(path, options),
+            _ => Err(SceneError::Unsupported {
+                what: "scene file (give a scene folder, a COLMAP model folder or a transforms .json)".into(),
+                path: path.to_path_buf(),
+            }),
+        };
+    }
+    if let Some(model_dir) = find_model_dir(path) {
+        let images_dir = path.join("images");
+        if !images_dir.is_dir() {
+            return Err(SceneError::missing(
+                format!("images folder beside the COLMAP model {}", model_dir.display()),
+                images_dir,
+            ));
+        }
+        return with_root(read_colmap(&model_dir, &images_dir, options), path);
+    }
+    if find_transforms_file(path, &options.split).is_some() {
+        return with_root(read_transforms(path, options), path);
+    }
+    if path.join("cameras.bin").is_file() || path.join("cameras.txt").is_file() {
+        let candidates = [path.join("../images"), path.join("../../images"), path.join("images")];
+        let Some(images_dir) = candidates.iter().find(|d| d.is_dir()) else {
+            return Err(SceneError::missing(
+                "images folder of the COLMAP model (looked for ../images, ../../images and images/)",
+                path.join("../images"),
+            ));
+        };
+        return read_colmap(path, images_dir, options);
+    }
+    if path.join("images").is_dir() {
+        return Err(SceneError::missing(
+            "COLMAP model beside images/ (sparse/0/cameras.bin or sparse/0/cameras.txt)",
+            path.join("sparse").join("0"),
+        ));
+    }
+    if path.join("transforms_train.json").is_file() {
+        return Err(SceneError::missing(
+            format!("Blender split \"{}\"", options.split),
+            path.join(format!("transforms_{}.json", options.split)),
+        ));
+    }
+    Err(SceneError::missing(
+        "a scene: COLMAP (sparse/0/ + images/), Blender (transforms_train.json) or instant-ngp (transforms.json)",
+        path,
+    ))
+}
+
+fn with_root(scene: SceneResult<Scene>, root: &Path) -> SceneResult<Scene> {
+    scene.map(|s| Scene { root: root.to_path_buf(), ..s })
 }
