@@ -12,7 +12,7 @@
 //! have fixed-size rows and rejected when they have list properties.
 //!
 //! Reading parses the header by hand, checks the declared size against the file, then decodes
-//! whole rows with offsets precomputed per property ([`layout`]), in parallel chunks.
+//! whole rows with byte offsets precomputed per property (`layout.rs`), in parallel chunks.
 
 mod ascii;
 mod decode;

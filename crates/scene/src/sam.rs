@@ -92,7 +92,7 @@ pub fn read_view_masks(dir: &Path, stem: &str) -> SceneResult<Option<Vec<SamMask
     Ok(None)
 }
 
-/// Checks that all masks of one file share a size; `what(i)` names mask `i` in the error.
+/// Checks that all masks of one file share a size; the error names the first that differs.
 pub(crate) fn check_same_size(masks: &[SamMask]) -> Result<(), String> {
     let Some(first) = masks.first() else { return Ok(()) };
     match masks.iter().position(|m| m.size() != first.size()) {

@@ -111,14 +111,18 @@ fn round_trip_is_exact_for_every_sh_degree_and_optional_part() {
 }
 
 #[test]
-fn large_set_round_trips_through_the_parallel_paths() {
-    // More rows than one parallel task handles, so the chunk splitting is exercised.
+fn large_set_round_trips_through_the_chunked_and_parallel_paths() {
+    // More rows than one read/write chunk and one parallel task, so the splitting is exercised.
     let shape =
-        Shape { n: 100_003, sh_degree: 1, normals: false, object_ids: true, feature_dim: 2, extras: true };
+        Shape { n: 150_001, sh_degree: 1, normals: false, object_ids: true, feature_dim: 2, extras: true };
     let g = random_gaussians(&shape, 99);
     let bytes = to_ply_bytes(&g).unwrap();
-    let back = parse_ply_bytes(&bytes).unwrap();
-    assert_eq!(back, g);
+    assert_eq!(parse_ply_bytes(&bytes).unwrap(), g);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("large.ply");
+    write_ply(&path, &g).unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), bytes, "streamed write differs from to_ply_bytes");
+    assert_eq!(read_ply(&path).unwrap(), g);
 }
 
 #[test]

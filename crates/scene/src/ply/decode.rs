@@ -1,28 +1,84 @@
 //! Reading: header → layout → size checks → row decoding (parallel chunks) → validation.
 
 use super::ascii::ascii_vertices_to_le;
-use super::header::{parse_header, BodyFormat, Header};
+use super::header::{parse_header, BodyFormat, ElementDecl, Header, MAX_HEADER_BYTES};
 use super::layout::{Source, VertexLayout};
 use super::scalar::ScalarType;
 use super::FORMAT;
 use crate::error::{SceneError, SceneResult};
 use crate::gaussians::{ExtraProperty, FeatureBlock, Gaussians};
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 /// Rows decoded by one task; larger inputs are split in halves with `rayon::join`.
 const ROWS_PER_TASK: usize = 32 * 1024;
 
+/// Rows read from the file at a time (≈ 16 MB for 62-float rows), so a large file is never
+/// held in memory twice.
+const ROWS_PER_READ: usize = 64 * 1024;
+
 /// Reads a 3DGS PLY file (binary little/big-endian or ASCII) and validates it
 /// ([`Gaussians::validate`]). Errors name the file and what is wrong (truncation, malformed
 /// header, missing properties, non-finite values with the property and first bad index).
+/// Binary bodies are streamed in chunks straight into the output arrays.
 pub fn read_ply(path: &Path) -> SceneResult<Gaussians> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io("cannot read", path, e))?;
-    parse_ply_bytes(&bytes).map_err(|reason| SceneError::invalid(FORMAT, path, reason))
+    let invalid = |reason: String| SceneError::invalid(FORMAT, path, reason);
+    let io = |e| SceneError::io("cannot read", path, e);
+    let mut file = File::open(path).map_err(io)?;
+    let file_len = file.metadata().map_err(io)?.len();
+    let mut prefix = Vec::new();
+    (&mut file).take(MAX_HEADER_BYTES as u64 + 1024).read_to_end(&mut prefix).map_err(io)?;
+    let header = parse_header(&prefix).map_err(invalid)?;
+    if header.format == BodyFormat::Ascii {
+        let bytes = std::fs::read(path).map_err(io)?;
+        return parse_ply_bytes(&bytes).map_err(invalid);
+    }
+    let (vertex_index, layout) = vertex_layout(&header).map_err(invalid)?;
+    let body_len = usize::try_from(file_len).unwrap_or(usize::MAX) - header.body_offset;
+    let span = binary_span(body_len, &header, vertex_index).map_err(invalid)?;
+    file.seek(SeekFrom::Start((header.body_offset + span.before) as u64)).map_err(io)?;
+    let n = header.elements[vertex_index].count;
+    let g = if header.format == BodyFormat::BinaryBigEndian {
+        decode_with(&layout, n, |out| stream_rows::<true>(&mut file, &layout, out))
+    } else {
+        decode_with(&layout, n, |out| stream_rows::<false>(&mut file, &layout, out))
+    };
+    let g = g.map_err(|e| match e {
+        StreamError::Io(e) => io(e),
+        StreamError::Invalid(reason) => invalid(reason),
+    })?;
+    g.validate().map_err(invalid)?;
+    Ok(g)
 }
 
 /// Parses the bytes of a whole 3DGS PLY file; see [`read_ply`]. The error says what is wrong.
 pub fn parse_ply_bytes(bytes: &[u8]) -> Result<Gaussians, String> {
     let header = parse_header(bytes)?;
+    let (vertex_index, layout) = vertex_layout(&header)?;
+    let body = &bytes[header.body_offset..];
+    let n = header.elements[vertex_index].count;
+    let g = match header.format {
+        BodyFormat::BinaryLittleEndian | BodyFormat::BinaryBigEndian => {
+            let span = binary_span(body.len(), &header, vertex_index)?;
+            let rows = &body[span.before..span.before + span.vertex_bytes];
+            if header.format == BodyFormat::BinaryBigEndian {
+                decode_with(&layout, n, |out| decode_range::<true>(&layout, rows, out, 0))?
+            } else {
+                decode_with(&layout, n, |out| decode_range::<false>(&layout, rows, out, 0))?
+            }
+        }
+        BodyFormat::Ascii => {
+            let rows = ascii_vertices_to_le(body, &header.elements, vertex_index)?;
+            decode_with(&layout, n, |out| decode_range::<false>(&layout, &rows, out, 0))?
+        }
+    };
+    g.validate()?;
+    Ok(g)
+}
+
+/// Finds the vertex element, rejects list properties, and maps the vertex properties.
+fn vertex_layout(header: &Header) -> Result<(usize, VertexLayout), String> {
     let vertex_index = header
         .elements
         .iter()
@@ -41,29 +97,22 @@ pub fn parse_ply_bytes(bytes: &[u8]) -> Result<Gaussians, String> {
             });
         }
     }
-    let vertex = &header.elements[vertex_index];
-    let layout = VertexLayout::from_properties(&vertex.properties)?;
-    let body = &bytes[header.body_offset..];
-    let g = match header.format {
-        BodyFormat::BinaryLittleEndian => {
-            decode_rows::<false>(&layout, binary_vertex_rows(body, &header, vertex_index)?)?
-        }
-        BodyFormat::BinaryBigEndian => {
-            decode_rows::<true>(&layout, binary_vertex_rows(body, &header, vertex_index)?)?
-        }
-        BodyFormat::Ascii => {
-            let rows = ascii_vertices_to_le(body, &header.elements, vertex_index)?;
-            decode_rows::<false>(&layout, &rows)?
-        }
-    };
-    g.validate()?;
-    Ok(g)
+    let layout = VertexLayout::from_properties(&header.elements[vertex_index].properties)?;
+    Ok((vertex_index, layout))
 }
 
-/// Checks the binary body's size against the header and returns the vertex rows.
-fn binary_vertex_rows<'a>(body: &'a [u8], header: &Header, vertex_index: usize) -> Result<&'a [u8], String> {
+/// Where the vertex rows sit in a binary body.
+struct VertexSpan {
+    /// Bytes of the elements before the vertex element.
+    before: usize,
+    /// Bytes of the vertex rows.
+    vertex_bytes: usize,
+}
+
+/// Checks a binary body of `body_len` bytes against the sizes the header declares.
+fn binary_span(body_len: usize, header: &Header, vertex_index: usize) -> Result<VertexSpan, String> {
     let overflow = || "the header declares more data than any file can hold".to_string();
-    let element_bytes = |e: &super::header::ElementDecl| e.count.checked_mul(e.row_bytes());
+    let element_bytes = |e: &ElementDecl| e.count.checked_mul(e.row_bytes());
     let mut before = 0usize;
     let mut after = 0usize;
     for (i, e) in header.elements.iter().enumerate() {
@@ -83,23 +132,51 @@ fn binary_vertex_rows<'a>(body: &'a [u8], header: &Header, vertex_index: usize) 
     } else {
         String::new()
     };
-    if body.len() < total {
+    if body_len < total {
         return Err(format!(
             "truncated: the header declares {} vertices × {stride} bytes = {vertex_bytes} bytes{others} \
-             but only {} bytes follow the header",
+             but only {body_len} bytes follow the header",
             vertex.count,
-            body.len()
         ));
     }
-    if body.len() > total {
+    if body_len > total {
         return Err(format!(
             "{} unexpected bytes after the data the header declares ({} vertices × {stride} \
              bytes{others}); the vertex count in the header may be wrong",
-            body.len() - total,
+            body_len - total,
             vertex.count
         ));
     }
-    Ok(&body[before..before + vertex_bytes])
+    Ok(VertexSpan { before, vertex_bytes })
+}
+
+/// A failure while streaming rows from a file.
+enum StreamError {
+    Io(std::io::Error),
+    Invalid(String),
+}
+
+/// Reads the vertex rows from `file` (positioned at the first row) chunk by chunk and decodes
+/// each chunk into its part of `out`.
+fn stream_rows<const BIG: bool>(
+    file: &mut File,
+    layout: &VertexLayout,
+    out: ColumnsMut<'_>,
+) -> Result<(), StreamError> {
+    let n = out.rows();
+    let mut buffer = vec![0u8; ROWS_PER_READ.min(n) * layout.stride];
+    let mut remaining = out;
+    let mut done = 0;
+    while done < n {
+        let rows = ROWS_PER_READ.min(n - done);
+        let chunk = &mut buffer[..rows * layout.stride];
+        file.read_exact(chunk).map_err(StreamError::Io)?;
+        let (head, tail) = remaining.split_at(rows, layout.sh_rest.len(), layout.features.len());
+        decode_range::<BIG>(layout, chunk, head, done).map_err(StreamError::Invalid)?;
+        remaining = tail;
+        done += rows;
+    }
+    Ok(())
 }
 
 /// Output arrays being filled, as mutable slices over a range of rows.
@@ -217,9 +294,13 @@ fn read_into<R: FloatReader>(row: &[u8], sources: &[Source], out: &mut [f32]) {
     }
 }
 
-/// Decodes `rows` (`[N * stride]` bytes) into Gaussians.
-fn decode_rows<const BIG: bool>(layout: &VertexLayout, rows: &[u8]) -> Result<Gaussians, String> {
-    let n = rows.len().checked_div(layout.stride).unwrap_or(0);
+/// Allocates the arrays of `n` Gaussians, lets `fill` decode the rows into them, and
+/// assembles the result.
+fn decode_with<E>(
+    layout: &VertexLayout,
+    n: usize,
+    fill: impl FnOnce(ColumnsMut<'_>) -> Result<(), E>,
+) -> Result<Gaussians, E> {
     let rest_width = layout.sh_rest.len();
     let feat_width = layout.features.len();
     let mut means = vec![[0f32; 3]; n];
@@ -244,7 +325,7 @@ fn decode_rows<const BIG: bool>(layout: &VertexLayout, rows: &[u8]) -> Result<Ga
         features: &mut features,
         extras: extras.iter_mut().map(|e| e.as_mut_slice()).collect(),
     };
-    decode_range::<BIG>(layout, rows, columns, 0)?;
+    fill(columns)?;
     Ok(Gaussians {
         means,
         normals,

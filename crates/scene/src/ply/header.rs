@@ -4,7 +4,7 @@
 use super::scalar::ScalarType;
 
 /// Headers longer than this without `end_header` are rejected (3DGS headers are a few KB).
-const MAX_HEADER_BYTES: usize = 1 << 20;
+pub(crate) const MAX_HEADER_BYTES: usize = 1 << 20;
 
 /// How the body is stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
