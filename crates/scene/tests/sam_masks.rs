@@ -148,3 +148,60 @@ fn mask_sizes_are_checked_against_the_image() {
     let err = check_mask_sizes(&masks, 8, 4, Path::new("v.json")).unwrap_err().to_string();
     assert!(err.contains("mask 0 is 6×4 but the image is 8×4") && err.contains("v.json"), "{err}");
 }
+
+fn fixture(name: &str) -> std::path::PathBuf {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures")).join(name)
+}
+
+/// The binary masks SAM's generator produced for the fixture, `[h]` rows of '0'/'1' each.
+fn sam_fixture_masks() -> Vec<Plane<bool>> {
+    let text = std::fs::read_to_string(fixture("rle_sam_amg_masks.json")).unwrap();
+    let rows: Vec<Vec<String>> = serde_json::from_str(&text).unwrap();
+    rows.iter()
+        .map(|m| {
+            let data = m.iter().flat_map(|r| r.bytes().map(|b| b == b'1')).collect();
+            Plane::from_vec(m[0].len(), m.len(), data).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn segment_anything_generator_output_is_read_in_every_form() {
+    // Made by tools/fixtures/make_rle_fixtures.py with segment-anything's own generator.
+    let expected = sam_fixture_masks();
+    assert!(expected.len() >= 3);
+    let coco = read_sam_json(&fixture("rle_sam_amg_coco_rle.json")).unwrap();
+    let uncompressed = read_sam_json(&fixture("rle_sam_amg_uncompressed_rle.json")).unwrap();
+    let folder = read_sam_png_folder(&fixture("rle_sam_png")).unwrap();
+    assert_eq!(coco, uncompressed);
+    assert_eq!(folder.len(), coco.len());
+    for (i, ((m, f), mask)) in coco.iter().zip(&folder).zip(&expected).enumerate() {
+        assert_eq!(&m.segmentation.decode().unwrap(), mask, "mask {i}");
+        assert_eq!(m.size(), (64, 48));
+        assert_eq!(m.area, m.segmentation.area(), "mask {i}: SAM's area");
+        // SAM's bbox is [x0, y0, x1 - x0, y1 - y0] (max minus min index).
+        let ours = m.segmentation.bbox_xywh().map(f64::from);
+        assert_eq!([ours[0], ours[1], ours[2] - 1.0, ours[3] - 1.0], m.bbox_xywh, "mask {i}: bbox");
+        assert_eq!(m.crop_box_xywh, [0.0, 0.0, 64.0, 48.0]);
+        assert_eq!(m.point_coords.len(), 1);
+        // The PNG folder carries the same masks and metadata.
+        assert_eq!(f, m, "mask {i}: PNG folder");
+    }
+}
+
+#[test]
+fn our_json_strings_equal_segment_anythings() {
+    let path = fixture("rle_sam_amg_coco_rle.json");
+    let masks = read_sam_json(&path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let ours = dir.path().join("ours.json");
+    write_sam_json(&ours, &masks).unwrap();
+    let theirs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let written: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&ours).unwrap()).unwrap();
+    for i in 0..masks.len() {
+        assert_eq!(written[i]["segmentation"], theirs[i]["segmentation"], "mask {i}");
+        for key in ["area", "predicted_iou", "stability_score"] {
+            assert_eq!(written[i][key].as_f64(), theirs[i][key].as_f64(), "mask {i}: {key}");
+        }
+    }
+}
