@@ -1,1 +1,20 @@
-//! splatseg `merge` stage (being written).
+//! `merge` stage: Multi-Cue-Guided Mask Merging (paper §4.2), exact to a documented reading of
+//! the paper and fast.
+//!
+//! Entry point: [`merge_view`] on a [`ViewInputs`] (regions from SAM masks, descriptors, depth,
+//! `∇D`, LoG edges; built by [`cues::build_view_inputs`] from raw cues) with a [`MergeConfig`].
+//! The score, its profiles and the reasons for the default reading are documented in [`score`];
+//! the adjacency graph in `graph`; the greedy loop in `merge`.
+
+pub mod config;
+pub mod cues;
+pub mod error;
+mod graph;
+mod merge;
+pub mod score;
+
+pub use config::{BoundaryStatistic, MergeConfig, Profile, ReleasedCodeParams};
+pub use cues::{build_view_inputs, CueRequest};
+pub use error::{MergeError, MergeResultOf};
+pub use merge::{merge_view, Decision, MergeLog, MergeResult, RegionSummary, ViewInputs};
+pub use score::{Outcome, ScoreTerms};

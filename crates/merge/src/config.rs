@@ -1,0 +1,255 @@
+//! [`MergeConfig`]: every number of the merge stage, read from TOML; defaults are the paper's.
+//!
+//! A TOML file may name a `profile` (`paper`, `literal`, `released-code`); the profile's preset is
+//! the starting point and any other key in the file overrides it:
+//!
+//! ```toml
+//! profile = "paper"
+//! tau_merge = 0.9
+//! boundary_statistic = { quantile = 0.9 }
+//! ```
+
+use crate::error::MergeError;
+use serde::{Deserialize, Serialize};
+
+/// Which reading of the paper's score to use (see the `score` module for the formulas).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Profile {
+    /// The self-consistent reading (default): S normalised by `w_sem + w_depth`, boundary terms
+    /// on the band where the two regions meet.
+    #[default]
+    Paper,
+    /// The formula exactly as printed: un-normalised, maxima over `∂m_i ∪ ∂m_j`. It can never
+    /// exceed `w_sem + w_depth = 0.7 < τ_merge`, so it merges nothing.
+    Literal,
+    /// The authors' released code: means on the band, `exp(−Δd/0.1)`, hard rejects, `S > 0`.
+    ReleasedCode,
+}
+
+/// The statistic of LoG and `∇D` over the shared boundary band (paper profile).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BoundaryStatistic {
+    /// The maximum (the paper's `max`).
+    Max,
+    /// The mean (the released code's).
+    Mean,
+    /// A quantile in [0, 1] (robust maximum, e.g. 0.9).
+    Quantile(f32),
+}
+
+/// The released code's extra rules (used by [`Profile::ReleasedCode`] only).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReleasedCodeParams {
+    /// Reject pairs whose descriptor cosine is below this.
+    pub min_cos: f32,
+    /// Reject pairs whose mean LoG on the boundary is above this.
+    pub max_mean_edge: f32,
+    /// Depth affinity `exp(−Δd / depth_decay)`.
+    pub depth_decay: f32,
+}
+
+impl Default for ReleasedCodeParams {
+    fn default() -> Self {
+        ReleasedCodeParams { min_cos: 0.65, max_mean_edge: 0.275, depth_decay: 0.1 }
+    }
+}
+
+/// All parameters of Multi-Cue-Guided Mask Merging. Defaults are the paper's values (§5
+/// "Hyperparameters"); the three values the paper leaves out (`tau_gap_px`, `tau_contact`,
+/// `dilation_steps`) are the released code's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MergeConfig {
+    /// Score variant.
+    pub profile: Profile,
+    /// Merge when the score exceeds this (paper: 0.85).
+    pub tau_merge: f32,
+    /// Hard gate on the mean normalised depths: `|d̄_i − d̄_j| < tau_depth` (paper: 0.15).
+    pub tau_depth: f32,
+    /// Weight of the descriptor cosine (paper: 0.5).
+    pub w_sem: f32,
+    /// Weight of the depth affinity (paper: 0.2).
+    pub w_depth: f32,
+    /// Weight of the depth-gradient penalty on the boundary (paper: 0.1).
+    pub w_dbound: f32,
+    /// Weight of the LoG penalty on the boundary (paper: 0.2).
+    pub w_edge: f32,
+    /// `σ_d²` of the depth affinity `exp(−Δd²/(2σ_d²))` (paper: 0.05).
+    pub sigma_d_sq: f32,
+    /// Bounding boxes must be within this many pixels (released code: 4).
+    pub tau_gap_px: u32,
+    /// Contact ratio `|dil(A) ∩ dil(B)| / min(|A|, |B|)` must reach this (released code: 0.01).
+    pub tau_contact: f32,
+    /// Number of 3×3 dilations for adjacency (released code: 2, i.e. a 5×5 window).
+    pub dilation_steps: u32,
+    /// At most this many merges per view (paper: 1000).
+    pub max_merges: usize,
+    /// Statistic of the boundary terms (paper profile; literal always uses max, released-code
+    /// always mean).
+    pub boundary_statistic: BoundaryStatistic,
+    /// Relative metric-depth gate on the shared boundary, used when metric depth is available:
+    /// reject if `|z_i − z_j| / min(z_i, z_j)` exceeds this (`z` = median metric depth of each
+    /// side of the boundary band). `None` disables it.
+    pub relative_depth_gate: Option<f32>,
+    /// Released-code profile rules.
+    pub released: ReleasedCodeParams,
+}
+
+impl Default for MergeConfig {
+    fn default() -> Self {
+        MergeConfig {
+            profile: Profile::Paper,
+            tau_merge: 0.85,
+            tau_depth: 0.15,
+            w_sem: 0.5,
+            w_depth: 0.2,
+            w_dbound: 0.1,
+            w_edge: 0.2,
+            sigma_d_sq: 0.05,
+            tau_gap_px: 4,
+            tau_contact: 0.01,
+            dilation_steps: 2,
+            max_merges: 1000,
+            boundary_statistic: BoundaryStatistic::Quantile(0.75),
+            relative_depth_gate: Some(0.1),
+            released: ReleasedCodeParams::default(),
+        }
+    }
+}
+
+impl MergeConfig {
+    /// The preset of a profile.
+    pub fn for_profile(profile: Profile) -> Self {
+        let paper = MergeConfig::default();
+        match profile {
+            Profile::Paper => paper,
+            Profile::Literal => MergeConfig { profile, relative_depth_gate: None, ..paper },
+            Profile::ReleasedCode => MergeConfig {
+                profile,
+                tau_merge: 0.0,
+                boundary_statistic: BoundaryStatistic::Mean,
+                relative_depth_gate: None,
+                ..paper
+            },
+        }
+    }
+
+    /// Reads a TOML config: the named `profile`'s preset (default `paper`), overridden by the
+    /// file's other keys.
+    pub fn from_toml_str(text: &str) -> Result<Self, MergeError> {
+        let table: toml::Table =
+            text.parse().map_err(|e: toml::de::Error| MergeError::Config(e.to_string()))?;
+        let profile = match table.get("profile") {
+            None => Profile::Paper,
+            Some(v) => v
+                .clone()
+                .try_into()
+                .map_err(|e: toml::de::Error| MergeError::Config(format!("profile: {e}")))?,
+        };
+        let preset = toml::Table::try_from(MergeConfig::for_profile(profile))
+            .map_err(|e| MergeError::Config(e.to_string()))?;
+        let mut merged = preset;
+        for (k, v) in table {
+            merged.insert(k, v);
+        }
+        let config: MergeConfig = toml::Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| MergeError::Config(e.to_string()))?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Checks the values are usable (finite, weights non-negative, quantile in [0, 1]).
+    pub fn validate(&self) -> Result<(), MergeError> {
+        let finite = [
+            ("tau_merge", self.tau_merge),
+            ("w_sem", self.w_sem),
+            ("w_depth", self.w_depth),
+            ("w_dbound", self.w_dbound),
+            ("w_edge", self.w_edge),
+            ("sigma_d_sq", self.sigma_d_sq),
+            ("tau_contact", self.tau_contact),
+        ];
+        for (name, v) in finite {
+            if !v.is_finite() {
+                return Err(MergeError::Config(format!("{name} = {v} is not finite")));
+            }
+        }
+        for (name, v) in [
+            ("w_sem", self.w_sem),
+            ("w_depth", self.w_depth),
+            ("w_dbound", self.w_dbound),
+            ("w_edge", self.w_edge),
+        ] {
+            if v < 0.0 {
+                return Err(MergeError::Config(format!("{name} = {v} must not be negative")));
+            }
+        }
+        if self.sigma_d_sq <= 0.0 {
+            return Err(MergeError::Config(format!("sigma_d_sq = {} must be positive", self.sigma_d_sq)));
+        }
+        if self.tau_depth.is_nan() {
+            return Err(MergeError::Config("tau_depth is NaN".to_string()));
+        }
+        if let BoundaryStatistic::Quantile(q) = self.boundary_statistic {
+            if !(0.0..=1.0).contains(&q) {
+                return Err(MergeError::Config(format!("boundary quantile {q} is outside [0, 1]")));
+            }
+        }
+        if self.dilation_steps == 0 || self.dilation_steps > 8 {
+            return Err(MergeError::Config(format!(
+                "dilation_steps = {} must be in 1..=8",
+                self.dilation_steps
+            )));
+        }
+        if self.profile == Profile::Paper && self.w_sem + self.w_depth <= 0.0 {
+            return Err(MergeError::Config(
+                "w_sem + w_depth must be positive (the paper profile divides by it)".to_string(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_papers_values() {
+        let c = MergeConfig::default();
+        assert_eq!(
+            (c.tau_merge, c.tau_depth, c.w_sem, c.w_depth, c.w_dbound, c.w_edge),
+            (0.85, 0.15, 0.5, 0.2, 0.1, 0.2)
+        );
+        assert_eq!(
+            (c.sigma_d_sq, c.tau_gap_px, c.tau_contact, c.dilation_steps, c.max_merges),
+            (0.05, 4, 0.01, 2, 1000)
+        );
+    }
+
+    #[test]
+    fn toml_starts_from_the_profile_preset_and_overrides() {
+        let c = MergeConfig::from_toml_str("profile = \"released-code\"\nw_edge = 0.3\n").unwrap();
+        assert_eq!(c.profile, Profile::ReleasedCode);
+        assert_eq!(c.tau_merge, 0.0);
+        assert_eq!(c.w_edge, 0.3);
+        assert_eq!(c.boundary_statistic, BoundaryStatistic::Mean);
+        let q = MergeConfig::from_toml_str("boundary_statistic = { quantile = 0.9 }").unwrap();
+        assert_eq!(q.boundary_statistic, BoundaryStatistic::Quantile(0.9));
+        assert_eq!(MergeConfig::from_toml_str("").unwrap(), MergeConfig::default());
+    }
+
+    #[test]
+    fn bad_configs_are_rejected_with_the_key_named() {
+        let e = MergeConfig::from_toml_str("tau_merj = 1.0").unwrap_err().to_string();
+        assert!(e.contains("tau_merj"), "{e}");
+        let e = MergeConfig::from_toml_str("w_sem = -1.0").unwrap_err().to_string();
+        assert!(e.contains("w_sem"), "{e}");
+        let e = MergeConfig::from_toml_str("profile = \"nope\"").unwrap_err().to_string();
+        assert!(e.contains("profile"), "{e}");
+    }
+}
