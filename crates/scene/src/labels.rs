@@ -4,30 +4,51 @@
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
 use crate::plane::Plane;
-use image::{DynamicImage, ImageBuffer, ImageFormat, Luma, RgbImage};
+use image::{ImageBuffer, ImageFormat, Luma, RgbImage};
 use std::path::Path;
 
 const FORMAT: &str = "label map PNG";
 
-/// Reads a label map: an 8- or 16-bit greyscale PNG whose value is the object id
+/// Reads a label map: a greyscale PNG (8 or 16 bit; 1/2/4 bit too) or a palette-indexed PNG
+/// (as DAVIS-style tools write them), whose value or palette index is the object id
 /// (0 = unlabelled). Returns `[height, width]` ids.
 pub fn read_label_png(path: &Path) -> SceneResult<Plane<u32>> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io("cannot read", path, e))?;
-    let img = image::load_from_memory_with_format(&bytes, ImageFormat::Png)
-        .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?;
-    let (width, height) = (img.width() as usize, img.height() as usize);
-    let data: Vec<u32> = match img {
-        DynamicImage::ImageLuma8(g) => g.into_raw().into_iter().map(u32::from).collect(),
-        DynamicImage::ImageLuma16(g) => g.into_raw().into_iter().map(u32::from).collect(),
-        other => {
-            return Err(SceneError::invalid(
-                FORMAT,
-                path,
-                format!("colour type {:?}; a label map must be 8- or 16-bit greyscale", other.color()),
-            ))
+    let invalid = |reason: String| SceneError::invalid(FORMAT, path, reason);
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
+    // Keep palette indices and 16-bit values as stored.
+    decoder.set_transformations(png::Transformations::IDENTITY);
+    let mut reader = decoder.read_info().map_err(|e| invalid(format!("cannot decode PNG: {e}")))?;
+    let size = reader.output_buffer_size().ok_or_else(|| invalid("image too large".to_string()))?;
+    let mut buffer = vec![0u8; size];
+    let frame = reader.next_frame(&mut buffer).map_err(|e| invalid(format!("cannot decode PNG: {e}")))?;
+    if !matches!(frame.color_type, png::ColorType::Grayscale | png::ColorType::Indexed) {
+        return Err(invalid(format!(
+            "colour type {:?}; a label map must be greyscale (8 or 16 bit) or palette-indexed",
+            frame.color_type
+        )));
+    }
+    let (width, height) = (frame.width as usize, frame.height as usize);
+    let bits = frame.bit_depth as usize;
+    let mut data = Vec::with_capacity(width * height);
+    for row in buffer.chunks_exact(frame.line_size).take(height) {
+        match bits {
+            16 => {
+                data.extend(row.chunks_exact(2).take(width).map(|b| u16::from_be_bytes([b[0], b[1]]) as u32))
+            }
+            8 => data.extend(row.iter().take(width).map(|&v| v as u32)),
+            _ => {
+                // 1, 2 or 4 bits per pixel, most significant bits first.
+                let per_byte = 8 / bits;
+                let mask = (1u16 << bits) as u8 - 1;
+                data.extend((0..width).map(|x| {
+                    let shift = 8 - bits * (x % per_byte + 1);
+                    ((row[x / per_byte] >> shift) & mask) as u32
+                }));
+            }
         }
-    };
-    Ok(Plane { width, height, data })
+    }
+    Plane::from_vec(width, height, data).ok_or_else(|| invalid("PNG data shorter than its size".to_string()))
 }
 
 /// Writes a label map (`[height, width]` ids) as a 16-bit greyscale PNG, atomically. Fails if
@@ -45,17 +66,21 @@ pub fn write_label_png(path: &Path, labels: &Plane<u32>) -> SceneResult<()> {
     let img: ImageBuffer<Luma<u16>, Vec<u16>> =
         ImageBuffer::from_raw(labels.width as u32, labels.height as u32, data)
             .ok_or_else(|| SceneError::invalid(FORMAT, path, "label plane size disagrees with its data"))?;
-    write_png(path, &DynamicImage::ImageLuma16(img))
+    write_png_with(path, |out| img.write_to(out, ImageFormat::Png))
 }
 
 /// Writes an RGB image as PNG, atomically.
 pub fn write_png_rgb(path: &Path, img: &RgbImage) -> SceneResult<()> {
-    write_png(path, &DynamicImage::ImageRgb8(img.clone()))
+    write_png_with(path, |out| img.write_to(out, ImageFormat::Png))
 }
 
-fn write_png(path: &Path, img: &DynamicImage) -> SceneResult<()> {
+/// Encodes with `encode` into memory, then writes the bytes to `path` atomically.
+fn write_png_with(
+    path: &Path,
+    encode: impl FnOnce(&mut std::io::Cursor<&mut Vec<u8>>) -> image::ImageResult<()>,
+) -> SceneResult<()> {
     let mut bytes = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut bytes), ImageFormat::Png)
+    encode(&mut std::io::Cursor::new(&mut bytes))
         .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?;
     write_bytes_atomic(path, &bytes)
 }

@@ -31,6 +31,47 @@ fn eight_bit_label_maps_are_read() {
     assert_eq!(read_label_png(&path).unwrap(), labels);
 }
 
+/// Writes a PNG with the png crate: `bits` per pixel, greyscale or indexed (with a palette).
+fn write_raw_png(
+    path: &std::path::Path,
+    width: u32,
+    height: u32,
+    colour: png::ColorType,
+    bits: png::BitDepth,
+    packed: &[u8],
+) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut encoder = png::Encoder::new(file, width, height);
+    encoder.set_color(colour);
+    encoder.set_depth(bits);
+    if colour == png::ColorType::Indexed {
+        encoder.set_palette((0..=255u8).flat_map(|i| [i, 255 - i, i / 2]).collect::<Vec<u8>>());
+    }
+    encoder.write_header().unwrap().write_image_data(packed).unwrap();
+}
+
+#[test]
+fn palette_and_low_bit_depth_label_maps_are_read_as_indices() {
+    let dir = tempfile::tempdir().unwrap();
+    // 8-bit palette: index = id.
+    let labels = ids(6, 2, |x, y| (x * 40 + y) as u32);
+    let packed: Vec<u8> = labels.data.iter().map(|&v| v as u8).collect();
+    let path = dir.path().join("palette8.png");
+    write_raw_png(&path, 6, 2, png::ColorType::Indexed, png::BitDepth::Eight, &packed);
+    assert_eq!(read_label_png(&path).unwrap(), labels);
+    // 4-bit palette, 5 pixels per row (rows padded to whole bytes): ids 0..=9.
+    let labels = ids(5, 2, |x, y| (x + 5 * y) as u32);
+    let packed = [0x01, 0x23, 0x40, 0x56, 0x78, 0x90];
+    let path = dir.path().join("palette4.png");
+    write_raw_png(&path, 5, 2, png::ColorType::Indexed, png::BitDepth::Four, &packed);
+    assert_eq!(read_label_png(&path).unwrap(), labels);
+    // 1-bit greyscale: a binary mask, 1 = id 1.
+    let labels = ids(10, 1, |x, _| (x % 3 == 0) as u32);
+    let path = dir.path().join("grey1.png");
+    write_raw_png(&path, 10, 1, png::ColorType::Grayscale, png::BitDepth::One, &[0b1001_0010, 0b0100_0000]);
+    assert_eq!(read_label_png(&path).unwrap(), labels);
+}
+
 #[test]
 fn ids_above_65535_are_rejected_and_nothing_is_written() {
     let dir = tempfile::tempdir().unwrap();

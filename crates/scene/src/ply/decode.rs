@@ -12,7 +12,7 @@ use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 /// Rows decoded by one task; larger inputs are split in halves with `rayon::join`.
-const ROWS_PER_TASK: usize = 32 * 1024;
+const ROWS_PER_TASK: usize = 8 * 1024;
 
 /// Rows read from the file at a time (≈ 16 MB for 62-float rows), so a large file is never
 /// held in memory twice.

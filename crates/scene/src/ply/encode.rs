@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Rows encoded by one parallel task.
-const ROWS_PER_TASK: usize = 16 * 1024;
+const ROWS_PER_TASK: usize = 8 * 1024;
 
 /// Rows encoded and written at a time by [`write_ply`] (≈ 16 MB for 62-float rows).
 const ROWS_PER_WRITE: usize = 64 * 1024;
