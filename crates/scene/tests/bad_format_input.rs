@@ -88,6 +88,8 @@ fn malformed_headers_are_rejected() {
     assert_has(&read_error(dir.path(), "list.ply", &list), &["'idx' is a list"]);
     let not_ply = with_head(head.replacen("ply\n", "plx\n", 1));
     assert_has(&read_error(dir.path(), "magic.ply", &not_ply), &["not a PLY file"]);
+    assert_has(&read_error(dir.path(), "jpeg.ply", &[0xff, 0xd8, 0xff, 0xe0, 0, 0x10]), &["not a PLY file"]);
+    assert_has(&read_error(dir.path(), "empty.ply", b""), &["the file is empty"]);
     let format = with_head(head.replace("binary_little_endian", "binary_middle_endian"));
     assert_has(&read_error(dir.path(), "format.ply", &format), &["unknown format 'binary_middle_endian'"]);
     let garbage = with_head(head.replace("element vertex 3\n", "element vertex 3\nbanana\n"));
@@ -336,4 +338,63 @@ fn sam_write_into_a_file_path_fails_cleanly() {
     let mask = SamMask::from_rle(Rle::encode(&Plane::filled(2, 2, true)));
     let err = write_sam_json(&blocker.join("out.json"), &[mask]).unwrap_err().to_string();
     assert!(err.contains("file"), "{err}");
+}
+
+#[test]
+fn random_corruptions_never_panic() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let mut g = gaussians(6, 1);
+    g.object_ids = Some(vec![1, 2, 3, -1, 5, 6]);
+    let binary = to_ply_bytes(&g).unwrap();
+    let head = header_len(&binary);
+    let ascii = {
+        let text =
+            String::from_utf8(binary[..head].to_vec()).unwrap().replace("binary_little_endian", "ascii");
+        let row = |i: usize| {
+            let mut v = vec![i.to_string(), "1".into(), "2".into()];
+            v.extend(std::iter::repeat_n("0.5".to_string(), 3 + 9 + 1 + 3 + 4));
+            v.push("7".into());
+            v.join(" ")
+        };
+        format!("{text}{}\n", (0..6).map(row).collect::<Vec<_>>().join("\n")).into_bytes()
+    };
+    assert_eq!(parse_ply_bytes(&ascii).unwrap().len(), 6);
+    let mut outcomes = [0usize; 2];
+    for case in 0..3000 {
+        let mut bytes = if case % 2 == 0 { binary.clone() } else { ascii.clone() };
+        match rng.gen_range(0..3) {
+            // Flip bytes, mostly in the header where they change the meaning.
+            0 => {
+                for _ in 0..rng.gen_range(1..4) {
+                    let at = if rng.gen_bool(0.7) {
+                        rng.gen_range(0..head)
+                    } else {
+                        rng.gen_range(0..bytes.len())
+                    };
+                    bytes[at] = rng.gen();
+                }
+            }
+            // Cut anywhere.
+            1 => bytes.truncate(rng.gen_range(0..bytes.len())),
+            // Replace a header digit (counts, indices) with another.
+            _ => {
+                let digits: Vec<usize> = (0..head).filter(|&i| bytes[i].is_ascii_digit()).collect();
+                let at = digits[rng.gen_range(0..digits.len())];
+                bytes[at] = b'0' + rng.gen_range(0..10);
+            }
+        }
+        outcomes[parse_ply_bytes(&bytes).is_ok() as usize] += 1;
+    }
+    // Both outcomes happen: the corruptions are neither all harmless nor all fatal.
+    assert!(outcomes[0] > 100 && outcomes[1] > 100, "{outcomes:?}");
+
+    for _ in 0..3000 {
+        let len = rng.gen_range(0..12);
+        let s: String = (0..len).map(|_| char::from(rng.gen_range(40u8..120))).collect();
+        let (h, w) = (rng.gen_range(0..5), rng.gen_range(0..5));
+        if let Ok(rle) = Rle::from_coco_string(h, w, &s) {
+            assert_eq!(rle.decode().unwrap().data.len(), (h * w) as usize);
+        }
+    }
 }

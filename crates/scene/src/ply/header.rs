@@ -56,6 +56,12 @@ pub(crate) struct Header {
 
 /// Parses the header at the start of `bytes`. Errors say what is wrong and on which line.
 pub(crate) fn parse_header(bytes: &[u8]) -> Result<Header, String> {
+    if bytes.is_empty() {
+        return Err("the file is empty".to_string());
+    }
+    if !(bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n")) {
+        return Err("not a PLY file: it does not start with a 'ply' line".to_string());
+    }
     let mut format = None;
     let mut elements: Vec<ElementDecl> = Vec::new();
     let mut pos = 0usize;
@@ -79,9 +85,7 @@ pub(crate) fn parse_header(bytes: &[u8]) -> Result<Header, String> {
         let mut tokens = line.split_ascii_whitespace();
         let keyword = tokens.next().unwrap_or("");
         if line_no == 1 {
-            if line.trim() != "ply" {
-                return Err("not a PLY file: the first line is not 'ply'".to_string());
-            }
+            // The 'ply' magic line, checked above.
             pos = next;
             continue;
         }
