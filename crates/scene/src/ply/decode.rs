@@ -97,7 +97,13 @@ fn vertex_layout(header: &Header) -> Result<(usize, VertexLayout), String> {
             });
         }
     }
-    let layout = VertexLayout::from_properties(&header.elements[vertex_index].properties)?;
+    let properties = &header.elements[vertex_index].properties;
+    if properties.iter().any(|p| p.name == "packed_position") {
+        return Err("this is a compressed PLY (SuperSplat / gsplat 'ply_compressed': packed_position, \
+                    ...), which splatseg does not read; export the uncompressed 3DGS PLY instead"
+            .to_string());
+    }
+    let layout = VertexLayout::from_properties(properties)?;
     Ok((vertex_index, layout))
 }
 
