@@ -20,12 +20,19 @@ fn synthetic_view(seed: u64) -> (Plane<u32>, Plane<u32>) {
         let (px, py, pr) =
             (cx + rng.gen_range(-6.0..6.0), cy + rng.gen_range(-6.0..6.0), r + rng.gen_range(-5.0..5.0));
         let split = rng.gen_bool(0.2);
-        for y in 0..h {
-            for x in 0..w {
+        let rows =
+            |c: f64, r: f64, n: usize| ((c - r).max(0.0) as usize)..((c + r + 1.0).min(n as f64) as usize);
+        for y in rows(cy, r, h) {
+            for x in rows(cx, r, w) {
                 let (fx, fy) = (x as f64 + 0.5, y as f64 + 0.5);
                 if (fx - cx).powi(2) + (fy - cy).powi(2) <= r * r {
                     *gt.get_mut(x, y) = id;
                 }
+            }
+        }
+        for y in rows(py, pr, h) {
+            for x in rows(px, pr, w) {
+                let (fx, fy) = (x as f64 + 0.5, y as f64 + 0.5);
                 if (fx - px).powi(2) + (fy - py).powi(2) <= pr * pr {
                     *pred.get_mut(x, y) = if split && fx > px { 100 + id } else { id };
                 }

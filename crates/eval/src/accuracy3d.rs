@@ -11,6 +11,39 @@
 use crate::error::EvalError;
 use crate::hungarian::max_weight_assignment;
 use crate::metrics::LabelAccuracy3d;
+use std::path::Path;
+
+/// Reads ground-truth per-Gaussian ids from a `.npy` of shape `[N]` or `[N, 1]` holding
+/// integers (an integer dtype, or floats with integral values).
+pub fn read_gaussian_ids_npy(path: &Path) -> Result<Vec<i64>, EvalError> {
+    let arr = splatseg_scene::npy::read_npy(path)?;
+    let bad = |reason: String| EvalError::BadGaussianIds { reason, path: path.to_path_buf() };
+    if !matches!(arr.shape[..], [_] | [_, 1]) {
+        return Err(bad(format!("shape {:?}, expected [N] or [N, 1]", arr.shape)));
+    }
+    // Values are delivered as f32, exact for integers below 2^24 only.
+    if arr.data.iter().any(|v| v.abs() >= (1u32 << 24) as f32) {
+        return Err(bad(format!("ids of 2^24 or more are not supported ({:?} file)", arr.dtype)));
+    }
+    if let Some(i) = arr.data.iter().position(|v| !v.is_finite() || v.fract() != 0.0) {
+        return Err(bad(format!("entry {i} is {}, not an integer id", arr.data[i])));
+    }
+    Ok(arr.data.iter().map(|v| *v as i64).collect())
+}
+
+/// 3D label accuracy of the `object_id`s of a labelled PLY against ground-truth ids in a
+/// `.npy` (same Gaussian order).
+pub fn label_accuracy_3d_files(gt_ids_npy: &Path, pred_ply: &Path) -> Result<LabelAccuracy3d, EvalError> {
+    let gt = read_gaussian_ids_npy(gt_ids_npy)?;
+    let g = splatseg_scene::ply::read_ply(pred_ply)?;
+    let pred = g.object_ids.ok_or_else(|| EvalError::NoObjectIds { path: pred_ply.to_path_buf() })?;
+    label_accuracy_3d(&gt, &pred).map_err(|e| match e {
+        EvalError::GaussianCountMismatch { gt_len, pred_len, .. } => {
+            EvalError::GaussianCountMismatch { gt_len, pred_len, path: Some(pred_ply.to_path_buf()) }
+        }
+        other => other,
+    })
+}
 
 /// Scores predicted per-Gaussian ids against ground truth. `gt_ids`, `pred_ids`: `[N]`, same
 /// Gaussian order. Fails on a length mismatch.

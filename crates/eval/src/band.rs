@@ -65,12 +65,33 @@ fn row_constancy(labels: &Plane<u32>, cap: usize) -> Vec<u8> {
     out
 }
 
+/// For every pixel, the column of the last pixel of its run of equal labels in its row.
+/// `labels`: `[H, W]`. Returns `[H, W]`.
+fn run_ends(labels: &Plane<u32>) -> Vec<u32> {
+    let (w, h) = labels.size();
+    let mut out = vec![0u32; w * h];
+    for y in 0..h {
+        let row = labels.row(y);
+        let out_row = &mut out[y * w..(y + 1) * w];
+        let mut end = w.saturating_sub(1);
+        for x in (0..w).rev() {
+            if x + 1 < w && row[x] != row[x + 1] {
+                end = x;
+            }
+            out_row[x] = end as u32;
+        }
+    }
+    out
+}
+
 /// Precomputed state to enumerate the band pixels of one label map.
 pub struct BandScanner<'a> {
     labels: &'a Plane<u32>,
     half_widths: Vec<usize>,
     radius: usize,
     row_const: Vec<u8>,
+    /// `[H, W]`: for each pixel, the column of the last pixel of its row run (same label).
+    run_end: Vec<u32>,
 }
 
 impl<'a> BandScanner<'a> {
@@ -83,6 +104,7 @@ impl<'a> BandScanner<'a> {
             half_widths: disk_row_half_widths(radius_px),
             radius,
             row_const: row_constancy(labels, cap),
+            run_end: run_ends(labels),
         }
     }
 
@@ -117,14 +139,15 @@ impl<'a> BandScanner<'a> {
                 let row = self.labels.row(yy);
                 let x0 = x.saturating_sub(half);
                 let x1 = (x + half).min(w - 1);
-                let mut last = None;
-                for &l in &row[x0..=x1] {
-                    if last != Some(l) {
-                        last = Some(l);
-                        if !scratch.contains(&l) {
-                            scratch.push(l);
-                        }
+                // Visit one pixel per run of the row segment.
+                let run_end = &self.run_end[yy * w..(yy + 1) * w];
+                let mut xx = x0;
+                while xx <= x1 {
+                    let l = row[xx];
+                    if !scratch.contains(&l) {
+                        scratch.push(l);
                     }
+                    xx = run_end[xx] as usize + 1;
                 }
             }
             scratch.sort_unstable();

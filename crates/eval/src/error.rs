@@ -92,6 +92,12 @@ pub enum EvalError {
         #[source]
         source: std::io::Error,
     },
+    /// A PLY without per-Gaussian object ids.
+    #[error("the PLY has no `object_id` property to score (run `splatseg run` first): {}", path.display())]
+    NoObjectIds {
+        /// The PLY.
+        path: PathBuf,
+    },
     /// A per-Gaussian id file holds something other than integers.
     #[error("invalid ground-truth Gaussian ids: {reason}: {}", path.display())]
     BadGaussianIds {

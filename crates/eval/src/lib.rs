@@ -32,7 +32,7 @@ pub mod markdown;
 pub mod metrics;
 pub mod view;
 
-pub use accuracy3d::label_accuracy_3d;
+pub use accuracy3d::{label_accuracy_3d, label_accuracy_3d_files, read_gaussian_ids_npy};
 pub use config::{EvalConfig, UnlabelledGt};
 pub use error::EvalError;
 pub use folders::{evaluate_folders, evaluate_prediction_sets, list_label_maps};

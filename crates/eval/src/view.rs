@@ -8,6 +8,8 @@ use crate::error::EvalError;
 use crate::hungarian::max_weight_assignment;
 use serde::{Deserialize, Serialize};
 use splatseg_scene::Plane;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 /// Number of pixels with ground-truth id `gt` and predicted id `pred` (0 = none on either side).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -134,8 +136,9 @@ fn count_pairs(gt: &Plane<u32>, pred: &Plane<u32>) -> Vec<PairCount> {
 /// the ground truth's relation to the instance. `gt`, `pred`: `[H, W]`.
 fn count_band(gt: &Plane<u32>, pred: &Plane<u32>, cfg: &EvalConfig) -> Vec<BandCount> {
     let scanner = BandScanner::new(gt, cfg.band_radius_px);
-    // (key, relation) with relation 0 = in gt, 1 = unlabelled, 2 = other instance.
-    let mut hits: Vec<(u64, u8)> = Vec::new();
+    // (gt, pred) key → pixels by relation [in gt, unlabelled, other instance]. The map is only
+    // read back sorted.
+    let mut hits: HashMap<u64, [u64; 3], BuildHasherDefault<PairHasher>> = HashMap::default();
     let mut scratch = Vec::new();
     for y in 0..gt.height {
         let gt_row = gt.row(y);
@@ -150,26 +153,42 @@ fn count_band(gt: &Plane<u32>, pred: &Plane<u32>, cfg: &EvalConfig) -> Vec<BandC
                 } else {
                     2
                 };
-                hits.push((pair_key(g, p), relation));
+                hits.entry(pair_key(g, p)).or_default()[relation] += 1;
             }
         });
     }
-    hits.sort_unstable();
-    let mut out: Vec<BandCount> = Vec::new();
-    for (key, relation) in hits {
-        let (g, p) = ((key >> 32) as u32, key as u32);
-        if !matches!(out.last(), Some(last) if last.gt == g && last.pred == p) {
-            out.push(BandCount { gt: g, pred: p, ..Default::default() });
-        }
-        if let Some(last) = out.last_mut() {
-            match relation {
-                0 => last.in_gt += 1,
-                1 => last.on_unlabelled += 1,
-                _ => last.on_other += 1,
-            }
+    let mut out: Vec<BandCount> = hits
+        .into_iter()
+        .map(|(key, [in_gt, on_unlabelled, on_other])| BandCount {
+            gt: (key >> 32) as u32,
+            pred: key as u32,
+            in_gt,
+            on_unlabelled,
+            on_other,
+        })
+        .collect();
+    out.sort_unstable_by_key(|c| (c.gt, c.pred));
+    out
+}
+
+/// A fast multiplicative hash for the `u64` pair keys (not DoS-resistant; keys are label ids).
+#[derive(Default)]
+struct PairHasher(u64);
+
+impl Hasher for PairHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
         }
     }
-    out
+
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0 ^ (self.0 >> 29)
+    }
 }
 
 /// IoU between ground-truth instances and predicted ids from summed pair counts.
