@@ -117,6 +117,48 @@ fn im2col(
     cols
 }
 
+/// ConvTranspose2d with kernel = stride = `factor`, no padding: every input pixel writes its own
+/// `factor × factor` output block, so it is one matrix product and a pixel shuffle.
+#[derive(Debug, Clone)]
+pub struct PatchConvTranspose {
+    /// `[C_in, C_out·f·f]`.
+    weight: Tensor,
+    /// `[C_out]`.
+    bias: Tensor,
+    factor: usize,
+    out_channels: usize,
+}
+
+impl PatchConvTranspose {
+    /// `weight`: `[C_in, C_out, f, f]` (PyTorch's ConvTranspose2d layout); `bias`: `[C_out]`.
+    pub fn new(weight: &Tensor, bias: Tensor) -> ModelsResult<Self> {
+        let (c_in, out_channels, factor, _) = weight.dims4()?;
+        let weight = weight.reshape((c_in, out_channels * factor * factor))?;
+        Ok(Self { weight, bias, factor, out_channels })
+    }
+
+    /// `x`: `[B, C_in, H, W]`. Returns `[B, C_out, H·f, W·f]`.
+    pub fn forward(&self, x: &Tensor) -> ModelsResult<Tensor> {
+        let (b, c_in, h, w) = x.dims4()?;
+        let (f, c) = (self.factor, self.out_channels);
+        let pixels = x.permute((0, 2, 3, 1))?.reshape((b * h * w, c_in))?;
+        let blocks = pixels.matmul(&self.weight)?; // [B·H·W, C_out·f·f]
+        let out = blocks
+            .reshape((b, h, w, c, f, f))?
+            .permute((0, 3, 1, 4, 2, 5))? // [B, C_out, H, f, W, f]
+            .reshape((b, c, h * f, w * f))?
+            .broadcast_add(&self.bias.reshape((1, c, 1, 1))?)?;
+        Ok(out)
+    }
+}
+
+/// Layer norm over the channels of a `[B, C, H, W]` map (SAM's `LayerNorm2d`).
+pub fn layer_norm_2d(x: &Tensor, norm: &candle_nn::LayerNorm) -> ModelsResult<Tensor> {
+    use candle_core::Module;
+    let channels_last = x.permute((0, 2, 3, 1))?.contiguous()?;
+    Ok(norm.forward(&channels_last)?.permute((0, 3, 1, 2))?.contiguous()?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

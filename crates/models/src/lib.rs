@@ -13,6 +13,7 @@ pub mod dinov2;
 pub mod error;
 pub mod image;
 pub mod resample;
+pub mod sam;
 pub mod weights;
 
 pub use error::{ModelKind, ModelsError, ModelsResult};

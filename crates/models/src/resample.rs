@@ -20,6 +20,9 @@ pub enum Resample {
     Bilinear,
     /// `mode="bilinear", align_corners=True`.
     BilinearAlignCorners,
+    /// Antialiased bilinear (triangle filter widened by the scale when shrinking), as PIL's
+    /// `Image.resize(..., BILINEAR)` and PyTorch's `bilinear, antialias=True`.
+    BilinearAntialias,
 }
 
 /// How one axis is resized: lengths and the step between output samples, measured in input samples
@@ -90,7 +93,8 @@ impl AxisTaps {
         Self { starts, weights, taps_per_output }
     }
 
-    fn out_len(&self) -> usize {
+    /// Output length.
+    pub fn out_len(&self) -> usize {
         self.starts.len()
     }
 }
@@ -105,18 +109,8 @@ fn taps_of(axis: AxisResize, mode: Resample, o: usize) -> Vec<(usize, f64)> {
             let t = src - floor;
             (-1..3).map(|k| (clamp(floor as i64 + k), cubic(k as f64 - t, -0.75))).collect()
         }
-        Resample::BicubicAntialias => {
-            let scale = axis.step;
-            let (support, inv) = if scale >= 1.0 { (2.0 * scale, 1.0 / scale) } else { (2.0, 1.0) };
-            let center = scale * (o as f64 + 0.5);
-            let lo = ((center - support + 0.5) as i64).max(0);
-            let hi = ((center + support + 0.5) as i64).min(axis.in_len as i64);
-            let raw: Vec<(usize, f64)> =
-                (lo..hi).map(|j| (j as usize, cubic((j as f64 - center + 0.5) * inv, -0.5))).collect();
-            let total: f64 = raw.iter().map(|t| t.1).sum();
-            let norm = if total != 0.0 { 1.0 / total } else { 0.0 };
-            raw.into_iter().map(|(j, w)| (j, w * norm)).collect()
-        }
+        Resample::BicubicAntialias => antialias_taps(axis, o, 2.0, |x| cubic(x, -0.5)),
+        Resample::BilinearAntialias => antialias_taps(axis, o, 1.0, |x| (1.0 - x.abs()).max(0.0)),
         Resample::Bilinear => {
             let src = ((o as f64 + 0.5) * axis.step - 0.5).max(0.0);
             let i0 = (src.floor() as i64).min(last);
@@ -132,6 +126,119 @@ fn taps_of(axis: AxisResize, mode: Resample, o: usize) -> Vec<(usize, f64)> {
             vec![(clamp(i0), 1.0 - lambda), (clamp(i0 + 1), lambda)]
         }
     }
+}
+
+/// PIL's / PyTorch's antialiased taps: the filter (of half-width `radius`) is stretched by the scale
+/// when shrinking, and the weights are normalised to sum to one.
+fn antialias_taps(axis: AxisResize, o: usize, radius: f64, filter: impl Fn(f64) -> f64) -> Vec<(usize, f64)> {
+    let scale = axis.step;
+    let (support, inv) = if scale >= 1.0 { (radius * scale, 1.0 / scale) } else { (radius, 1.0) };
+    let center = scale * (o as f64 + 0.5);
+    let lo = ((center - support + 0.5) as i64).max(0);
+    let hi = ((center + support + 0.5) as i64).min(axis.in_len as i64);
+    let raw: Vec<(usize, f64)> =
+        (lo..hi).map(|j| (j as usize, filter((j as f64 - center + 0.5) * inv))).collect();
+    let total: f64 = raw.iter().map(|t| t.1).sum();
+    let norm = if total != 0.0 { 1.0 / total } else { 0.0 };
+    raw.into_iter().map(|(j, w)| (j, w * norm)).collect()
+}
+
+impl AxisTaps {
+    /// The taps of `self` applied after `inner`, reading only the first `used` outputs of `inner`
+    /// (a crop): `out[o] = Σ_k self[o][k] · inner[k]` for `k < used`.
+    pub fn compose(&self, inner: &AxisTaps, in_len: usize) -> AxisTaps {
+        let rows = (0..self.out_len())
+            .map(|o| {
+                let mut dense = vec![0f64; in_len];
+                for (t, w) in
+                    self.weights[o * self.taps_per_output..(o + 1) * self.taps_per_output].iter().enumerate()
+                {
+                    let k = self.starts[o] + t;
+                    if *w == 0.0 || k >= inner.out_len() {
+                        continue;
+                    }
+                    let inner_w = &inner.weights[k * inner.taps_per_output..(k + 1) * inner.taps_per_output];
+                    for (u, iw) in inner_w.iter().enumerate() {
+                        if let Some(d) = dense.get_mut(inner.starts[k] + u) {
+                            *d += *w as f64 * *iw as f64;
+                        }
+                    }
+                }
+                dense.into_iter().enumerate().filter(|(_, w)| *w != 0.0).collect::<Vec<_>>()
+            })
+            .collect();
+        Self::from_rows(rows)
+    }
+
+    /// Applies the taps to one row: `src`: `[in_len]` → `dst`: `[out_len]`.
+    pub fn apply(&self, src: &[f32], dst: &mut [f32]) {
+        for (o, d) in dst.iter_mut().enumerate() {
+            let w = &self.weights[o * self.taps_per_output..(o + 1) * self.taps_per_output];
+            let start = self.starts[o];
+            *d = w.iter().enumerate().map(|(k, wk)| src.get(start + k).map_or(0.0, |v| wk * v)).sum();
+        }
+    }
+}
+
+/// Resizes an interleaved 8-bit RGB image like PIL's `Image.resize(size, BILINEAR)` (which
+/// torchvision's `resize` calls): antialiased triangle filter, horizontal pass then vertical pass,
+/// each rounded to 8 bits with PIL's 22-bit fixed-point weights; an axis whose size does not change is
+/// left alone.
+///
+/// `rgb`: `[H, W, 3]`. Returns `[out_h, out_w, 3]`.
+pub fn resize_rgb8_like_pil(rgb: &[u8], (h, w): (usize, usize), (out_h, out_w): (usize, usize)) -> Vec<u8> {
+    let horizontal = if out_w != w { resize_axis_u8(rgb, h, w, out_w, true) } else { rgb.to_vec() };
+    if out_h != h {
+        resize_axis_u8(&horizontal, h, out_w, out_h, false)
+    } else {
+        horizontal
+    }
+}
+
+fn fixed_point_taps(in_len: usize, out_len: usize) -> Vec<(usize, Vec<i64>)> {
+    const PRECISION_BITS: u32 = 32 - 8 - 2;
+    (0..out_len)
+        .map(|o| {
+            let taps = taps_of(AxisResize::to_len(in_len, out_len), Resample::BilinearAntialias, o);
+            let start = taps.first().map_or(0, |t| t.0);
+            let weights = taps
+                .iter()
+                .map(|(_, w)| {
+                    let scaled = w * (1u64 << PRECISION_BITS) as f64;
+                    if scaled < 0.0 {
+                        (scaled - 0.5) as i64
+                    } else {
+                        (scaled + 0.5) as i64
+                    }
+                })
+                .collect();
+            (start, weights)
+        })
+        .collect()
+}
+
+/// One PIL pass over 8-bit RGB: along x when `along_x`, else along y.
+fn resize_axis_u8(rgb: &[u8], h: usize, w: usize, out_len: usize, along_x: bool) -> Vec<u8> {
+    let in_len = if along_x { w } else { h };
+    let taps = fixed_point_taps(in_len, out_len);
+    let (oh, ow) = if along_x { (h, out_len) } else { (out_len, w) };
+    let mut out = vec![0u8; oh * ow * 3];
+    out.par_chunks_mut(ow * 3).enumerate().for_each(|(y, row)| {
+        for x in 0..ow {
+            let (o, fixed) = if along_x { (x, y) } else { (y, x) };
+            let (start, weights) = &taps[o];
+            for c in 0..3 {
+                let mut acc: i64 = 1 << 21;
+                for (k, wk) in weights.iter().enumerate() {
+                    let i = start + k;
+                    let src = if along_x { (fixed * w + i) * 3 + c } else { (i * w + fixed) * 3 + c };
+                    acc += wk * rgb[src] as i64;
+                }
+                row[x * 3 + c] = (acc >> 22).clamp(0, 255) as u8;
+            }
+        }
+    });
+    out
 }
 
 /// Resizes `planes` (`[C, H, W]`, row-major) along both axes.

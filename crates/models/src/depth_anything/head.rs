@@ -3,7 +3,7 @@
 
 use candle_core::Tensor;
 
-use crate::conv::Conv2d;
+use crate::conv::{Conv2d, PatchConvTranspose};
 use crate::dinov2::Dinov2Config;
 use crate::error::{ModelsError, ModelsResult};
 use crate::resample::{resize_tensor, Resample};
@@ -75,13 +75,8 @@ impl DptHeadConfig {
 /// How a reassemble layer changes the grid.
 #[derive(Debug, Clone)]
 enum Resize {
-    /// Transposed conv with kernel = stride = factor; weight as a matrix `[C_in, C_out·f·f]`, bias `[C_out]`.
-    Up {
-        weight: Tensor,
-        bias: Tensor,
-        factor: usize,
-        channels: usize,
-    },
+    /// Transposed conv with kernel = stride = factor.
+    Up(PatchConvTranspose),
     Identity,
     /// 3×3 conv, stride 2, padding 1.
     Down(Conv2d),
@@ -150,12 +145,7 @@ impl DptHead {
                     let w = weights
                         .get(&format!("{prefix}.resize.weight"), &[channels, channels, factor, factor])?;
                     let bias = weights.get(&format!("{prefix}.resize.bias"), &[channels])?;
-                    Resize::Up {
-                        weight: w.reshape((channels, channels * factor * factor))?,
-                        bias,
-                        factor,
-                        channels,
-                    }
+                    Resize::Up(PatchConvTranspose::new(&w, bias)?)
                 }
                 2 => Resize::Identity,
                 _ => Resize::Down(weights.conv2d(
@@ -204,9 +194,7 @@ impl DptHead {
             let grid = tokens.t()?.reshape((1, c, gh, gw))?.contiguous()?;
             let projected = self.projections[i].forward(&grid)?;
             let resized = match &self.resizes[i] {
-                Resize::Up { weight, bias, factor, channels } => {
-                    transposed_patch_conv(&projected, weight, bias, *factor, *channels)?
-                }
+                Resize::Up(up) => up.forward(&projected)?,
                 Resize::Identity => projected,
                 Resize::Down(conv) => conv.forward(&projected)?,
             };
@@ -248,26 +236,4 @@ impl DptHead {
 /// Resizes `[1, C, H, W]` to `[1, C, h, w]`.
 fn resize4(x: &Tensor, h: usize, w: usize, mode: Resample) -> ModelsResult<Tensor> {
     Ok(resize_tensor(&x.squeeze(0)?, h, w, mode)?.unsqueeze(0)?)
-}
-
-/// ConvTranspose2d with kernel = stride = `factor`, no padding: every input pixel writes its own
-/// `factor × factor` output block, so it is one matrix product and a pixel shuffle.
-///
-/// `x`: `[1, C_in, H, W]`; `weight`: `[C_in, C_out·f·f]`; `bias`: `[C_out]`. Returns `[1, C_out, H·f, W·f]`.
-fn transposed_patch_conv(
-    x: &Tensor,
-    weight: &Tensor,
-    bias: &Tensor,
-    factor: usize,
-    channels: usize,
-) -> ModelsResult<Tensor> {
-    let (_, c_in, h, w) = x.dims4()?;
-    let pixels = x.reshape((c_in, h * w))?.t()?.contiguous()?; // [HW, C_in]
-    let blocks = pixels.matmul(weight)?; // [HW, C_out·f·f]
-    let out = blocks
-        .reshape((h, w, channels, factor, factor))?
-        .permute((2, 0, 3, 1, 4))? // [C_out, H, f, W, f]
-        .reshape((channels, h * factor, w * factor))?
-        .broadcast_add(&bias.reshape((channels, 1, 1))?)?;
-    Ok(out.unsqueeze(0)?)
 }

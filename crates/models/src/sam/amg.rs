@@ -1,0 +1,337 @@
+//! SAM's automatic mask generator (`SamAutomaticMaskGenerator`): a grid of single-point prompts per
+//! crop, three masks per point, filtered by predicted IoU and stability, de-duplicated by box NMS
+//! within and across crops, optional small-region clean-up, masks at full image resolution.
+//!
+//! Memory stays bounded: points go through the decoder in small chunks, and each mask is upscaled,
+//! scored and run-length encoded on its own (no batch of full-resolution logits is materialised).
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use splatseg_scene::rle::Rle;
+use splatseg_scene::sam::SamMask;
+use splatseg_scene::Plane;
+
+use super::masks::{mask_box, near_crop_edge, nms, remove_small_regions, stability_score, RegionKind};
+use super::{ImageEmbedding, Sam};
+use crate::error::{ModelsError, ModelsResult};
+
+/// Prompts sent through the decoder at once inside a batch (results do not depend on it).
+const DECODER_CHUNK: usize = 16;
+
+/// Parameters of the automatic mask generator; defaults are the reference's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AmgConfig {
+    /// Points per side of the prompt grid (32).
+    pub points_per_side: usize,
+    /// Points per batch (64): masks of a batch are filtered together.
+    pub points_per_batch: usize,
+    /// Keep masks whose predicted IoU exceeds this (0.88).
+    pub pred_iou_thresh: f32,
+    /// Keep masks whose stability score reaches this (0.95).
+    pub stability_score_thresh: f32,
+    /// Logit offset of the stability score (1.0).
+    pub stability_score_offset: f32,
+    /// Box IoU above which a lower-scored mask of the same crop is dropped (0.7).
+    pub box_nms_thresh: f32,
+    /// Extra crop layers (0): layer i cuts the image into 2^i × 2^i overlapping crops.
+    pub crop_n_layers: usize,
+    /// Box IoU for de-duplication across crops (0.7; smaller crops lose).
+    pub crop_nms_thresh: f32,
+    /// Crop overlap as a fraction of the short side (512 / 1500).
+    pub crop_overlap_ratio: f64,
+    /// Points per side shrink by this factor per crop layer (1).
+    pub crop_n_points_downscale_factor: usize,
+    /// Holes and islands smaller than this many pixels are removed (0 = off).
+    pub min_mask_region_area: usize,
+}
+
+impl Default for AmgConfig {
+    fn default() -> Self {
+        Self {
+            points_per_side: 32,
+            points_per_batch: 64,
+            pred_iou_thresh: 0.88,
+            stability_score_thresh: 0.95,
+            stability_score_offset: 1.0,
+            box_nms_thresh: 0.7,
+            crop_n_layers: 0,
+            crop_nms_thresh: 0.7,
+            crop_overlap_ratio: 512.0 / 1500.0,
+            crop_n_points_downscale_factor: 1,
+            min_mask_region_area: 0,
+        }
+    }
+}
+
+/// A mask that survived the per-batch filters.
+#[derive(Debug, Clone)]
+struct Candidate {
+    rle: Rle,
+    /// xyxy, inclusive, in image pixels.
+    box_xyxy: [f32; 4],
+    iou: f32,
+    stability: f32,
+    /// Prompt point in image pixels.
+    point: [f64; 2],
+    /// `[x0, y0, x1, y1]`.
+    crop_box: [usize; 4],
+}
+
+/// Runs the automatic mask generator on an 8-bit RGB image (`rgb`: `[height, width, 3]`).
+/// `progress(done, total)` is called after each batch of points.
+pub fn generate_masks(
+    sam: &Sam,
+    rgb: &[u8],
+    (height, width): (usize, usize),
+    config: &AmgConfig,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> ModelsResult<Vec<SamMask>> {
+    if rgb.len() != height * width * 3 || height == 0 || width == 0 {
+        return Err(ModelsError::Input(format!("{} bytes for a {width}×{height} RGB image", rgb.len())));
+    }
+    if config.points_per_side == 0 || config.points_per_batch == 0 {
+        return Err(ModelsError::Input("points_per_side and points_per_batch must be positive".into()));
+    }
+    let (crops, layers) = crop_boxes((height, width), config.crop_n_layers, config.crop_overlap_ratio);
+    let grids: Vec<Vec<[f64; 2]>> = (0..=config.crop_n_layers)
+        .map(|i| {
+            point_grid(config.points_per_side / config.crop_n_points_downscale_factor.max(1).pow(i as u32))
+        })
+        .collect();
+    let total: usize = layers.iter().map(|&l| grids[l].len().div_ceil(config.points_per_batch)).sum();
+    let mut done = 0;
+    let mut all = Vec::new();
+    for (crop, layer) in crops.iter().zip(&layers) {
+        let found = process_crop(sam, rgb, (height, width), crop, &grids[*layer], config, &mut |n| {
+            done += n;
+            progress(done, total);
+        })?;
+        all.extend(found);
+    }
+    if crops.len() > 1 {
+        let boxes: Vec<[f32; 4]> = all.iter().map(|c| c.box_xyxy).collect();
+        let scores: Vec<f32> = all
+            .iter()
+            .map(|c| 1.0 / ((c.crop_box[2] - c.crop_box[0]) * (c.crop_box[3] - c.crop_box[1])) as f32)
+            .collect();
+        all = take(all, &nms(&boxes, &scores, config.crop_nms_thresh));
+    }
+    if config.min_mask_region_area > 0 {
+        all = clean_small_regions(all, config)?;
+    }
+    Ok(all.into_iter().map(to_sam_mask).collect())
+}
+
+fn take(items: Vec<Candidate>, keep: &[usize]) -> Vec<Candidate> {
+    let mut slots: Vec<Option<Candidate>> = items.into_iter().map(Some).collect();
+    keep.iter().filter_map(|&i| slots[i].take()).collect()
+}
+
+fn to_sam_mask(c: Candidate) -> SamMask {
+    let b = c.box_xyxy;
+    let crop = c.crop_box;
+    SamMask {
+        area: c.rle.area(),
+        segmentation: c.rle,
+        bbox_xywh: [b[0] as f64, b[1] as f64, (b[2] - b[0]) as f64, (b[3] - b[1]) as f64],
+        predicted_iou: c.iou as f64,
+        stability_score: c.stability as f64,
+        point_coords: vec![c.point],
+        crop_box_xywh: [
+            crop[0] as f64,
+            crop[1] as f64,
+            (crop[2] - crop[0]) as f64,
+            (crop[3] - crop[1]) as f64,
+        ],
+    }
+}
+
+/// Masks of one crop: embed, prompt every grid point in batches, filter, NMS.
+fn process_crop(
+    sam: &Sam,
+    rgb: &[u8],
+    (height, width): (usize, usize),
+    crop: &[usize; 4],
+    grid: &[[f64; 2]],
+    config: &AmgConfig,
+    on_batch: &mut dyn FnMut(usize),
+) -> ModelsResult<Vec<Candidate>> {
+    let (cw, ch) = (crop[2] - crop[0], crop[3] - crop[1]);
+    let mut pixels = Vec::with_capacity(cw * ch * 3);
+    for y in crop[1]..crop[3] {
+        pixels.extend_from_slice(&rgb[(y * width + crop[0]) * 3..(y * width + crop[2]) * 3]);
+    }
+    let image = sam.embed_image(&pixels, ch, cw)?;
+    let points: Vec<[f64; 2]> = grid.iter().map(|p| [p[0] * cw as f64, p[1] * ch as f64]).collect();
+    let mut found = Vec::new();
+    for batch in points.chunks(config.points_per_batch) {
+        found.extend(process_batch(sam, &image, batch, crop, (height, width), config)?);
+        on_batch(1);
+    }
+    let boxes: Vec<[f32; 4]> = found.iter().map(|c| c.box_xyxy).collect();
+    let scores: Vec<f32> = found.iter().map(|c| c.iou).collect();
+    let mut kept = take(found, &nms(&boxes, &scores, config.box_nms_thresh));
+    for c in &mut kept {
+        let (dx, dy) = (crop[0] as f32, crop[1] as f32);
+        c.box_xyxy = [c.box_xyxy[0] + dx, c.box_xyxy[1] + dy, c.box_xyxy[2] + dx, c.box_xyxy[3] + dy];
+        c.point = [c.point[0] + crop[0] as f64, c.point[1] + crop[1] as f64];
+    }
+    Ok(kept)
+}
+
+/// One batch of points: decode, keep confident and stable masks away from inner crop edges.
+/// Boxes and points of the result are still in crop coordinates; masks are over the whole image.
+fn process_batch(
+    sam: &Sam,
+    image: &ImageEmbedding,
+    points: &[[f64; 2]],
+    crop: &[usize; 4],
+    (height, width): (usize, usize),
+    config: &AmgConfig,
+) -> ModelsResult<Vec<Candidate>> {
+    let mut candidates: Vec<(usize, usize, Vec<f32>, f32)> = Vec::new(); // (point, mask, low-res logits, iou)
+    let mut low_size = (0, 0);
+    for (chunk_index, chunk) in points.chunks(DECODER_CHUNK).enumerate() {
+        let as_f32: Vec<[f32; 2]> = chunk.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
+        let (low, iou) = sam.predict_points(image, &as_f32)?;
+        let (b, m, lh, lw) = low.dims4()?;
+        low_size = (lh, lw);
+        let low = low.flatten_all()?.to_vec1::<f32>()?;
+        let iou = iou.flatten_all()?.to_vec1::<f32>()?;
+        for i in 0..b * m {
+            if iou[i] > config.pred_iou_thresh {
+                let logits = low[i * lh * lw..(i + 1) * lh * lw].to_vec();
+                candidates.push((chunk_index * DECODER_CHUNK + i / m, i % m, logits, iou[i]));
+            }
+        }
+    }
+    let (rows, cols) = sam.upscale_taps(image, low_size);
+    let (ch, cw) = image.original_size;
+    let image_box = [0, 0, width, height];
+    let kept: Vec<Option<Candidate>> = candidates
+        .par_iter()
+        .map(|(point, _, low, iou)| {
+            let logits = crate::resample::resize_planes(low, 1, &rows, &cols, low_size.0, low_size.1);
+            let stability = stability_score(&logits, 0.0, config.stability_score_offset);
+            // NaN (empty union) fails too, as in the reference
+            let stable = stability >= config.stability_score_thresh;
+            if !stable {
+                return None;
+            }
+            let mask = Plane::from_vec(cw, ch, logits.iter().map(|&v| v > 0.0).collect())?;
+            let box_in_crop = mask_box(&mask);
+            if near_crop_edge(&box_in_crop, crop, &image_box, 20.0) {
+                return None;
+            }
+            let rle = Rle::encode(&uncrop(&mask, crop, (height, width)));
+            Some(Candidate {
+                rle,
+                box_xyxy: box_in_crop,
+                iou: *iou,
+                stability,
+                point: points[*point],
+                crop_box: *crop,
+            })
+        })
+        .collect();
+    Ok(kept.into_iter().flatten().collect())
+}
+
+/// A crop's mask placed in a zero image of `height × width`.
+fn uncrop(mask: &Plane<bool>, crop: &[usize; 4], (height, width): (usize, usize)) -> Plane<bool> {
+    if crop == &[0, 0, width, height] {
+        return mask.clone();
+    }
+    let mut full = Plane::filled(width, height, false);
+    let (cw, ch) = mask.size();
+    for y in 0..ch {
+        for x in 0..cw {
+            *full.get_mut(crop[0] + x, crop[1] + y) = *mask.get(x, y);
+        }
+    }
+    full
+}
+
+/// `postprocess_small_regions`: fill small holes, drop small islands, prefer unchanged masks in an NMS.
+fn clean_small_regions(all: Vec<Candidate>, config: &AmgConfig) -> ModelsResult<Vec<Candidate>> {
+    let cleaned: Vec<(Plane<bool>, bool)> = all
+        .par_iter()
+        .map(|c| {
+            let mut mask = c.rle.decode().map_err(ModelsError::Input)?;
+            let holes = remove_small_regions(&mut mask, config.min_mask_region_area, RegionKind::Holes);
+            let islands = remove_small_regions(&mut mask, config.min_mask_region_area, RegionKind::Islands);
+            Ok((mask, !(holes || islands)))
+        })
+        .collect::<ModelsResult<_>>()?;
+    let boxes: Vec<[f32; 4]> = cleaned.iter().map(|(m, _)| mask_box(m)).collect();
+    let scores: Vec<f32> = cleaned.iter().map(|(_, unchanged)| if *unchanged { 1.0 } else { 0.0 }).collect();
+    let keep = nms(&boxes, &scores, config.box_nms_thresh.max(config.crop_nms_thresh));
+    let mut slots: Vec<Option<Candidate>> = all.into_iter().map(Some).collect();
+    Ok(keep
+        .iter()
+        .filter_map(|&i| {
+            let mut c = slots[i].take()?;
+            if scores[i] == 0.0 {
+                c.rle = Rle::encode(&cleaned[i].0);
+                c.box_xyxy = boxes[i];
+            }
+            Some(c)
+        })
+        .collect())
+}
+
+/// `build_point_grid`: `n × n` points (x, y) in (0, 1), cell centres, row by row.
+pub fn point_grid(n: usize) -> Vec<[f64; 2]> {
+    if n == 0 {
+        return Vec::new();
+    }
+    let offset = 1.0 / (2.0 * n as f64);
+    let step = if n > 1 { (1.0 - 2.0 * offset) / (n - 1) as f64 } else { 0.0 };
+    let side: Vec<f64> = (0..n).map(|i| offset + step * i as f64).collect();
+    side.iter().flat_map(|&y| side.iter().map(move |&x| [x, y])).collect()
+}
+
+/// `generate_crop_boxes`: the whole image, then per layer i a 2^(i+1) × 2^(i+1) grid of overlapping
+/// crops (x-major order). Returns (`[x0, y0, x1, y1]` boxes, layer of each).
+pub fn crop_boxes(
+    (height, width): (usize, usize),
+    n_layers: usize,
+    overlap_ratio: f64,
+) -> (Vec<[usize; 4]>, Vec<usize>) {
+    let mut boxes = vec![[0, 0, width, height]];
+    let mut layers = vec![0];
+    let short = height.min(width) as f64;
+    for layer in 0..n_layers {
+        let n = 1usize << (layer + 1);
+        let overlap = (overlap_ratio * short * (2.0 / n as f64)) as usize;
+        let crop_len = |len: usize| ((overlap * (n - 1) + len) as f64 / n as f64).ceil() as usize;
+        let (cw, ch) = (crop_len(width), crop_len(height));
+        let x0s: Vec<usize> = (0..n).map(|i| (cw - overlap) * i).collect();
+        let y0s: Vec<usize> = (0..n).map(|i| (ch - overlap) * i).collect();
+        for &x0 in &x0s {
+            for &y0 in &y0s {
+                boxes.push([x0, y0, (x0 + cw).min(width), (y0 + ch).min(height)]);
+                layers.push(layer + 1);
+            }
+        }
+    }
+    (boxes, layers)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_and_crops_match_the_reference_layout() {
+        let g = point_grid(2);
+        assert_eq!(g, vec![[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]]);
+        // 48×64 image, one layer: overlap = int(512/1500·48) = 16, crops 40×32
+        let (boxes, layers) = crop_boxes((48, 64), 1, 512.0 / 1500.0);
+        assert_eq!(boxes[0], [0, 0, 64, 48]);
+        assert_eq!(&boxes[1..], &[[0, 0, 40, 32], [0, 16, 40, 48], [24, 0, 64, 32], [24, 16, 64, 48]]);
+        assert_eq!(layers, vec![0, 1, 1, 1, 1]);
+        assert_eq!(AmgConfig::default().points_per_side, 32);
+    }
+}

@@ -1,0 +1,240 @@
+//! SAM's mask decoder: a two-way transformer between prompt tokens and image cells, an upscaling
+//! path to 4× the embedding grid, hypernetwork MLPs giving one mask per output token, and an IoU head.
+
+use candle_core::{Module, Tensor};
+
+use crate::conv::{layer_norm_2d, PatchConvTranspose};
+use crate::error::ModelsResult;
+use crate::weights::Weights;
+
+/// Decoder attention heads (8 in every released SAM).
+const NUM_HEADS: usize = 8;
+
+#[derive(Debug, Clone)]
+struct Attention {
+    q: candle_nn::Linear,
+    k: candle_nn::Linear,
+    v: candle_nn::Linear,
+    out: candle_nn::Linear,
+    internal: usize,
+}
+
+impl Attention {
+    fn new(w: &Weights, prefix: &str, dim: usize) -> ModelsResult<Self> {
+        let internal = w.get_any(&format!("{prefix}.q_proj.weight"))?.dims()[0];
+        Ok(Self {
+            q: w.linear(&format!("{prefix}.q_proj"), dim, internal)?,
+            k: w.linear(&format!("{prefix}.k_proj"), dim, internal)?,
+            v: w.linear(&format!("{prefix}.v_proj"), dim, internal)?,
+            out: w.linear(&format!("{prefix}.out_proj"), internal, dim)?,
+            internal,
+        })
+    }
+
+    /// `q`: `[B, Nq, D]`, `k`, `v`: `[B, Nk, D]`. Returns `[B, Nq, D]`.
+    fn forward(&self, q: &Tensor, k: &Tensor, v: &Tensor) -> ModelsResult<Tensor> {
+        let (b, nq, _) = q.dims3()?;
+        let nk = k.dims()[1];
+        let hd = self.internal / NUM_HEADS;
+        let split = |x: Tensor, n: usize| -> ModelsResult<Tensor> {
+            Ok(x.reshape((b, n, NUM_HEADS, hd))?.transpose(1, 2)?.contiguous()?)
+        };
+        let q = split(self.q.forward(q)?, nq)?;
+        let k = split(self.k.forward(k)?, nk)?;
+        let v = split(self.v.forward(v)?, nk)?;
+        let scores = (q.matmul(&k.transpose(2, 3)?)? / (hd as f64).sqrt())?;
+        let out = candle_nn::ops::softmax_last_dim(&scores)?.matmul(&v)?;
+        let out = out.transpose(1, 2)?.reshape((b, nq, self.internal))?;
+        Ok(self.out.forward(&out)?)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct TwoWayBlock {
+    self_attn: Attention,
+    norm1: candle_nn::LayerNorm,
+    token_to_image: Attention,
+    norm2: candle_nn::LayerNorm,
+    lin1: candle_nn::Linear,
+    lin2: candle_nn::Linear,
+    norm3: candle_nn::LayerNorm,
+    norm4: candle_nn::LayerNorm,
+    image_to_token: Attention,
+    skip_first_pe: bool,
+}
+
+impl TwoWayBlock {
+    fn new(w: &Weights, prefix: &str, dim: usize, skip_first_pe: bool) -> ModelsResult<Self> {
+        let mlp = w.get_any(&format!("{prefix}.mlp.lin1.weight"))?.dims()[0];
+        let ln = |n: &str| w.layer_norm(&format!("{prefix}.{n}"), dim, 1e-5);
+        Ok(Self {
+            self_attn: Attention::new(w, &format!("{prefix}.self_attn"), dim)?,
+            norm1: ln("norm1")?,
+            token_to_image: Attention::new(w, &format!("{prefix}.cross_attn_token_to_image"), dim)?,
+            norm2: ln("norm2")?,
+            lin1: w.linear(&format!("{prefix}.mlp.lin1"), dim, mlp)?,
+            lin2: w.linear(&format!("{prefix}.mlp.lin2"), mlp, dim)?,
+            norm3: ln("norm3")?,
+            norm4: ln("norm4")?,
+            image_to_token: Attention::new(w, &format!("{prefix}.cross_attn_image_to_token"), dim)?,
+            skip_first_pe,
+        })
+    }
+
+    /// `queries`: `[B, Nq, D]`, `keys`: `[B, HW, D]`; `query_pe` like queries, `key_pe`: `[1, HW, D]`.
+    fn forward(
+        &self,
+        queries: &Tensor,
+        keys: &Tensor,
+        query_pe: &Tensor,
+        key_pe: &Tensor,
+    ) -> ModelsResult<(Tensor, Tensor)> {
+        let queries = if self.skip_first_pe {
+            self.self_attn.forward(queries, queries, queries)?
+        } else {
+            let q = (queries + query_pe)?;
+            (queries + self.self_attn.forward(&q, &q, queries)?)?
+        };
+        let queries = self.norm1.forward(&queries)?;
+        let q = (&queries + query_pe)?;
+        let k = keys.broadcast_add(key_pe)?;
+        let queries = self.norm2.forward(&(&queries + self.token_to_image.forward(&q, &k, keys)?)?)?;
+        let mlp = self.lin2.forward(&self.lin1.forward(&queries)?.relu()?)?;
+        let queries = self.norm3.forward(&(queries + mlp)?)?;
+        let q = (&queries + query_pe)?;
+        let keys = self.norm4.forward(&(keys + self.image_to_token.forward(&k, &q, &queries)?)?)?;
+        Ok((queries, keys))
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Mlp {
+    layers: Vec<candle_nn::Linear>,
+}
+
+impl Mlp {
+    fn new(w: &Weights, prefix: &str) -> ModelsResult<Self> {
+        let layers = (0..)
+            .map_while(|i| {
+                let name = format!("{prefix}.layers.{i}");
+                let weight = w.shape_of(&format!("{name}.weight"))?;
+                Some(w.linear(&name, weight[1], weight[0]))
+            })
+            .collect::<ModelsResult<Vec<_>>>()?;
+        if layers.is_empty() {
+            return Err(w.missing(&format!("{prefix}.layers.0.weight"), &[]));
+        }
+        Ok(Self { layers })
+    }
+
+    fn forward(&self, x: &Tensor) -> ModelsResult<Tensor> {
+        let mut x = x.clone();
+        for (i, layer) in self.layers.iter().enumerate() {
+            x = layer.forward(&x)?;
+            if i + 1 < self.layers.len() {
+                x = x.relu()?;
+            }
+        }
+        Ok(x)
+    }
+}
+
+/// The mask decoder.
+#[derive(Debug, Clone)]
+pub struct MaskDecoder {
+    /// `[1 + M, D]`: IoU token then the M mask tokens.
+    output_tokens: Tensor,
+    blocks: Vec<TwoWayBlock>,
+    final_attn: Attention,
+    final_norm: candle_nn::LayerNorm,
+    up1: PatchConvTranspose,
+    up_norm: candle_nn::LayerNorm,
+    up2: PatchConvTranspose,
+    hypernets: Vec<Mlp>,
+    iou_head: Mlp,
+    dim: usize,
+}
+
+impl MaskDecoder {
+    /// From `mask_decoder.`-stripped weights.
+    pub fn new(w: &Weights) -> ModelsResult<Self> {
+        let iou_token = w.get_any("iou_token.weight")?;
+        let dim = iou_token.dims()[1];
+        let mask_tokens = w.get_any("mask_tokens.weight")?;
+        let num_masks = mask_tokens.dims()[0];
+        let mask_tokens = w.get("mask_tokens.weight", &[num_masks, dim])?;
+        let depth = (0..).take_while(|i| w.contains(&format!("transformer.layers.{i}.norm1.weight"))).count();
+        let blocks = (0..depth)
+            .map(|i| TwoWayBlock::new(w, &format!("transformer.layers.{i}"), dim, i == 0))
+            .collect::<ModelsResult<Vec<_>>>()?;
+        let convt = |name: &str, cin: usize, cout: usize| -> ModelsResult<PatchConvTranspose> {
+            PatchConvTranspose::new(
+                &w.get(&format!("{name}.weight"), &[cin, cout, 2, 2])?,
+                w.get(&format!("{name}.bias"), &[cout])?,
+            )
+        };
+        Ok(Self {
+            output_tokens: Tensor::cat(&[w.get("iou_token.weight", &[1, dim])?, mask_tokens], 0)?,
+            blocks,
+            final_attn: Attention::new(w, "transformer.final_attn_token_to_image", dim)?,
+            final_norm: w.layer_norm("transformer.norm_final_attn", dim, 1e-5)?,
+            up1: convt("output_upscaling.0", dim, dim / 4)?,
+            up_norm: w.layer_norm("output_upscaling.1", dim / 4, 1e-6)?,
+            up2: convt("output_upscaling.3", dim / 4, dim / 8)?,
+            hypernets: (0..num_masks)
+                .map(|i| Mlp::new(w, &format!("output_hypernetworks_mlps.{i}")))
+                .collect::<ModelsResult<Vec<_>>>()?,
+            iou_head: Mlp::new(w, "iou_prediction_head")?,
+            dim,
+        })
+    }
+
+    /// Decoder width D.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// All mask logits and IoU predictions for a batch of prompts.
+    ///
+    /// `image`: `[D, h, w]` image embedding + dense prompt embedding; `image_pe`: `[D, h, w]`;
+    /// `sparse`: `[B, T, D]`. Returns (`[B, M, 4h, 4w]` logits, `[B, M]` IoU predictions), M = 1 + 3.
+    pub fn forward(
+        &self,
+        image: &Tensor,
+        image_pe: &Tensor,
+        sparse: &Tensor,
+    ) -> ModelsResult<(Tensor, Tensor)> {
+        let (d, h, w) = image.dims3()?;
+        let b = sparse.dims()[0];
+        let m = self.hypernets.len();
+        let tokens = Tensor::cat(
+            &[self.output_tokens.unsqueeze(0)?.broadcast_as((b, 1 + m, d))?.contiguous()?, sparse.clone()],
+            1,
+        )?;
+        let keys0 =
+            image.reshape((d, h * w))?.t()?.unsqueeze(0)?.broadcast_as((b, h * w, d))?.contiguous()?;
+        let key_pe = image_pe.reshape((d, h * w))?.t()?.unsqueeze(0)?.contiguous()?;
+        let mut queries = tokens.clone();
+        let mut keys = keys0;
+        for block in &self.blocks {
+            (queries, keys) = block.forward(&queries, &keys, &tokens, &key_pe)?;
+        }
+        let q = (&queries + &tokens)?;
+        let k = keys.broadcast_add(&key_pe)?;
+        let queries = self.final_norm.forward(&(&queries + self.final_attn.forward(&q, &k, &keys)?)?)?;
+        let src = keys.transpose(1, 2)?.reshape((b, d, h, w))?;
+        let up = layer_norm_2d(&self.up1.forward(&src)?, &self.up_norm)?.gelu_erf()?;
+        let up = self.up2.forward(&up)?.gelu_erf()?; // [B, D/8, 4h, 4w]
+        let hyper: Vec<Tensor> = self
+            .hypernets
+            .iter()
+            .enumerate()
+            .map(|(i, mlp)| mlp.forward(&queries.narrow(1, 1 + i, 1)?.squeeze(1)?))
+            .collect::<ModelsResult<_>>()?;
+        let hyper = Tensor::stack(&hyper, 1)?; // [B, M, D/8]
+        let (_, c, uh, uw) = up.dims4()?;
+        let masks = hyper.matmul(&up.reshape((b, c, uh * uw))?)?.reshape((b, m, uh, uw))?;
+        let iou = self.iou_head.forward(&queries.narrow(1, 0, 1)?.squeeze(1)?)?;
+        Ok((masks, iou))
+    }
+}

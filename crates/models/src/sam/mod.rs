@@ -1,0 +1,163 @@
+//! Segment Anything (Kirillov et al. 2023): image encoder, point prompt encoder, mask decoder, and the
+//! automatic mask generator ([`amg`]) with the reference's algorithm and defaults.
+//!
+//! Loads the official `sam_vit_{b,l,h}_*.pth` checkpoints (sizes inferred from the tensors).
+
+pub mod amg;
+pub mod image_encoder;
+pub mod mask_decoder;
+pub mod masks;
+pub mod prompt_encoder;
+
+use std::path::Path;
+
+use candle_core::{Device, Tensor};
+
+use crate::checkpoint;
+use crate::error::{ModelKind, ModelsError, ModelsResult};
+use crate::resample::{resize_rgb8_like_pil, AxisResize, AxisTaps, Resample};
+use crate::weights::Weights;
+pub use amg::{generate_masks, AmgConfig};
+use image_encoder::{ImageEncoder, ImageEncoderConfig};
+use mask_decoder::MaskDecoder;
+use prompt_encoder::PromptEncoder;
+
+/// SAM's pixel mean (RGB, 0–255).
+pub const PIXEL_MEAN: [f32; 3] = [123.675, 116.28, 103.53];
+/// SAM's pixel standard deviation (RGB, 0–255).
+pub const PIXEL_STD: [f32; 3] = [58.395, 57.12, 57.375];
+
+/// A loaded Segment Anything model.
+#[derive(Debug, Clone)]
+pub struct Sam {
+    encoder: ImageEncoder,
+    prompt: PromptEncoder,
+    decoder: MaskDecoder,
+}
+
+/// An image run through the encoder, ready for prompts.
+#[derive(Debug, Clone)]
+pub struct ImageEmbedding {
+    /// The image encoder's output, `[D, h, w]`.
+    pub features: Tensor,
+    /// Image embedding plus the "no mask" dense prompt, `[D, h, w]`.
+    pub embedding: Tensor,
+    /// Positional encoding of the embedding grid, `[D, h, w]`.
+    pub dense_pe: Tensor,
+    /// (height, width) of the resized image inside the padded square input.
+    pub input_size: (usize, usize),
+    /// (height, width) of the image given.
+    pub original_size: (usize, usize),
+}
+
+impl Sam {
+    /// Loads a checkpoint (see [`checkpoint::resolve`]).
+    pub fn load(path: &Path) -> ModelsResult<Self> {
+        let files = checkpoint::resolve(path, ModelKind::Sam)?;
+        let weights = Weights::load(&files.weights, ModelKind::Sam)?;
+        Self::from_weights(&weights)
+    }
+
+    /// Builds the model from the official tensor names (`image_encoder.*`, `prompt_encoder.*`, `mask_decoder.*`).
+    pub fn from_weights(weights: &Weights) -> ModelsResult<Self> {
+        let enc = weights.sub("image_encoder.");
+        let config = ImageEncoderConfig::infer(&enc)?;
+        let encoder = ImageEncoder::new(&enc, config)?;
+        let decoder = MaskDecoder::new(&weights.sub("mask_decoder."))?;
+        let prompt = PromptEncoder::new(&weights.sub("prompt_encoder."), decoder.dim())?;
+        Ok(Self { encoder, prompt, decoder })
+    }
+
+    /// The image encoder's configuration.
+    pub fn encoder_config(&self) -> &ImageEncoderConfig {
+        self.encoder.config()
+    }
+
+    /// The size the image is resized to before padding: long side = the encoder input side
+    /// (`ResizeLongestSide.get_preprocess_shape`).
+    pub fn input_size_for(&self, height: usize, width: usize) -> (usize, usize) {
+        preprocess_shape(height, width, self.encoder.config().img_size)
+    }
+
+    /// Encodes an image (`rgb`: interleaved `[height, width, 3]`, 8-bit) as `SamPredictor.set_image`
+    /// does: PIL-style bilinear resize to the long side, normalise, zero-pad to a square.
+    pub fn embed_image(&self, rgb: &[u8], height: usize, width: usize) -> ModelsResult<ImageEmbedding> {
+        if rgb.len() != height * width * 3 || height == 0 || width == 0 {
+            return Err(ModelsError::Input(format!("{} bytes for a {width}×{height} RGB image", rgb.len())));
+        }
+        let side = self.encoder.config().img_size;
+        let (ih, iw) = self.input_size_for(height, width);
+        let resized = resize_rgb8_like_pil(rgb, (height, width), (ih, iw));
+        let mut chw = vec![0f32; 3 * side * side];
+        for y in 0..ih {
+            for x in 0..iw {
+                for c in 0..3 {
+                    chw[(c * side + y) * side + x] =
+                        (resized[(y * iw + x) * 3 + c] as f32 - PIXEL_MEAN[c]) / PIXEL_STD[c];
+                }
+            }
+        }
+        let pixels = Tensor::from_vec(chw, (3, side, side), &Device::Cpu)?;
+        let features = self.encoder.forward(&pixels)?;
+        let (d, h, w) = features.dims3()?;
+        let embedding = features.broadcast_add(&self.prompt.no_mask_embedding().reshape((d, 1, 1))?)?;
+        let dense_pe = self.prompt.dense_pe(h, w)?;
+        Ok(ImageEmbedding {
+            features,
+            embedding,
+            dense_pe,
+            input_size: (ih, iw),
+            original_size: (height, width),
+        })
+    }
+
+    /// Multimask prediction for single positive points (`SamPredictor.predict_torch` with
+    /// `multimask_output=True`, low-resolution logits).
+    ///
+    /// `points`: `[B, 2]` (x, y) in original-image pixels. Returns (`[B, 3, 4h, 4w]` low-res logits,
+    /// `[B, 3]` IoU predictions).
+    pub fn predict_points(
+        &self,
+        image: &ImageEmbedding,
+        points: &[[f32; 2]],
+    ) -> ModelsResult<(Tensor, Tensor)> {
+        let (oh, ow) = image.original_size;
+        let (ih, iw) = image.input_size;
+        let scaled: Vec<[f32; 2]> = points
+            .iter()
+            .map(|p| {
+                [
+                    (p[0] as f64 * (iw as f64 / ow as f64)) as f32,
+                    (p[1] as f64 * (ih as f64 / oh as f64)) as f32,
+                ]
+            })
+            .collect();
+        let positive = vec![true; points.len()];
+        let sparse = self.prompt.embed_points(&scaled, &positive, self.encoder.config().img_size)?;
+        let (masks, iou) = self.decoder.forward(&image.embedding, &image.dense_pe, &sparse)?;
+        let m = masks.dims()[1];
+        Ok((masks.narrow(1, 1, m - 1)?, iou.narrow(1, 1, m - 1)?))
+    }
+
+    /// Per-axis taps taking low-res logits (`low_h × low_w`) to the original image size: bilinear to the
+    /// padded square input, crop to the resized image, bilinear to the original size
+    /// (`Sam.postprocess_masks`), composed into one resize per axis.
+    pub fn upscale_taps(&self, image: &ImageEmbedding, low: (usize, usize)) -> (AxisTaps, AxisTaps) {
+        let side = self.encoder.config().img_size;
+        let axis = |low_len: usize, input_len: usize, original_len: usize| {
+            let to_square = AxisTaps::new(AxisResize::to_len(low_len, side), Resample::Bilinear);
+            let to_original = AxisTaps::new(AxisResize::to_len(input_len, original_len), Resample::Bilinear);
+            to_original.compose(&to_square, low_len)
+        };
+        (
+            axis(low.0, image.input_size.0, image.original_size.0),
+            axis(low.1, image.input_size.1, image.original_size.1),
+        )
+    }
+}
+
+/// `ResizeLongestSide.get_preprocess_shape`: scale so the long side is `long_side`, round half up.
+pub fn preprocess_shape(height: usize, width: usize, long_side: usize) -> (usize, usize) {
+    let scale = long_side as f64 / height.max(width).max(1) as f64;
+    (((height as f64 * scale) + 0.5) as usize, ((width as f64 * scale) + 0.5) as usize)
+}
