@@ -9,7 +9,7 @@ mod json;
 mod png_folder;
 
 pub use json::{read_sam_json, write_sam_json};
-pub use png_folder::read_sam_png_folder;
+pub use png_folder::{read_sam_png_folder, write_sam_png_folder};
 
 use crate::error::{SceneError, SceneResult};
 use crate::rle::Rle;

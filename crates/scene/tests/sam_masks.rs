@@ -3,7 +3,8 @@
 
 use splatseg_scene::rle::Rle;
 use splatseg_scene::sam::{
-    check_mask_sizes, read_sam_json, read_sam_png_folder, read_view_masks, write_sam_json, SamMask,
+    check_mask_sizes, read_sam_json, read_sam_png_folder, read_view_masks, write_sam_json,
+    write_sam_png_folder, SamMask,
 };
 use splatseg_scene::Plane;
 use std::path::Path;
@@ -204,4 +205,19 @@ fn our_json_strings_equal_segment_anythings() {
             assert_eq!(written[i][key].as_f64(), theirs[i][key].as_f64(), "mask {i}: {key}");
         }
     }
+}
+
+#[test]
+fn png_folder_write_read_round_trip() {
+    let masks = read_sam_json(&fixture("rle_sam_amg_coco_rle.json")).unwrap();
+    let mut no_point = SamMask::from_rle(Rle::encode(&Plane::filled(64, 48, true)));
+    no_point.predicted_iou = 0.1 + 0.2; // not exactly representable in decimal
+    let mut all = masks.clone();
+    all.push(no_point);
+    let dir = tempfile::tempdir().unwrap();
+    write_sam_png_folder(dir.path(), &all).unwrap();
+    assert_eq!(read_sam_png_folder(dir.path()).unwrap(), all);
+    let csv = std::fs::read_to_string(dir.path().join("metadata.csv")).unwrap();
+    assert!(csv.starts_with("id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,"));
+    assert_eq!(csv.lines().count(), all.len() + 1);
 }

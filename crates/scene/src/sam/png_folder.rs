@@ -1,6 +1,7 @@
 //! SAM's PNG-folder output: `metadata.csv` (one row per mask) and `<id>.png` masks.
 
 use super::{check_same_size, SamMask};
+use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
 use crate::plane::Plane;
 use crate::rle::Rle;
@@ -71,7 +72,9 @@ pub fn read_sam_png_folder(dir: &Path) -> SceneResult<Vec<SamMask>> {
             mask.bbox_xywh = [x, y, w, h];
         }
         if let (Some(x), Some(y)) = (value(6)?, value(7)?) {
-            mask.point_coords = vec![[x, y]];
+            if x.is_finite() && y.is_finite() {
+                mask.point_coords = vec![[x, y]];
+            }
         }
         if let Some(v) = value(8)? {
             mask.predicted_iou = v;
@@ -102,4 +105,49 @@ fn read_binary_png(path: &Path) -> SceneResult<Plane<bool>> {
         height: h as usize,
         data: img.into_raw().into_iter().map(|v| v != 0).collect(),
     })
+}
+
+/// Writes masks in SAM's PNG-folder layout: `dir/<i>.png` (8-bit grey, 255 = inside) and
+/// `dir/metadata.csv` with SAM's header, one row per mask (the first prompt point, or `nan`
+/// when a mask has none). Every file is written atomically; the CSV last.
+pub fn write_sam_png_folder(dir: &Path, masks: &[SamMask]) -> SceneResult<()> {
+    let mut csv = COLUMNS.join(",");
+    csv.push('\n');
+    for (i, m) in masks.iter().enumerate() {
+        let png = dir.join(format!("{i}.png"));
+        let mask = m
+            .segmentation
+            .decode()
+            .map_err(|e| SceneError::invalid("SAM mask", &png, format!("mask {i}: {e}")))?;
+        let pixels: Vec<u8> = mask.data.iter().map(|&v| if v { 255 } else { 0 }).collect();
+        let img = image::GrayImage::from_raw(mask.width as u32, mask.height as u32, pixels)
+            .ok_or_else(|| SceneError::invalid("SAM mask", &png, "mask size disagrees with its data"))?;
+        let mut bytes = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+            .map_err(|source| SceneError::Image { path: png.clone(), source })?;
+        write_bytes_atomic(&png, &bytes)?;
+        let [px, py] = m.point_coords.first().copied().unwrap_or([f64::NAN; 2]);
+        let [bx, by, bw, bh] = m.bbox_xywh;
+        let [cx, cy, cw, ch] = m.crop_box_xywh;
+        let row = [
+            i as f64,
+            m.area as f64,
+            bx,
+            by,
+            bw,
+            bh,
+            px,
+            py,
+            m.predicted_iou,
+            m.stability_score,
+            cx,
+            cy,
+            cw,
+            ch,
+        ];
+        let row: Vec<String> = row.iter().map(|v| v.to_string()).collect();
+        csv.push_str(&row.join(","));
+        csv.push('\n');
+    }
+    write_bytes_atomic(&dir.join("metadata.csv"), csv.as_bytes())
 }
