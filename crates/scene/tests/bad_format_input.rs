@@ -126,6 +126,11 @@ fn missing_or_miscounted_gaussian_properties_are_rejected() {
         &read_error(dir.path(), "nrm.ply", &renamed("float scale_0", "float nx")),
         &["some of nx, ny, nz"],
     );
+    // A coloured point cloud (as COLMAP or Open3D write them) is not a 3DGS file.
+    let cloud = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+        property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n\
+        1 2 3 255 0 0\n";
+    assert_has(&read_error(dir.path(), "cloud.ply", cloud), &["'f_dc_0' is missing", "plain point cloud"]);
     // 10 f_rest properties: not a valid SH degree.
     let g1 = to_ply_bytes(&gaussians(2, 1)).unwrap();
     let h1 = String::from_utf8(g1[..header_len(&g1)].to_vec()).unwrap();

@@ -136,6 +136,18 @@ fn dense(mut found: Vec<(usize, Source)>, prefix: &str) -> Result<Vec<Source>, S
 impl VertexLayout {
     /// Builds the layout from the vertex element's scalar properties (in row order).
     pub(crate) fn from_properties(props: &[PropertyDecl]) -> Result<VertexLayout, String> {
+        Self::map_properties(props).map_err(|e| {
+            let has_position = ["x", "y", "z"].iter().all(|n| props.iter().any(|p| p.name == *n));
+            let has_splat = props.iter().any(|p| p.name.starts_with("scale_") || p.name == "opacity");
+            if has_position && !has_splat {
+                format!("{e} (this looks like a plain point cloud, not a 3D Gaussian Splatting PLY)")
+            } else {
+                e
+            }
+        })
+    }
+
+    fn map_properties(props: &[PropertyDecl]) -> Result<VertexLayout, String> {
         let mut means = [None; 3];
         let mut normals = [None; 3];
         let mut sh_dc = [None; 3];
