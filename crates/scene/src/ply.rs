@@ -12,13 +12,15 @@
 //! have fixed-size rows and rejected when they have list properties.
 //!
 //! Reading parses the header by hand, checks the declared size against the file, then decodes
-//! whole rows with byte offsets precomputed per property (`layout.rs`), in parallel chunks.
+//! whole rows with byte offsets precomputed per property (`layout.rs`, `rows.rs`), in parallel
+//! chunks.
 
 mod ascii;
 mod decode;
 mod encode;
 mod header;
 mod layout;
+mod rows;
 mod scalar;
 mod validate;
 
