@@ -20,6 +20,9 @@ pub enum RenderError {
     /// A camera that cannot be rendered (zero size, non-finite or non-positive focal length, ...).
     #[error("invalid camera: {0}")]
     Camera(String),
+    /// Writing an output file failed.
+    #[error(transparent)]
+    Output(#[from] splatseg_scene::SceneError),
     /// A gradient was given for an output the forward pass did not produce.
     #[error("gradient given for `{0}`, which the render request did not ask for")]
     GradientWithoutOutput(&'static str),

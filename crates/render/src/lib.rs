@@ -8,6 +8,7 @@
 //! - [`rasterise`]: front-to-back alpha blending of any number of channels.
 //! - [`render()`](render::render) / [`render_bwd`](render::render_bwd): the whole pass, driven by
 //!   a [`RenderRequest`] (rgb, expected depth, alpha, max-weight ids, features).
+//! - [`export`]: PNG / `.npy` writers for rendered outputs.
 //!
 //! ```
 //! use splatseg_render::{render, RenderCamera, RenderRequest};
@@ -28,6 +29,9 @@
 pub mod bin;
 pub mod camera;
 pub mod error;
+pub mod export;
+mod fast_exp;
+mod footprint;
 pub mod project;
 pub mod rasterise;
 pub mod render;

@@ -19,6 +19,8 @@
 //! count. The buffer is processed in groups of bands to bound its memory.
 
 use crate::bin::{TileBins, TILE_SIZE};
+use crate::fast_exp::fast_exp;
+use crate::footprint::Footprint;
 use crate::project::Splat2d;
 use crate::settings::RasterSettings;
 use rayon::prelude::*;
@@ -56,6 +58,8 @@ pub struct RasterOutput {
     /// `[H · W]` index of the splat with the largest blending weight `α·T` (−1 = none; the
     /// first one wins ties).
     pub max_weight_ids: Vec<i32>,
+    /// Number of (pixel, splat) pairs blended.
+    pub blends: u64,
 }
 
 /// Pixel rectangle of tile `(tx, ty)`: `(x0, x1, y0, y1)`, half-open, clipped to the image.
@@ -65,52 +69,52 @@ fn tile_pixels(tx: usize, ty: usize, width: usize, height: usize) -> (usize, usi
     (x0, (x0 + TILE_SIZE).min(width), y0, (y0 + TILE_SIZE).min(height))
 }
 
-/// Pixels of tile rect `tile` where the splat's α can reach `alpha_min` (the ellipse
-/// `σ ≤ ln(opacity / alpha_min)` plus a 1 px margin); `None` if there are none.
-fn footprint_in_tile(
-    s: &Splat2d,
-    alpha_min: f32,
-    tile: (usize, usize, usize, usize),
-) -> Option<(usize, usize, usize, usize)> {
-    if s.opacity < alpha_min {
-        return None;
-    }
-    let [a, b, c] = s.conic;
-    let det = a * c - b * b;
-    let (x0, x1, y0, y1) = tile;
-    if det.is_nan() || det <= 0.0 || a.is_nan() || a <= 0.0 {
-        return Some(tile);
-    }
-    let two_smax = 2.0 * (s.opacity / alpha_min).ln();
-    let ex = (two_smax * c / det).sqrt() + 1.0;
-    let ey = (two_smax * a / det).sqrt() + 1.0;
-    // Pixel x has its centre at x + 0.5: keep x with |mean − x − 0.5| ≤ ex.
-    let lo = |m: f32, e: f32, lo: usize| ((m - e - 0.5).ceil().max(lo as f32)) as usize;
-    let hi = |m: f32, e: f32, hi: usize| ((m + e - 0.5).floor() + 1.0).clamp(0.0, hi as f32) as usize;
-    let (bx0, bx1) = (lo(s.mean2d[0], ex, x0), hi(s.mean2d[0], ex, x1));
-    let (by0, by1) = (lo(s.mean2d[1], ey, y0), hi(s.mean2d[1], ey, y1));
-    (bx0 < bx1 && by0 < by1).then_some((bx0, bx1, by0, by1))
+/// α of a splat at a pixel, the same arithmetic in the forward and backward passes.
+#[derive(Clone, Copy, Debug)]
+struct PixelAlpha {
+    /// `min(alpha_max, opacity · exp(−σ))`.
+    alpha: f32,
+    /// `exp(−σ)`.
+    vis: f32,
+    /// Mean − pixel centre, x.
+    dx: f32,
+    /// Mean − pixel centre, y.
+    dy: f32,
+    /// True when `alpha_max` clamped α (no gradient flows to opacity or σ).
+    clamped: bool,
 }
 
-/// σ and α of splat `s` at pixel `(px, py)`; `None` when it is skipped (σ < 0 or α too small).
-/// Also returns `(dx, dy) = mean − pixel centre` and whether α was clamped.
-#[inline(always)]
-fn splat_alpha(
-    s: &Splat2d,
-    px: usize,
-    py: usize,
-    settings: &RasterSettings,
-) -> Option<(f32, f32, f32, f32, bool)> {
-    let dx = s.mean2d[0] - (px as f32 + 0.5);
-    let dy = s.mean2d[1] - (py as f32 + 0.5);
-    let [a, b, c] = s.conic;
-    let sigma = 0.5 * (a * dx * dx + c * dy * dy) + b * dx * dy;
-    let raw = s.opacity * (-sigma).exp();
-    let alpha = raw.min(settings.alpha_max);
-    if sigma < 0.0 || alpha < settings.alpha_min {
-        return None;
+/// Per-row constants of a splat: `σ(dx) = ½a·dx² + (b·dy)·dx + ½c·dy²`.
+#[derive(Clone, Copy, Debug)]
+struct RowTerms {
+    mx: f32,
+    dy: f32,
+    half_a: f32,
+    b_dy: f32,
+    half_c_dy2: f32,
+}
+
+impl RowTerms {
+    #[inline(always)]
+    fn new(s: &Splat2d, py: usize) -> Self {
+        let dy = s.mean2d[1] - (py as f32 + 0.5);
+        let [a, b, c] = s.conic;
+        RowTerms { mx: s.mean2d[0], dy, half_a: 0.5 * a, b_dy: b * dy, half_c_dy2: 0.5 * c * dy * dy }
     }
-    Some((alpha, raw, dx, dy, raw > settings.alpha_max))
+
+    /// α at pixel column `px`, or `None` when the pixel skips the splat (σ < 0 or α < alpha_min).
+    #[inline(always)]
+    fn alpha(&self, px: usize, opacity: f32, settings: &RasterSettings) -> Option<PixelAlpha> {
+        let dx = self.mx - (px as f32 + 0.5);
+        let sigma = self.half_a * dx * dx + self.b_dy * dx + self.half_c_dy2;
+        let vis = fast_exp(-sigma);
+        let raw = opacity * vis;
+        let alpha = raw.min(settings.alpha_max);
+        if sigma < 0.0 || alpha < settings.alpha_min {
+            return None;
+        }
+        Some(PixelAlpha { alpha, vis, dx, dy: self.dy, clamped: raw > settings.alpha_max })
+    }
 }
 
 /// Per-pixel state of one tile in the forward pass.
@@ -153,39 +157,96 @@ struct BandOut<'b> {
     ids: &'b mut [i32],
 }
 
-fn rasterise_tile(inp: &RasterInputs, list: &[u32], tile: (usize, usize, usize, usize), st: &mut TileState) {
-    let c_count = inp.channel_count;
+/// Blends one tile into `st`; returns the number of (pixel, splat) pairs blended.
+fn rasterise_tile(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    st: &mut TileState,
+) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU has the features `rasterise_tile_avx2` is compiled for.
+        return unsafe { rasterise_tile_avx2(inp, list, tile, st) };
+    }
+    rasterise_tile_any(inp, list, tile, st)
+}
+
+/// [`rasterise_tile_any`] compiled for AVX2 + FMA (same arithmetic up to FMA rounding).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn rasterise_tile_avx2(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    st: &mut TileState,
+) -> u64 {
+    rasterise_tile_any(inp, list, tile, st)
+}
+
+/// Dispatch on the channel count, so the common counts get unrolled loops.
+#[inline(always)]
+fn rasterise_tile_any(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    st: &mut TileState,
+) -> u64 {
+    match inp.channel_count {
+        1 => rasterise_tile_c::<1>(inp, list, tile, st),
+        3 => rasterise_tile_c::<3>(inp, list, tile, st),
+        4 => rasterise_tile_c::<4>(inp, list, tile, st),
+        _ => rasterise_tile_c::<0>(inp, list, tile, st),
+    }
+}
+
+/// [`rasterise_tile`] for `C` channels (`C = 0`: any number, read from the inputs).
+#[inline(always)]
+fn rasterise_tile_c<const C: usize>(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    st: &mut TileState,
+) -> u64 {
+    let c_count = if C == 0 { inp.channel_count } else { C };
     let (x0, x1, y0, y1) = tile;
     let n_pix = (x1 - x0) * (y1 - y0);
+    let t_min = inp.settings.transmittance_min;
     let mut n_done = 0;
+    let mut blends = 0u64;
     for (k, &gid) in list.iter().enumerate() {
         if n_done == n_pix {
             break;
         }
         let s = &inp.splats[gid as usize];
-        let Some((bx0, bx1, by0, by1)) = footprint_in_tile(s, inp.settings.alpha_min, tile) else {
+        let Some(fp) = Footprint::new(s, inp.settings.alpha_min, tile) else {
             continue;
         };
-        let colour = &inp.channels[gid as usize * c_count..(gid as usize + 1) * c_count];
+        let colour = &inp.channels[gid as usize * c_count..][..c_count];
+        let (_, _, by0, by1) = fp.bbox;
         for py in by0..by1 {
+            let (bx0, bx1) = fp.row(py);
+            let row = RowTerms::new(s, py);
+            let base = (py - y0) * TILE_SIZE;
             for px in bx0..bx1 {
-                let li = (py - y0) * TILE_SIZE + (px - x0);
+                let li = base + px - x0;
                 if st.done[li] {
                     continue;
                 }
-                let Some((alpha, ..)) = splat_alpha(s, px, py, inp.settings) else {
+                let Some(pa) = row.alpha(px, s.opacity, inp.settings) else {
                     continue;
                 };
                 let t = st.t[li];
-                let next_t = t * (1.0 - alpha);
-                if next_t <= inp.settings.transmittance_min {
+                let next_t = t * (1.0 - pa.alpha);
+                if next_t <= t_min {
                     st.done[li] = true;
                     n_done += 1;
                     continue;
                 }
-                let w = alpha * t;
-                for (acc, &v) in st.acc[li * c_count..(li + 1) * c_count].iter_mut().zip(colour) {
-                    *acc += w * v;
+                let w = pa.alpha * t;
+                let acc = &mut st.acc[li * c_count..][..c_count];
+                for ch in 0..c_count {
+                    acc[ch] += w * colour[ch];
                 }
                 if w > st.best_w[li] {
                     st.best_w[li] = w;
@@ -193,17 +254,20 @@ fn rasterise_tile(inp: &RasterInputs, list: &[u32], tile: (usize, usize, usize, 
                 }
                 st.t[li] = next_t;
                 st.walked[li] = k as u32 + 1;
+                blends += 1;
             }
         }
     }
+    blends
 }
 
-fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, st: &mut TileState) {
+fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, st: &mut TileState) -> u64 {
     let (w, c_count) = (inp.width, inp.channel_count);
+    let mut blends = 0;
     for tx in 0..bins.tiles_x {
         let tile = tile_pixels(tx, ty, inp.width, inp.height);
         st.reset();
-        rasterise_tile(inp, bins.tile(ty * bins.tiles_x + tx), tile, st);
+        blends += rasterise_tile(inp, bins.tile(ty * bins.tiles_x + tx), tile, st);
         let (x0, x1, y0, y1) = tile;
         for py in y0..y1 {
             for px in x0..x1 {
@@ -220,6 +284,7 @@ fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, 
             }
         }
     }
+    blends
 }
 
 /// Blends the binned splats into an image.
@@ -230,20 +295,23 @@ pub fn rasterise(inp: &RasterInputs, bins: &TileBins) -> RasterOutput {
         final_t: vec![1.0; w * h],
         walked: vec![0; w * h],
         max_weight_ids: vec![-1; w * h],
+        blends: 0,
     };
     let band = TILE_SIZE * w;
-    out.channels
+    out.blends = out
+        .channels
         .par_chunks_mut(band * c.max(1))
         .zip(out.final_t.par_chunks_mut(band))
         .zip(out.walked.par_chunks_mut(band))
         .zip(out.max_weight_ids.par_chunks_mut(band))
         .enumerate()
-        .for_each_init(
+        .map_init(
             || TileState::new(c),
             |st, (ty, (((channels, final_t), walked), ids))| {
-                rasterise_band(inp, bins, ty, BandOut { channels, final_t, walked, ids }, st);
+                rasterise_band(inp, bins, ty, BandOut { channels, final_t, walked, ids }, st)
             },
-        );
+        )
+        .sum();
     out
 }
 
@@ -276,8 +344,58 @@ fn record_len(c: usize) -> usize {
 
 /// Per-pixel state of one tile in the backward pass.
 struct BwdState {
+    /// Transmittance after the splat being processed.
     t: Vec<f32>,
+    /// Colour blended behind the splat being processed, `[256, C]`.
     behind: Vec<f32>,
+    /// ∂L/∂channels of the pixel, `[256, C]`.
+    g_out: Vec<f32>,
+    /// `T_final · ∂L/∂T_final` (background and alpha terms).
+    g_t_final: Vec<f32>,
+    /// Splats blended into the pixel (as [`RasterOutput::walked`]).
+    walked: Vec<u32>,
+}
+
+impl BwdState {
+    fn new(c: usize) -> Self {
+        BwdState {
+            t: vec![0.0; TILE_PIXELS],
+            behind: vec![0.0; TILE_PIXELS * c],
+            g_out: vec![0.0; TILE_PIXELS * c],
+            g_t_final: vec![0.0; TILE_PIXELS],
+            walked: vec![0; TILE_PIXELS],
+        }
+    }
+}
+
+/// Loads the tile's per-pixel state; returns the longest walk.
+fn load_bwd_state(
+    inp: &RasterInputs,
+    fwd: &RasterOutput,
+    grads: &RasterOutputGrads,
+    tile: (usize, usize, usize, usize),
+    st: &mut BwdState,
+) -> usize {
+    let (c, w) = (inp.channel_count, inp.width);
+    let (x0, x1, y0, y1) = tile;
+    let mut max_walked = 0usize;
+    for py in y0..y1 {
+        for px in x0..x1 {
+            let (li, pi) = ((py - y0) * TILE_SIZE + (px - x0), py * w + px);
+            let g_out = &grads.channels[pi * c..(pi + 1) * c];
+            let mut g_t = grads.final_t.map_or(0.0, |g| g[pi]);
+            for (g, bg) in g_out.iter().zip(inp.background) {
+                g_t += g * bg;
+            }
+            st.t[li] = fwd.final_t[pi];
+            st.g_t_final[li] = g_t * fwd.final_t[pi];
+            st.behind[li * c..(li + 1) * c].fill(0.0);
+            st.g_out[li * c..(li + 1) * c].copy_from_slice(g_out);
+            st.walked[li] = fwd.walked[pi];
+            max_walked = max_walked.max(fwd.walked[pi] as usize);
+        }
+    }
+    max_walked
 }
 
 fn rasterise_tile_bwd(
@@ -289,64 +407,113 @@ fn rasterise_tile_bwd(
     records: &mut [f32],
     st: &mut BwdState,
 ) {
-    let (c_count, w) = (inp.channel_count, inp.width);
-    let rl = record_len(c_count);
-    let (x0, x1, y0, y1) = tile;
-    let mut max_walked = 0usize;
-    for py in y0..y1 {
-        for px in x0..x1 {
-            let (li, pi) = ((py - y0) * TILE_SIZE + (px - x0), py * w + px);
-            st.t[li] = fwd.final_t[pi];
-            st.behind[li * c_count..(li + 1) * c_count].fill(0.0);
-            max_walked = max_walked.max(fwd.walked[pi] as usize);
-        }
+    let max_walked = load_bwd_state(inp, fwd, grads, tile, st);
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU has the features `rasterise_tile_bwd_avx2` is compiled for.
+        unsafe { rasterise_tile_bwd_avx2(inp, list, tile, records, st, max_walked) };
+        return;
     }
+    rasterise_tile_bwd_any(inp, list, tile, records, st, max_walked);
+}
+
+/// [`rasterise_tile_bwd_any`] compiled for AVX2 + FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn rasterise_tile_bwd_avx2(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    records: &mut [f32],
+    st: &mut BwdState,
+    max_walked: usize,
+) {
+    rasterise_tile_bwd_any(inp, list, tile, records, st, max_walked);
+}
+
+/// Dispatch on the channel count.
+#[inline(always)]
+fn rasterise_tile_bwd_any(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    records: &mut [f32],
+    st: &mut BwdState,
+    max_walked: usize,
+) {
+    match inp.channel_count {
+        1 => rasterise_tile_bwd_c::<1>(inp, list, tile, records, st, max_walked),
+        3 => rasterise_tile_bwd_c::<3>(inp, list, tile, records, st, max_walked),
+        4 => rasterise_tile_bwd_c::<4>(inp, list, tile, records, st, max_walked),
+        _ => rasterise_tile_bwd_c::<0>(inp, list, tile, records, st, max_walked),
+    }
+}
+
+/// Back-to-front walk of one tile for `C` channels (`C = 0`: any number).
+#[inline(always)]
+fn rasterise_tile_bwd_c<const C: usize>(
+    inp: &RasterInputs,
+    list: &[u32],
+    tile: (usize, usize, usize, usize),
+    records: &mut [f32],
+    st: &mut BwdState,
+    max_walked: usize,
+) {
+    let c_count = if C == 0 { inp.channel_count } else { C };
+    let rl = record_len(c_count);
+    let (x0, _, y0, _) = tile;
     for k in (0..max_walked).rev() {
         let gid = list[k] as usize;
         let s = &inp.splats[gid];
-        let Some((bx0, bx1, by0, by1)) = footprint_in_tile(s, inp.settings.alpha_min, tile) else {
+        let Some(fp) = Footprint::new(s, inp.settings.alpha_min, tile) else {
             continue;
         };
-        let colour = &inp.channels[gid * c_count..(gid + 1) * c_count];
+        let colour = &inp.channels[gid * c_count..][..c_count];
         let rec = &mut records[k * rl..(k + 1) * rl];
+        let (rec_geo, rec_ch) = rec.split_at_mut(6);
+        let mut geo = [0.0f32; 6];
         let [a, b, c] = s.conic;
+        let (_, _, by0, by1) = fp.bbox;
         for py in by0..by1 {
+            let (bx0, bx1) = fp.row(py);
+            let row = RowTerms::new(s, py);
+            let base = (py - y0) * TILE_SIZE;
             for px in bx0..bx1 {
-                let (li, pi) = ((py - y0) * TILE_SIZE + (px - x0), py * w + px);
-                if k >= fwd.walked[pi] as usize {
+                let li = base + px - x0;
+                if k >= st.walked[li] as usize {
                     continue;
                 }
-                let Some((alpha, raw, dx, dy, clamped)) = splat_alpha(s, px, py, inp.settings) else {
+                let Some(pa) = row.alpha(px, s.opacity, inp.settings) else {
                     continue;
                 };
-                let t_after = st.t[li];
-                let t_before = t_after / (1.0 - alpha);
-                let weight = alpha * t_before;
-                let g_out = &grads.channels[pi * c_count..(pi + 1) * c_count];
-                let t_final = fwd.final_t[pi];
-                let mut g_t_final = grads.final_t.map_or(0.0, |g| g[pi]);
+                let inv_keep = 1.0 / (1.0 - pa.alpha);
+                let t_before = st.t[li] * inv_keep;
+                let weight = pa.alpha * t_before;
+                let g_out = &st.g_out[li * c_count..][..c_count];
+                let behind = &mut st.behind[li * c_count..][..c_count];
                 let mut g_alpha = 0.0;
-                let behind = &mut st.behind[li * c_count..(li + 1) * c_count];
                 for ch in 0..c_count {
-                    g_t_final += inp.background[ch] * g_out[ch];
-                    g_alpha += g_out[ch] * (colour[ch] * t_before - behind[ch] / (1.0 - alpha));
-                    rec[6 + ch] += weight * g_out[ch];
+                    g_alpha += g_out[ch] * (colour[ch] * t_before - behind[ch] * inv_keep);
+                    rec_ch[ch] += weight * g_out[ch];
                     behind[ch] += colour[ch] * weight;
                 }
-                g_alpha -= g_t_final * t_final / (1.0 - alpha);
+                g_alpha -= st.g_t_final[li] * inv_keep;
                 st.t[li] = t_before;
-                if clamped {
+                if pa.clamped {
                     continue;
                 }
-                let vis = raw / s.opacity;
-                rec[5] += g_alpha * vis;
-                let g_sigma = -g_alpha * alpha;
-                rec[0] += g_sigma * (a * dx + b * dy);
-                rec[1] += g_sigma * (b * dx + c * dy);
-                rec[2] += g_sigma * 0.5 * dx * dx;
-                rec[3] += g_sigma * dx * dy;
-                rec[4] += g_sigma * 0.5 * dy * dy;
+                let (dx, dy) = (pa.dx, pa.dy);
+                geo[5] += g_alpha * pa.vis;
+                let g_sigma = -g_alpha * pa.alpha;
+                geo[0] += g_sigma * (a * dx + b * dy);
+                geo[1] += g_sigma * (b * dx + c * dy);
+                geo[2] += g_sigma * 0.5 * dx * dx;
+                geo[3] += g_sigma * dx * dy;
+                geo[4] += g_sigma * 0.5 * dy * dy;
             }
+        }
+        for (r, g) in rec_geo.iter_mut().zip(geo) {
+            *r += g;
         }
     }
 }
@@ -389,7 +556,7 @@ pub fn rasterise_bwd(
             rest = tail;
         }
         slices.into_par_iter().for_each_init(
-            || BwdState { t: vec![0.0; TILE_PIXELS], behind: vec![0.0; TILE_PIXELS * c] },
+            || BwdState::new(c),
             |st, (ty, band_records)| {
                 let base = band_start(ty);
                 for tx in 0..bins.tiles_x {

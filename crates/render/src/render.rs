@@ -206,6 +206,7 @@ fn assemble(
         stats: RenderStats {
             visible: splats.iter().filter(|s| !s.is_culled()).count(),
             intersections: bins.intersection_count(),
+            blends: raster.blends,
         },
     }
 }

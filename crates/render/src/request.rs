@@ -63,6 +63,8 @@ pub struct RenderStats {
     pub visible: usize,
     /// (Gaussian, tile) pairs.
     pub intersections: usize,
+    /// (pixel, Gaussian) pairs blended.
+    pub blends: u64,
 }
 
 /// Rendered images. Fields are `Some` exactly for the outputs requested.
