@@ -108,9 +108,9 @@ impl<'a> Reader<'a> {
         let left = (self.bytes.len() - self.pos) as u64;
         if n.saturating_mul(min_bytes as u64) > left {
             return Err(self.invalid(format!(
-                "truncated or corrupt: {} says {field} = {n}, which needs at least {} bytes, but only {left} remain",
-                self.record,
-                n.saturating_mul(min_bytes as u64)
+                "truncated or corrupt: {} says {field} = {n}, but only {left} bytes remain \
+                 (each entry takes at least {min_bytes})",
+                self.record
             )));
         }
         Ok(n as usize)

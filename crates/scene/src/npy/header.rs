@@ -140,7 +140,7 @@ fn parse_dict(text: &str) -> Result<Fields, String> {
         p.skip_ws();
         p.expect(':')?;
         p.skip_ws();
-        let value = p.value()?;
+        let value = p.value(&key)?;
         match (key.as_str(), value) {
             ("descr", Value::Str(s)) => fields.descr = Some(s),
             ("fortran_order", Value::Bool(b)) => fields.fortran_order = Some(b),
@@ -207,7 +207,7 @@ impl Cursor<'_> {
         Ok(s)
     }
 
-    fn value(&mut self) -> Result<Value, String> {
+    fn value(&mut self, key: &str) -> Result<Value, String> {
         if self.rest.starts_with(['\'', '"']) {
             return self.string().map(Value::Str);
         }
@@ -217,7 +217,7 @@ impl Cursor<'_> {
                 return Ok(Value::Bool(b));
             }
         }
-        if self.rest.starts_with('[') {
+        if key == "descr" && self.rest.starts_with('[') {
             return Err("structured (record) dtypes are not supported".into());
         }
         self.expect('(')?;
