@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod cues;
+
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
 ///
 /// Turns a multi-view capture (COLMAP or transforms.json) and its 3DGS PLY into refined per-view
@@ -16,11 +18,16 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
+    Cues(cues::Args),
+}
 
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {}
+    match cli.command {
+        Command::Cues(args) => cues::run(args),
+    }
 }
 
 /// Logs to stderr; `RUST_LOG=debug` for more.

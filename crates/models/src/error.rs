@@ -59,7 +59,7 @@ pub enum ModelsError {
         path: PathBuf,
     },
     /// A tensor the model needs is absent.
-    #[error("the {} checkpoint has no tensor `{name}` (expected shape {expected:?}); is it the right file? expected {}: {}", kind.name(), kind.expected_file(), path.display())]
+    #[error("the {} checkpoint has no tensor `{name}`{}; is it the right file? expected {}: {}", kind.name(), shape_note(expected), kind.expected_file(), path.display())]
     MissingTensor {
         /// Model the file was meant for.
         kind: ModelKind,
@@ -108,6 +108,14 @@ pub enum ModelsError {
     /// Tensor arithmetic failed (a bug or out of memory).
     #[error("tensor operation failed: {0}")]
     Candle(#[from] candle_core::Error),
+}
+
+fn shape_note(expected: &[usize]) -> String {
+    if expected.is_empty() {
+        String::new()
+    } else {
+        format!(" (expected shape {expected:?})")
+    }
 }
 
 /// Result alias of this crate.

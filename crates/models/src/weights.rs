@@ -15,6 +15,8 @@ pub struct Weights {
     tensors: HashMap<String, Tensor>,
     path: PathBuf,
     kind: ModelKind,
+    /// Prefix removed by [`Weights::sub`], put back in messages.
+    prefix: String,
 }
 
 impl Weights {
@@ -52,12 +54,12 @@ impl Weights {
             let tensor = if tensor.dtype() == DType::F32 { tensor } else { tensor.to_dtype(DType::F32)? };
             tensors.insert(name, tensor);
         }
-        Ok(Self { tensors, path: path.to_path_buf(), kind })
+        Ok(Self { tensors, path: path.to_path_buf(), kind, prefix: String::new() })
     }
 
     /// Wraps tensors already in memory (`path` is only used in messages).
     pub fn from_tensors(tensors: HashMap<String, Tensor>, path: &Path, kind: ModelKind) -> Self {
-        Self { tensors, path: path.to_path_buf(), kind }
+        Self { tensors, path: path.to_path_buf(), kind, prefix: String::new() }
     }
 
     /// The file the tensors came from.
@@ -93,7 +95,7 @@ impl Weights {
         if tensor.dims() != shape {
             return Err(ModelsError::ShapeMismatch {
                 kind: self.kind,
-                name: name.to_string(),
+                name: format!("{}{name}", self.prefix),
                 expected: shape.to_vec(),
                 found: tensor.dims().to_vec(),
                 path: self.path.clone(),
@@ -111,7 +113,7 @@ impl Weights {
     pub fn missing(&self, name: &str, expected: &[usize]) -> ModelsError {
         ModelsError::MissingTensor {
             kind: self.kind,
-            name: name.to_string(),
+            name: format!("{}{name}", self.prefix),
             expected: expected.to_vec(),
             path: self.path.clone(),
         }
@@ -134,7 +136,12 @@ impl Weights {
             .iter()
             .filter_map(|(name, t)| name.strip_prefix(prefix).map(|rest| (rest.to_string(), t.clone())))
             .collect();
-        Weights { tensors, path: self.path.clone(), kind: self.kind }
+        Weights {
+            tensors,
+            path: self.path.clone(),
+            kind: self.kind,
+            prefix: format!("{}{prefix}", self.prefix),
+        }
     }
 
     /// Renames every tensor with `rename` (names it maps to `None` are dropped).
@@ -144,7 +151,7 @@ impl Weights {
             .into_iter()
             .filter_map(|(name, t)| rename(&name).map(|new_name| (new_name, t)))
             .collect();
-        Weights { tensors, path: self.path, kind: self.kind }
+        Weights { tensors, path: self.path, kind: self.kind, prefix: self.prefix }
     }
 
     /// A linear layer `weight: [out, in]`, `bias: [out]` under `prefix`.

@@ -93,3 +93,20 @@ fn automatic_masks_match_reference() {
 fn automatic_masks_with_crops_and_small_region_removal_match_reference() {
     check_amg("sam_tiny_amg_crops.json");
 }
+
+#[test]
+fn wrong_checkpoint_errors_name_the_tensor_and_shapes() {
+    use splatseg_models::weights::Weights;
+    use splatseg_models::ModelKind;
+    let weights = Weights::load(&fixture("sam_tiny.pth"), ModelKind::Sam).unwrap();
+    let mut broken = weights.clone();
+    let name = "mask_decoder.iou_token.weight";
+    let bad =
+        candle_core::Tensor::zeros((2, 32), candle_core::DType::F32, &candle_core::Device::Cpu).unwrap();
+    broken.insert(name.to_string(), bad);
+    let err = Sam::from_weights(&broken).unwrap_err().to_string();
+    assert!(err.contains(name) && err.contains("[2, 32]") && err.contains("[1, 32]"), "{err}");
+    let dinov2 = Weights::load(&fixture("dinov2_tiny/model.safetensors"), ModelKind::Sam).unwrap();
+    let err = Sam::from_weights(&dinov2).unwrap_err().to_string();
+    assert!(err.contains("image_encoder.patch_embed.proj.weight") && err.contains("sam_vit_b"), "{err}");
+}

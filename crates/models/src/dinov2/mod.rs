@@ -141,6 +141,29 @@ impl Dinov2 {
             .collect()
     }
 
+    /// Patch features of an 8-bit RGB image (`rgb`: interleaved `[height, width, 3]`): resized
+    /// bicubically so its long side is about `long_side` px with both sides multiples of 14,
+    /// ImageNet-normalised, run. Returns `[h/14, w/14, C]` and the size the model saw `(h, w)`.
+    pub fn image_features(
+        &self,
+        rgb: &[u8],
+        (height, width): (usize, usize),
+        long_side: usize,
+    ) -> ModelsResult<(Tensor, (usize, usize))> {
+        let p = self.config.patch_size;
+        let unit: Vec<f32> = rgb.iter().map(|&v| v as f32 / 255.0).collect();
+        let pixels = crate::image::imagenet_normalise(&unit, height, width)?;
+        let scale = long_side as f64 / height.max(width).max(1) as f64;
+        let round = |v: usize| (((v as f64 * scale) / p as f64).round() as usize).max(1) * p;
+        let (h, w) = (round(height), round(width));
+        let resized = if (h, w) == (height, width) {
+            pixels
+        } else {
+            crate::resample::resize_tensor(&pixels, h, w, Resample::Bicubic)?
+        };
+        Ok((self.patch_features(&resized)?, (h, w)))
+    }
+
     fn grid_of(&self, pixels: &Tensor) -> ModelsResult<(usize, usize)> {
         let p = self.config.patch_size;
         let dims = pixels.dims();
