@@ -22,6 +22,13 @@ pub struct LiftConfig {
     /// Rendering label maps back, unreliable Gaussians vote for their majority id with their
     /// blending weight scaled by this (reliable ones: 1).
     pub unreliable_render_weight: f32,
+    /// Touching objects ([`crate::touching`]) whose identity features have at least this
+    /// cosine become one object (values above 1 switch the step off).
+    pub tau_touching: f32,
+    /// Voxel edge of the contact test, in median Gaussian standard deviations.
+    pub contact_voxel_factor: f32,
+    /// Neighbouring voxel pairs two objects must share to touch.
+    pub min_contact_voxels: u32,
     /// Gaussians seen in fewer views than this get no id.
     pub min_views: u32,
     /// Floor of the frontal factor of the fusion weight (so grazing views still count a little).
@@ -38,6 +45,9 @@ impl Default for LiftConfig {
             surface_transmittance: 0.5,
             tau_var: 0.05,
             unreliable_render_weight: 0.25,
+            tau_touching: 0.85,
+            contact_voxel_factor: 3.0,
+            min_contact_voxels: 8,
             min_views: 1,
             min_frontal: 0.05,
             near: 0.01,

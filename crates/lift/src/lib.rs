@@ -8,6 +8,7 @@
 //!   where their centre lands, and their fusion weight (frontal, near views weigh more).
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
 //! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
+//! - [`touching`]: objects that touch in 3D and look alike become one.
 //! - [`numbering`]: final stable renumbering of the ids.
 //!
 //! Views are independent and run in parallel with rayon ([`visibility_all`],
@@ -21,6 +22,7 @@ pub mod lifting;
 pub mod numbering;
 pub mod project;
 pub mod render_labels;
+pub mod touching;
 pub mod visibility;
 
 pub use config::LiftConfig;
@@ -29,7 +31,8 @@ pub use lifting::{lift_labels, GaussianStatus, LiftStats, Lifted, ObjectFeatures
 pub use numbering::renumber;
 pub use project::PreparedGaussians;
 pub use render_labels::{render_label_map, render_votes, RenderVotes};
-pub use visibility::{view_visibility, ViewVisibility};
+pub use touching::join_touching_objects;
+pub use visibility::{view_surface_depth, view_visibility, ViewVisibility};
 
 use rayon::prelude::*;
 use splatseg_scene::{Camera, Plane, Pose};

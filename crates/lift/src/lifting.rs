@@ -41,7 +41,8 @@ impl ObjectFeatures<'_> {
         self.values.len().checked_div(self.dim).unwrap_or(usize::MAX)
     }
 
-    fn row(&self, id: u32) -> &[f32] {
+    /// The feature of object `id` (`[dim]`; `id` in `1..=n_objects`).
+    pub fn row(&self, id: u32) -> &[f32] {
         &self.values[(id as usize - 1) * self.dim..id as usize * self.dim]
     }
 }

@@ -53,6 +53,19 @@ pub fn surface_depth(splats: &[Splat], width: usize, height: usize, config: &Lif
     depth
 }
 
+/// The surface depth of one view from the Gaussians' own footprints: `[height, width]` metric z
+/// (+∞ where transmittance never drops below `surface_transmittance`).
+pub fn view_surface_depth(
+    gaussians: &PreparedGaussians,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    config: &LiftConfig,
+) -> Plane<f32> {
+    let mut splats = project_view(gaussians, camera, world_from_cam, config);
+    sort_by_depth(&mut splats);
+    surface_depth(&splats, camera.width as usize, camera.height as usize, config)
+}
+
 /// Visibility of all Gaussians in one view, with the surface depth from their own footprints
 /// (`depth: None`) or from a given map (`[height, width]` metric z, 0 / non-finite = none).
 pub fn view_visibility(

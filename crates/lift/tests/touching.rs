@@ -1,0 +1,70 @@
+//! Joining touching look-alike objects.
+
+mod common;
+use common::gaussians;
+use splatseg_lift::{
+    join_touching_objects, GaussianStatus, LiftConfig, LiftStats, Lifted, ObjectFeatures, PreparedGaussians,
+};
+
+/// A 20 × 20 grid of Gaussians (spacing 0.02) at x offset `x0` and depth `z`.
+fn patch(x0: f32, z: f32) -> Vec<[f32; 3]> {
+    (0..400).map(|k| [x0 + (k % 20) as f32 * 0.02, (k / 20) as f32 * 0.02, z]).collect()
+}
+
+fn lifted(ids: Vec<i32>) -> Lifted {
+    let n = ids.len();
+    Lifted {
+        majority_ids: ids.iter().map(|&i| i.max(0) as u32).collect(),
+        object_ids: ids,
+        status: vec![GaussianStatus::Labelled; n],
+        variances: vec![0.0; n],
+        views_seen: vec![1; n],
+        fused_features: None,
+        stats: LiftStats::default(),
+    }
+}
+
+/// Objects 1, 2, 3: object 1 and 2 alike (cos 0.95), 3 different (cos 0.3 with 1).
+const FEATURES: [f32; 6] = [1.0, 0.0, 0.95, 0.312_25, 0.3, 0.953_94];
+
+fn run(means: Vec<[f32; 3]>, ids: Vec<i32>) -> (usize, Lifted) {
+    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
+    let mut l = lifted(ids);
+    let joins = join_touching_objects(
+        &prepared,
+        &mut l,
+        ObjectFeatures { dim: 2, values: &FEATURES },
+        &LiftConfig::default(),
+    );
+    (joins, l)
+}
+
+#[test]
+fn touching_look_alikes_join_and_distant_ones_do_not() {
+    // Object 2 continues object 1's surface (a seam at x = 0.4).
+    let mut means = patch(0.0, 2.0);
+    means.extend(patch(0.4, 2.0));
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (joins, l) = run(means, ids);
+    assert_eq!(joins, 1);
+    assert!(l.object_ids.iter().all(|&i| i == 1));
+    assert!(l.majority_ids.iter().all(|&i| i == 1));
+
+    // The same two look-alikes 1 m apart in depth (white-on-white): untouched.
+    let mut means = patch(0.0, 2.0);
+    means.extend(patch(0.4, 3.0));
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (joins, l) = run(means, ids.clone());
+    assert_eq!(joins, 0);
+    assert_eq!(l.object_ids, ids);
+}
+
+#[test]
+fn touching_different_objects_stay_apart() {
+    let mut means = patch(0.0, 2.0);
+    means.extend(patch(0.4, 2.0));
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 3 }).collect();
+    let (joins, l) = run(means, ids.clone());
+    assert_eq!(joins, 0);
+    assert_eq!(l.object_ids, ids);
+}
