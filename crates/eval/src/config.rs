@@ -15,6 +15,19 @@ pub enum UnlabelledGt {
     Ignore,
 }
 
+/// Whether predicted ids name the same object in every view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IdScope {
+    /// An id is one object in all views (matched or lifted predictions; the default).
+    #[default]
+    Global,
+    /// Ids are numbered per view (raw SAM masks, merged-only regions): id 3 of one view and id 3
+    /// of another are different masks. Each (view, id) is then scored as its own mask, so #masks
+    /// is the total over views and cross-view metrics show the lack of association.
+    PerView,
+}
+
 /// Metric settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -23,6 +36,8 @@ pub struct EvalConfig {
     pub band_radius_px: u32,
     /// Treatment of ground-truth pixels with value 0.
     pub unlabelled_gt: UnlabelledGt,
+    /// Scope of the predicted ids.
+    pub pred_id_scope: IdScope,
 }
 
 impl Default for EvalConfig {
@@ -30,6 +45,7 @@ impl Default for EvalConfig {
         EvalConfig {
             band_radius_px: crate::band::PAPER_BAND_RADIUS_PX,
             unlabelled_gt: UnlabelledGt::Background,
+            pred_id_scope: IdScope::Global,
         }
     }
 }

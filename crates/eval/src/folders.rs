@@ -10,7 +10,7 @@
 //! Views are read and counted in parallel (each reading its ground truth once for all
 //! prediction sets) and combined in stem order.
 
-use crate::config::EvalConfig;
+use crate::config::{EvalConfig, IdScope};
 use crate::error::EvalError;
 use crate::metrics::Metrics;
 use crate::view::ViewCounts;
@@ -39,23 +39,34 @@ pub fn list_label_maps(dir: &Path) -> Result<BTreeMap<String, PathBuf>, EvalErro
 
 /// Scores one prediction folder against a ground-truth folder.
 pub fn evaluate_folders(gt_dir: &Path, pred_dir: &Path, cfg: &EvalConfig) -> Result<Metrics, EvalError> {
-    let mut sets = evaluate_prediction_sets(gt_dir, &[pred_dir], cfg)?;
+    let set = PredictionSet { dir: pred_dir, id_scope: cfg.pred_id_scope };
+    let mut sets = evaluate_prediction_sets(gt_dir, &[set], cfg)?;
     Ok(sets.remove(0))
 }
 
+/// One folder of predicted label maps and the scope of its ids.
+#[derive(Clone, Copy, Debug)]
+pub struct PredictionSet<'a> {
+    /// The folder of `<stem>.png` label maps.
+    pub dir: &'a Path,
+    /// Whether its ids are global or numbered per view (overrides `cfg.pred_id_scope`).
+    pub id_scope: IdScope,
+}
+
 /// Scores several prediction folders (e.g. raw, merged, matched, lifted) against one
-/// ground-truth folder. Returns one [`Metrics`] per folder, in the given order.
+/// ground-truth folder. Returns one [`Metrics`] per set, in the given order.
 pub fn evaluate_prediction_sets(
     gt_dir: &Path,
-    pred_dirs: &[&Path],
+    sets: &[PredictionSet<'_>],
     cfg: &EvalConfig,
 ) -> Result<Vec<Metrics>, EvalError> {
+    let pred_dirs: Vec<&Path> = sets.iter().map(|s| s.dir).collect();
     let gt_maps = list_label_maps(gt_dir)?;
     if gt_maps.is_empty() {
         return Err(EvalError::NoLabelMaps { path: gt_dir.to_path_buf() });
     }
     let mut pred_maps = Vec::with_capacity(pred_dirs.len());
-    for dir in pred_dirs {
+    for dir in &pred_dirs {
         let maps = list_label_maps(dir)?;
         if maps.is_empty() {
             return Err(EvalError::NoLabelMaps { path: dir.to_path_buf() });
@@ -92,7 +103,8 @@ pub fn evaluate_prediction_sets(
         .enumerate()
         .map(|(set, dir)| {
             let set_counts: Vec<ViewCounts> = counts.iter().map(|v| v[set].clone()).collect();
-            let mut m = Metrics::from_views(&set_counts, cfg).map_err(|e| match e {
+            let set_cfg = EvalConfig { pred_id_scope: sets[set].id_scope, ..cfg.clone() };
+            let mut m = Metrics::from_views(&set_counts, &set_cfg).map_err(|e| match e {
                 EvalError::NoGroundTruth { .. } => {
                     EvalError::NoGroundTruth { path: Some(gt_dir.to_path_buf()) }
                 }

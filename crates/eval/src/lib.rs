@@ -33,9 +33,9 @@ pub mod metrics;
 pub mod view;
 
 pub use accuracy3d::{label_accuracy_3d, label_accuracy_3d_files, read_gaussian_ids_npy};
-pub use config::{EvalConfig, UnlabelledGt};
+pub use config::{EvalConfig, IdScope, UnlabelledGt};
 pub use error::EvalError;
-pub use folders::{evaluate_folders, evaluate_prediction_sets, list_label_maps};
+pub use folders::{evaluate_folders, evaluate_prediction_sets, list_label_maps, PredictionSet};
 pub use markdown::{summary_table, EvalReport, NamedMetrics};
 pub use metrics::{InstanceScore, LabelAccuracy3d, Metrics, ViewScore};
 pub use view::ViewCounts;

@@ -14,11 +14,13 @@
 //!   ground-truth instances.
 //! - **Per-view mIoU**: Hungarian matching inside each view, mean over the instances present in
 //!   that view; reported per view and as the mean over views.
+//! - Predictions whose ids are numbered per view (raw SAM masks, merged-only regions) are scored
+//!   with [`IdScope::PerView`]: every (view, id) is a separate mask.
 //! - **Cross-view consistency**: per instance, the share of its pixels (over all views) whose
 //!   predicted id is its most common non-zero predicted id; pixels predicted 0 count as
 //!   inconsistent. Mean over instances.
 
-use crate::config::EvalConfig;
+use crate::config::{EvalConfig, IdScope};
 use crate::error::EvalError;
 use crate::view::{BandCount, IouTable, PairCount, ViewCounts};
 use serde::{Deserialize, Serialize};
@@ -105,6 +107,14 @@ impl Metrics {
     /// Combines per-view counts (in the given order) into the metrics. Fails if no view holds a
     /// labelled ground-truth pixel.
     pub fn from_views(views: &[ViewCounts], cfg: &EvalConfig) -> Result<Metrics, EvalError> {
+        let relabelled;
+        let views = match cfg.pred_id_scope {
+            IdScope::Global => views,
+            IdScope::PerView => {
+                relabelled = make_ids_global(views);
+                &relabelled[..]
+            }
+        };
         let pixels = merge_pairs(views.iter().flat_map(|v| v.pixels.iter().copied()));
         let band = merge_band(views.iter().flat_map(|v| v.band.iter().copied()));
         let table = IouTable::new(&pixels, cfg);
@@ -171,6 +181,35 @@ impl Metrics {
             config: cfg.clone(),
         })
     }
+}
+
+/// Renumbers view-local predicted ids so that every (view, id) gets its own id: 1, 2, ... in
+/// view order, then by id.
+fn make_ids_global(views: &[ViewCounts]) -> Vec<ViewCounts> {
+    let mut next = 1u32;
+    views
+        .iter()
+        .map(|v| {
+            let mut ids: Vec<u32> = v.pixels.iter().map(|c| c.pred).filter(|p| *p != 0).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let first = next;
+            next += ids.len() as u32;
+            let map = |p: u32| {
+                if p == 0 {
+                    0
+                } else {
+                    ids.binary_search(&p).map_or(0, |i| first + i as u32)
+                }
+            };
+            let mut out = v.clone();
+            out.pixels.iter_mut().for_each(|c| c.pred = map(c.pred));
+            out.band.iter_mut().for_each(|c| c.pred = map(c.pred));
+            out.pixels.sort_unstable_by_key(|c| (c.gt, c.pred));
+            out.band.sort_unstable_by_key(|c| (c.gt, c.pred));
+            out
+        })
+        .collect()
 }
 
 /// Boundary IoU of instance `g` with prediction `p` from summed band counts (`band` sorted by

@@ -1,7 +1,8 @@
 //! Scoring folders of label-map PNGs and a labelled PLY, with the bad inputs users hit.
 
 use splatseg_eval::{
-    evaluate_folders, evaluate_prediction_sets, label_accuracy_3d_files, EvalConfig, EvalError,
+    evaluate_folders, evaluate_prediction_sets, label_accuracy_3d_files, EvalConfig, EvalError, IdScope,
+    PredictionSet,
 };
 use splatseg_scene::labels::write_label_png;
 use splatseg_scene::Plane;
@@ -103,9 +104,22 @@ fn several_prediction_sets_in_one_pass() {
     write(&d.gt, "a", 4, 1, &[1, 1, 2, 2]);
     write(&d.pred, "a", 4, 1, &[3, 4, 5, 6]); // raw: over-segmented
     write(&merged, "a", 4, 1, &[3, 3, 5, 5]);
-    let sets = evaluate_prediction_sets(&d.gt, &[&d.pred, &merged], &EvalConfig::default()).unwrap();
-    assert_eq!((sets[0].miou, sets[0].pred_masks), (0.5, 4));
-    assert_eq!((sets[1].miou, sets[1].pred_masks), (1.0, 2));
+    write(&d.gt, "b", 4, 1, &[1, 1, 2, 2]);
+    write(&d.pred, "b", 4, 1, &[3, 4, 5, 6]);
+    write(&merged, "b", 4, 1, &[3, 3, 5, 5]);
+    let local = |dir| PredictionSet { dir, id_scope: IdScope::PerView };
+    let sets =
+        evaluate_prediction_sets(&d.gt, &[local(&d.pred), local(&merged)], &EvalConfig::default()).unwrap();
+    // Raw, view-local: 8 masks of 2 px; each instance (4 px over both views) best matches one
+    // (view, id) mask of 1 px: IoU 1/4. Consistency 1/4 as well.
+    assert_eq!((sets[0].miou, sets[0].pred_masks, sets[0].consistency), (0.25, 8, 0.25));
+    // Merged, view-local: 4 masks; each instance matches one view's mask: 2/4.
+    assert_eq!((sets[1].miou, sets[1].pred_masks), (0.5, 4));
+    assert_eq!(sets[1].per_view_miou, Some(1.0));
+    // The same merged maps read as global ids: 3 and 5 are the same objects in both views.
+    let global = PredictionSet { dir: &merged, id_scope: IdScope::Global };
+    let sets = evaluate_prediction_sets(&d.gt, &[global], &EvalConfig::default()).unwrap();
+    assert_eq!((sets[0].miou, sets[0].pred_masks, sets[0].consistency), (1.0, 2, 1.0));
 }
 
 #[test]
