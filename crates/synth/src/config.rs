@@ -54,7 +54,7 @@ impl Default for SynthConfig {
 pub struct SamSimConfig {
     /// Connected pieces smaller than this many pixels get no mask (left uncovered).
     pub min_area_px: usize,
-    /// A piece larger than this fraction of the image is cut by 1–2 random near-vertical lines
+    /// A piece larger than this fraction of the image is cut by 1–3 random near-vertical lines
     /// (floor, walls).
     pub large_cut_fraction: f64,
     /// Probability that an object piece larger than [`Self::object_cut_min_px`] gets one
@@ -62,6 +62,9 @@ pub struct SamSimConfig {
     pub object_cut_probability: f64,
     /// Minimum area (pixels) of an object piece that may be cut.
     pub object_cut_min_px: usize,
+    /// Probability that a cut object piece of at least 4 × [`Self::object_cut_min_px`] gets a
+    /// second line.
+    pub object_second_cut_probability: f64,
     /// Probability that a mask gets a small hole punched into it.
     pub hole_probability: f64,
     /// Probability that a mask is eroded by one pixel (uncovered pixels along its outline).
@@ -82,8 +85,9 @@ impl Default for SamSimConfig {
         SamSimConfig {
             min_area_px: 24,
             large_cut_fraction: 0.06,
-            object_cut_probability: 0.5,
-            object_cut_min_px: 500,
+            object_cut_probability: 0.85,
+            object_cut_min_px: 400,
+            object_second_cut_probability: 0.5,
             hole_probability: 0.25,
             erode_probability: 0.2,
             whole_object_probability: 0.35,

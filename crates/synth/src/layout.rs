@@ -225,7 +225,7 @@ pub fn build_layout(seed: u64) -> Vec<SceneObject> {
         size: DVec3::new(w_blue, depth, j.scale(0.62, 0.06)),
         yaw: pair_yaw,
     };
-    let (red_c, blue_c) = (j.colour([0.78, 0.16, 0.14], 0.04), j.colour([0.16, 0.28, 0.75], 0.04));
+    let (red_c, blue_c) = (j.colour([0.8, 0.15, 0.12], 0.04), j.colour([0.35, 0.6, 0.95], 0.04));
     push(&mut objects, "red_box", ObjectKind::Box, red, Texture::Plain { albedo: red_c }, &[SameDepthPair]);
     push(
         &mut objects,
@@ -243,15 +243,15 @@ pub fn build_layout(seed: u64) -> Vec<SceneObject> {
         height: j.scale(0.95, 0.05),
     };
     let texture = Texture::Stripes {
-        a: j.colour([0.9, 0.78, 0.2], 0.03),
-        b: j.colour([0.1, 0.55, 0.55], 0.03),
+        a: j.colour([0.85, 0.68, 0.25], 0.03),
+        b: j.colour([0.25, 0.7, 0.75], 0.03),
         period_m: j.scale(0.2, 0.05),
     };
     push(&mut objects, "striped_cylinder", ObjectKind::Cylinder, shape, texture, &[]);
     let radius = j.scale(0.3, 0.06);
     let centre = j.pos(0.95, -0.85) + DVec3::Z * radius;
     let texture = Texture::TwoTone {
-        bottom: j.colour([0.3, 0.18, 0.45], 0.03),
+        bottom: j.colour([0.75, 0.35, 0.55], 0.03),
         top: j.colour([0.95, 0.5, 0.15], 0.03),
         split_m: radius,
     };
@@ -272,7 +272,7 @@ pub fn build_layout(seed: u64) -> Vec<SceneObject> {
     };
     let texture = Texture::Blotches {
         base: j.colour([0.35, 0.62, 0.3], 0.03),
-        blotch: [0.15, 0.3, 0.12],
+        blotch: [0.22, 0.45, 0.2],
         frequency: 6.0,
         seed: seed ^ stream::TEXTURE,
     };
@@ -290,7 +290,7 @@ pub fn build_layout(seed: u64) -> Vec<SceneObject> {
                 let size = DVec3::new(j.scale(0.6, 0.05), j.scale(0.5, 0.05), j.scale(0.5, 0.05));
                 let shape =
                     Shape::Cuboid { base_centre: j.pos(-0.75, 1.65), size, yaw: j.shift(LATERAL_YAW, 0.3) };
-                let texture = Texture::Checkers { a: [0.85, 0.55, 0.2], b: [0.35, 0.2, 0.1], cell_m: 0.1 };
+                let texture = Texture::Checkers { a: [0.85, 0.55, 0.2], b: [0.6, 0.38, 0.18], cell_m: 0.1 };
                 push(&mut objects, "checker_box", ObjectKind::Box, shape, texture, &[]);
             }
             1 => {
@@ -298,7 +298,7 @@ pub fn build_layout(seed: u64) -> Vec<SceneObject> {
                 let centre = j.pos(-0.95, -1.3) + DVec3::Z * radius;
                 let texture = Texture::Blotches {
                     base: [0.85, 0.55, 0.65],
-                    blotch: [0.45, 0.2, 0.5],
+                    blotch: [0.6, 0.35, 0.55],
                     frequency: 7.0,
                     seed: seed ^ 0xB10,
                 };
@@ -316,8 +316,8 @@ pub fn build_layout(seed: u64) -> Vec<SceneObject> {
                 let shape =
                     Shape::Cuboid { base_centre: j.pos(1.2, 1.55), size, yaw: j.shift(LATERAL_YAW, 0.3) };
                 let texture = Texture::TwoTone {
-                    bottom: [0.45, 0.45, 0.5],
-                    top: [0.95, 0.85, 0.25],
+                    bottom: [0.55, 0.6, 0.75],
+                    top: [0.85, 0.72, 0.3],
                     split_m: size.z * 0.5,
                 };
                 push(&mut objects, "two_tone_box", ObjectKind::Box, shape, texture, &[]);

@@ -14,13 +14,13 @@ use rayon::prelude::*;
 use splatseg_scene::{Camera, Plane, Pose};
 
 /// Ambient share of the lighting.
-const AMBIENT: f64 = 0.4;
+const AMBIENT: f64 = 0.5;
 /// Standard deviation of the simulated sensor noise, in 8-bit steps.
 const SENSOR_NOISE: f64 = 1.5;
 
 /// Unit direction towards the light (world).
 pub fn light_dir() -> DVec3 {
-    DVec3::new(0.45, 0.7, 1.0).normalize()
+    DVec3::new(0.6, 0.7, 1.0).normalize()
 }
 
 /// Shaded colour in [0, 1] of albedo `albedo` on a surface with normal `normal`.

@@ -2,8 +2,8 @@
 //!
 //! 1. every connected piece of one texture part (a stripe, a half of a two-tone object, a face
 //!    of a box) is its own mask; pieces under `min_area_px` get none (uncovered pixels);
-//! 2. large pieces (floor, walls) are cut by 1–2 random near-vertical lines, some object
-//!    pieces by one line at any angle;
+//! 2. large pieces (floor, walls) are cut by 1–3 random near-vertical lines, some object
+//!    pieces by one or two lines at any angle;
 //! 3. some masks get a small hole, some lose their outline pixels (more uncovered pixels);
 //! 4. some objects made of several masks also get one whole-object mask (overlapping);
 //! 5. where the white-on-white pair touches, sometimes one wrong mask covers both, either in
@@ -67,7 +67,7 @@ pub fn simulate_sam(input: &SamSimInput, config: &SamSimConfig) -> Vec<SamMask> 
     damage_masks(&mut drafts, w, h, config, &mut rng);
     add_whole_object_masks(&mut drafts, input.instance, config, &mut rng);
     add_wrong_merge(&mut drafts, input, config, &mut rng);
-    drafts.retain(|d| d.pixels.len() >= config.min_area_px);
+    drafts.retain(|d| d.pixels.len() >= config.min_area_px.max(1));
     drafts.shuffle(&mut rng);
     drafts.into_iter().map(|d| to_sam_mask(&d.pixels, w, h, &mut rng)).collect()
 }
@@ -86,7 +86,11 @@ fn cut_piece(
     let object_cut = id >= FIRST_OBJECT_ID
         && comp.len() >= config.object_cut_min_px
         && rng.gen_bool(config.object_cut_probability.clamp(0.0, 1.0));
-    let lines = if large { rng.gen_range(1..=2usize) } else { usize::from(object_cut) };
+    let second_cut = object_cut
+        && comp.len() >= 4 * config.object_cut_min_px
+        && rng.gen_bool(config.object_second_cut_probability.clamp(0.0, 1.0));
+    let lines =
+        if large { rng.gen_range(1..=3usize) } else { usize::from(object_cut) + usize::from(second_cut) };
     if lines == 0 {
         return vec![comp];
     }
