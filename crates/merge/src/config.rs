@@ -113,7 +113,7 @@ impl Default for MergeConfig {
             tau_contact: 0.01,
             dilation_steps: 2,
             max_merges: 1000,
-            boundary_statistic: BoundaryStatistic::Quantile(0.75),
+            boundary_statistic: BoundaryStatistic::Quantile(0.5),
             relative_depth_gate: Some(0.1),
             released: ReleasedCodeParams::default(),
         }

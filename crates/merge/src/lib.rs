@@ -12,6 +12,7 @@ pub mod error;
 mod graph;
 mod merge;
 pub mod score;
+pub mod study;
 
 pub use config::{BoundaryStatistic, MergeConfig, Profile, ReleasedCodeParams};
 pub use cues::{build_view_inputs, CueRequest};
