@@ -2,6 +2,7 @@
 use clap::Parser;
 
 mod commands;
+mod pipeline;
 
 fn main() -> std::process::ExitCode {
     commands::init_logging();

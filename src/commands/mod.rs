@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 pub mod cues;
+pub mod synth;
 
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
 ///
@@ -21,12 +22,15 @@ pub struct Cli {
 pub enum Command {
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
     Cues(cues::Args),
+    /// Write a synthetic multi-object scene with ground truth, simulated SAM masks and cues.
+    Synth(synth::Args),
 }
 
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Cues(args) => cues::run(args),
+        Command::Synth(args) => synth::run(args),
     }
 }
 

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 /// How to generate a synthetic scene. Every field has a default (`#[serde(default)]`), so a
 /// config file only needs the fields it changes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SynthConfig {
     /// Seed of every random choice (layout jitter, extra objects, SAM simulation, cue noise).
     pub seed: u64,
@@ -50,7 +50,7 @@ impl Default for SynthConfig {
 
 /// Knobs of the simulated Segment Anything output (see [`crate::sam_sim`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SamSimConfig {
     /// Connected pieces smaller than this many pixels get no mask (left uncovered).
     pub min_area_px: usize,
@@ -94,5 +94,21 @@ impl Default for SamSimConfig {
             wrong_merge_probability: 0.35,
             wrong_merge_replaces_probability: 0.5,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn partial_config_files_fill_in_defaults_and_typos_are_rejected() {
+        let c: SynthConfig =
+            serde_json::from_str(r#"{"seed": 9, "sam": {"hole_probability": 0.0}}"#).expect("parse");
+        assert_eq!(c.seed, 9);
+        assert_eq!(c.views, SynthConfig::default().views);
+        assert_eq!(c.sam.hole_probability, 0.0);
+        assert_eq!(c.sam.min_area_px, SamSimConfig::default().min_area_px);
+        assert!(serde_json::from_str::<SynthConfig>(r#"{"sed": 9}"#).is_err());
     }
 }

@@ -1,0 +1,118 @@
+//! Loading and checking what `run` reads: the scene, the SAM mask folder, the Gaussians and the
+//! optional ground truth. Every inconsistency is an error naming the file or folder.
+
+use anyhow::{bail, Context};
+use splatseg_scene::{Gaussians, Scene};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// Stems that have masks in `dir` (`<stem>.json` files or `<stem>/metadata.csv` folders).
+pub fn mask_stems(dir: &Path) -> anyhow::Result<BTreeSet<String>> {
+    let entries =
+        std::fs::read_dir(dir).with_context(|| format!("cannot list the mask folder {}", dir.display()))?;
+    let mut stems = BTreeSet::new();
+    for entry in entries {
+        let path = entry.with_context(|| format!("cannot list the mask folder {}", dir.display()))?.path();
+        let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        let is_json = path.is_file() && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+        let is_png_folder = path.is_dir() && path.join("metadata.csv").is_file();
+        if is_json || is_png_folder {
+            stems.insert(if is_png_folder {
+                path.file_name().unwrap_or_default().to_string_lossy().to_string()
+            } else {
+                name
+            });
+        }
+    }
+    Ok(stems)
+}
+
+/// Per scene view: whether it has masks. Masks for views the scene does not have are an error.
+pub fn views_with_masks(scene: &Scene, dir: &Path) -> anyhow::Result<Vec<bool>> {
+    let stems = mask_stems(dir)?;
+    let known: BTreeSet<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
+    let unknown: Vec<&str> = stems.iter().map(String::as_str).filter(|s| !known.contains(s)).collect();
+    if !unknown.is_empty() {
+        bail!(
+            "masks for {} view(s) the scene does not have: {} (the scene at {} has {} views, e.g. `{}`): {}",
+            unknown.len(),
+            unknown.iter().take(5).copied().collect::<Vec<_>>().join(", "),
+            scene.root.display(),
+            scene.views.len(),
+            scene.views.first().map_or("", |v| v.stem.as_str()),
+            dir.display()
+        );
+    }
+    let flags: Vec<bool> = scene.views.iter().map(|v| stems.contains(&v.stem)).collect();
+    if !flags.iter().any(|&f| f) {
+        bail!("no masks for any view of the scene (expected <stem>.json per image): {}", dir.display());
+    }
+    Ok(flags)
+}
+
+/// The Gaussians to use: `explicit`, or `SCENE/gaussians.ply` when present.
+pub fn gaussians_path(scene_dir: &Path, explicit: Option<&Path>) -> Option<PathBuf> {
+    match explicit {
+        Some(p) => Some(p.to_path_buf()),
+        None => Some(scene_dir.join("gaussians.ply")).filter(|p| p.is_file()),
+    }
+}
+
+/// Reads the PLY at `path`.
+pub fn read_gaussians(path: &Path) -> anyhow::Result<Gaussians> {
+    let g = splatseg_scene::ply::read_ply(path)?;
+    if g.is_empty() {
+        bail!("the PLY holds no Gaussians: {}", path.display());
+    }
+    Ok(g)
+}
+
+/// Where the ground truth is.
+#[derive(Clone, Debug)]
+pub struct GroundTruth {
+    /// Folder of `<stem>.png` instance label maps.
+    pub maps_dir: PathBuf,
+    /// `[N]` per-Gaussian instance ids, when `gaussian_ids.npy` exists.
+    pub gaussian_ids: Option<Vec<i64>>,
+}
+
+/// Reads the ground truth at `dir`: either a folder of label maps, or a synthetic scene's
+/// `gt/` (`instance/<stem>.png` + `gaussian_ids.npy`). Checks the per-Gaussian ids against the
+/// PLY (`n_gaussians`).
+pub fn ground_truth(
+    dir: &Path,
+    n_gaussians: Option<usize>,
+    ply: Option<&Path>,
+) -> anyhow::Result<GroundTruth> {
+    if !dir.is_dir() {
+        bail!("ground-truth folder not found: {}", dir.display());
+    }
+    let instance = dir.join("instance");
+    let maps_dir = if instance.is_dir() { instance } else { dir.to_path_buf() };
+    let ids_path = dir.join("gaussian_ids.npy");
+    let gaussian_ids = if ids_path.is_file() {
+        let ids = splatseg_eval::read_gaussian_ids_npy(&ids_path)?;
+        if let (Some(n), Some(ply)) = (n_gaussians, ply) {
+            if n < ids.len() {
+                bail!(
+                    "the PLY has fewer Gaussians ({n}) than the ground truth has per-Gaussian ids ({}, {}): {}",
+                    ids.len(),
+                    ids_path.display(),
+                    ply.display()
+                );
+            }
+            if n > ids.len() {
+                bail!(
+                    "the PLY has more Gaussians ({n}) than the ground truth has per-Gaussian ids ({}, {}): {}",
+                    ids.len(),
+                    ids_path.display(),
+                    ply.display()
+                );
+            }
+        }
+        Some(ids)
+    } else {
+        None
+    };
+    Ok(GroundTruth { maps_dir, gaussian_ids })
+}

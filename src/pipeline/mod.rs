@@ -1,0 +1,370 @@
+//! The end-to-end pipeline behind `splatseg run` (and `demo`): cues → merge → match → lift →
+//! (eval when ground truth is given), with per-stage caching in `OUT/cache/`.
+//!
+//! ```text
+//! OUT/masks/<stem>.png      final per-view label maps, 16-bit global ids, 0 = none
+//! OUT/overlays/<stem>.png   the label maps over the images
+//! OUT/gaussians.ply         the input PLY + `object_id` (+ fused `feat_*`), same Gaussian order
+//! OUT/report.md             stage summary, metrics table (raw → merged → matched → lifted)
+//! OUT/metrics.json          the same as data
+//! OUT/cache/                per-stage results keyed by inputs + config (a rerun resumes)
+//! ```
+
+mod cache;
+mod eval_stage;
+mod inputs;
+mod lift_stage;
+mod merge_stage;
+mod outputs;
+#[cfg(test)]
+mod tests;
+
+use anyhow::{bail, Context};
+use cache::{read_json, write_json, KeyHasher};
+use eval_stage::{evaluate, offset_local_maps, StageMaps};
+use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
+use merge_stage::{merge_one, MergeContext, MergedView, ViewDepth};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use splatseg_cues::{
+    ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
+    FeatureGrids, NpyDepthSource, RegionOptions,
+};
+use splatseg_eval::{EvalConfig, EvalReport};
+use splatseg_lift::{LiftConfig, LiftStats, PosedCamera, PreparedGaussians};
+use splatseg_match::{MatchConfig, MatchStats};
+use splatseg_merge::MergeConfig;
+use splatseg_scene::load::LoadOptions;
+use splatseg_scene::Plane;
+use std::path::{Path, PathBuf};
+
+/// Every stage's settings; the `--config` TOML file has one table per stage
+/// (`[regions]`, `[merge]`, `[matching]`, `[lift]`, `[eval]`), each optional.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// SAM masks → regions.
+    pub regions: RegionOptions,
+    /// Multi-Cue-Guided Mask Merging.
+    pub merge: MergeConfig,
+    /// Cross-view matching.
+    pub matching: MatchConfig,
+    /// Lifting onto the Gaussians.
+    pub lift: LiftConfig,
+    /// Metrics.
+    pub eval: EvalConfig,
+}
+
+impl PipelineConfig {
+    /// Reads a TOML config file.
+    pub fn from_file(path: &Path) -> anyhow::Result<Self> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        toml::from_str(&text).with_context(|| format!("invalid pipeline config: {}", path.display()))
+    }
+}
+
+/// What to run on.
+#[derive(Clone, Debug)]
+pub struct RunConfig {
+    /// Scene folder (COLMAP or transforms.json).
+    pub scene: PathBuf,
+    /// SAM masks folder (`<stem>.json` per image).
+    pub masks: PathBuf,
+    /// Dense feature maps (`<stem>.npy`, `[h, w, C]`); colour/texture descriptors when absent.
+    pub features: Option<PathBuf>,
+    /// Depth maps (`<stem>.npy`); rendered from the Gaussians when absent.
+    pub depth: Option<PathBuf>,
+    /// What the `depth` maps hold.
+    pub depth_kind: DepthKind,
+    /// 3DGS PLY; `SCENE/gaussians.ply` when absent and present.
+    pub gaussians: Option<PathBuf>,
+    /// Ground truth: a folder of `<stem>.png` instance maps, or a synthetic `gt/` folder.
+    pub gt: Option<PathBuf>,
+    /// Stage settings.
+    pub pipeline: PipelineConfig,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+/// What a run produced (also cached as `OUT/cache/run.json`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// Output folder.
+    pub out: PathBuf,
+    /// Views of the scene.
+    pub views: usize,
+    /// Views that had SAM masks.
+    pub views_with_masks: usize,
+    /// Gaussians, when a PLY was used.
+    pub gaussians: Option<usize>,
+    /// SAM regions over all views.
+    pub raw_masks: usize,
+    /// Merged regions over all views.
+    pub merged_masks: usize,
+    /// Global objects after matching.
+    pub matched_objects: usize,
+    /// Distinct ids in the final label maps.
+    pub final_objects: usize,
+    /// What matching decided.
+    pub match_stats: MatchStats,
+    /// What lifting decided (with Gaussians).
+    pub lift_stats: Option<LiftStats>,
+    /// Metrics per stage (with ground truth).
+    pub report: Option<EvalReport>,
+    /// Views whose merge came from the cache.
+    pub cached_views: usize,
+    /// The whole run came from the cache.
+    pub resumed: bool,
+}
+
+impl RunSummary {
+    /// The raw → merged → matched → lifted metrics table (Markdown), with ground truth.
+    pub fn table(&self) -> Option<String> {
+        self.report.as_ref().map(|r| {
+            let rows: Vec<(&str, &splatseg_eval::Metrics)> =
+                r.sets.iter().map(|s| (s.name.as_str(), &s.metrics)).collect();
+            splatseg_eval::summary_table(&rows)
+        })
+    }
+}
+
+/// A progress bar over `len` items (hidden when stderr is not a terminal).
+pub(crate) fn progress(len: usize, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len as u64);
+    if let Ok(style) = ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what.to_string());
+    bar
+}
+
+/// Output files a cached run must still find to be reused.
+fn outputs_present(out: &Path, stems: &[&str], with_ply: bool) -> bool {
+    let files = ["report.md", "metrics.json"];
+    files.iter().all(|f| out.join(f).is_file())
+        && (!with_ply || out.join("gaussians.ply").is_file())
+        && stems.iter().all(|s| out.join("masks").join(format!("{s}.png")).is_file())
+}
+
+#[derive(Serialize, Deserialize)]
+struct RunCache {
+    key: String,
+    summary: RunSummary,
+}
+
+/// Runs the whole pipeline (see the module docs for the outputs).
+pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
+    let load = LoadOptions::default();
+    let scene = splatseg_scene::load_scene(&config.scene, &load)?;
+    for w in &scene.warnings {
+        tracing::warn!("{w}");
+    }
+    let has_masks = inputs::views_with_masks(&scene, &config.masks)?;
+    let ply_path = inputs::gaussians_path(&config.scene, config.gaussians.as_deref());
+    let gaussians = match &ply_path {
+        Some(p) => {
+            tracing::info!("reading Gaussians from {}", p.display());
+            Some(inputs::read_gaussians(p)?)
+        }
+        None => None,
+    };
+    if gaussians.is_none() && config.depth.is_none() {
+        bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
+    }
+    let gt = match &config.gt {
+        Some(dir) => {
+            Some(inputs::ground_truth(dir, gaussians.as_ref().map(|g| g.len()), ply_path.as_deref())?)
+        }
+        None => None,
+    };
+    let cache_dir = config.out.join("cache");
+    let pc = &config.pipeline;
+
+    // Whole-run key: every input file and every setting.
+    let mut run_key = KeyHasher::default();
+    run_key.text("run-v1").json(pc).text(&format!("{:?}", config.depth_kind));
+    for (view, &masked) in scene.views.iter().zip(&has_masks) {
+        run_key.text(&view.stem).file(&view.image_path)?;
+        if masked {
+            run_key.folder_entry(&config.masks, &view.stem)?;
+        }
+        for dir in [&config.features, &config.depth].into_iter().flatten() {
+            run_key.folder_entry(dir, &view.stem)?;
+        }
+    }
+    if let Some(p) = &ply_path {
+        run_key.file(p)?;
+    }
+    if let Some(dir) = &config.gt {
+        run_key.file(&dir.join("gaussian_ids.npy"))?;
+        for view in &scene.views {
+            run_key.file(&dir.join("instance").join(format!("{}.png", view.stem)))?;
+            run_key.file(&dir.join(format!("{}.png", view.stem)))?;
+        }
+    }
+    let run_key = run_key.finish();
+    let stems: Vec<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
+    if let Some(hit) = read_json::<RunCache>(&cache_dir.join("run.json")) {
+        if hit.key == run_key && outputs_present(&config.out, &stems, ply_path.is_some()) {
+            tracing::info!("outputs are up to date with the inputs and settings: nothing to do");
+            return Ok(RunSummary { resumed: true, ..hit.summary });
+        }
+    }
+
+    // Depth and visibility from the Gaussians.
+    let prepared = gaussians.as_ref().map(PreparedGaussians::new).transpose()?;
+    let poses: Vec<_> = scene.views.iter().map(|v| v.world_from_cam).collect();
+    let cams: Vec<PosedCamera> = scene
+        .views
+        .iter()
+        .zip(&poses)
+        .map(|(v, p)| PosedCamera { camera: scene.camera(v), world_from_cam: p })
+        .collect();
+    let rendered = prepared.as_ref().map(|p| lift_stage::surface_depths(p, &cams, &pc.lift));
+    let ply_key = match &ply_path {
+        // Only what the rendered depth depends on, so lift-only changes keep the merge cache.
+        Some(p) => {
+            KeyHasher::default().file(p)?.json(&(pc.lift.surface_transmittance, pc.lift.near)).finish()
+        }
+        None => String::new(),
+    };
+
+    // Merge, per view in parallel.
+    let npy_depth =
+        config.depth.as_ref().map(|dir| NpyDepthSource { dir: dir.clone(), kind: config.depth_kind });
+    let dense = config
+        .features
+        .as_ref()
+        .map(|dir| DenseFeatureDescriptors { grids: FeatureGrids::Folder(dir.clone()) });
+    let descriptors: &dyn DescriptorSource = match &dense {
+        Some(d) => d,
+        None => &ColourTextureDescriptors,
+    };
+    let ctx = MergeContext {
+        scene: &scene,
+        load_options: &load,
+        masks_dir: &config.masks,
+        features_dir: config.features.as_deref(),
+        descriptors,
+        config: &pc.merge,
+        region_options: pc.regions,
+        cache_dir: cache_dir.join("merge"),
+    };
+    let bar = progress(scene.views.len(), "merge");
+    let merged: Vec<Option<MergedView>> = (0..scene.views.len())
+        .into_par_iter()
+        .progress_with(bar.clone())
+        .map(|v| -> anyhow::Result<Option<MergedView>> {
+            if !has_masks[v] {
+                return Ok(None);
+            }
+            let view = &scene.views[v];
+            let camera = scene.camera(view);
+            let metric = rendered.as_ref().map(|r| r[v].map(|&z| if z.is_finite() { z } else { 0.0 }));
+            let (depth, key) = match &npy_depth {
+                Some(src) => (
+                    src.depth(&view.stem, camera.width as usize, camera.height as usize)?,
+                    format!("npy:{:?}:{}", src.kind, ply_key),
+                ),
+                None => match &metric {
+                    Some(m) => (
+                        DepthMap { values: m.clone(), kind: DepthKind::MetricZ },
+                        format!("rendered:{ply_key}"),
+                    ),
+                    None => bail!("no depth for view `{}`", view.stem),
+                },
+            };
+            let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key };
+            merge_one(&ctx, view, &depth).map(Some)
+        })
+        .collect::<anyhow::Result<_>>()?;
+    bar.finish_and_clear();
+    let cached_views = merged.iter().flatten().filter(|m| m.cached).count();
+    let count_regions = |f: &dyn Fn(&MergedView) -> usize| merged.iter().flatten().map(f).sum::<usize>();
+    let raw_masks = count_regions(&|m| m.raw.data.iter().copied().max().unwrap_or(0) as usize);
+    let merged_masks = count_regions(&|m| m.regions.len());
+    tracing::info!("merged {raw_masks} regions into {merged_masks} ({cached_views} views from the cache)");
+
+    // Match, lift, render back.
+    let visibility = match (&prepared, &rendered) {
+        (Some(p), Some(d)) => Some(lift_stage::visibilities(p, &cams, d, &pc.lift)),
+        _ => None,
+    };
+    let matching = lift_stage::match_views(&merged, visibility.as_deref(), &pc.matching)?;
+    tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
+    let matched = lift_stage::matched_maps(&merged, &matching);
+    let (final_maps, lifted) = match (&prepared, &visibility) {
+        (Some(p), Some(vis)) => {
+            let out = lift_stage::lift_and_render(p, &cams, vis, &matched, &matching, &pc.lift)?;
+            (out.maps, Some(out.lifted))
+        }
+        _ => {
+            let maps = matched
+                .iter()
+                .zip(&scene.views)
+                .map(|(m, v)| {
+                    let c = scene.camera(v);
+                    m.clone().unwrap_or_else(|| Plane::filled(c.width as usize, c.height as usize, 0))
+                })
+                .collect();
+            (maps, None)
+        }
+    };
+
+    // Outputs.
+    outputs::write_maps(&config.out, &scene, &load, &final_maps)?;
+    if let (Some(mut g), Some(l), Some(p)) = (gaussians, &lifted, &ply_path) {
+        g.object_ids = Some(l.object_ids.clone());
+        if let Some(f) = &l.fused_features {
+            g.features = Some(f.clone());
+        }
+        let out_ply = config.out.join("gaussians.ply");
+        splatseg_scene::ply::write_ply(&out_ply, &g)
+            .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
+    }
+    let mut final_ids: Vec<u32> =
+        final_maps.iter().flat_map(|m| m.data.iter().copied()).filter(|&x| x > 0).collect();
+    final_ids.sort_unstable();
+    final_ids.dedup();
+    let report = match &gt {
+        Some(gt) => {
+            let raw: Vec<Option<Plane<u32>>> =
+                merged.iter().map(|m| m.as_ref().map(|m| m.raw.clone())).collect();
+            let merged_maps: Vec<Option<Plane<u32>>> =
+                merged.iter().map(|m| m.as_ref().map(|m| m.merged.clone())).collect();
+            let (raw, merged_maps) = (offset_local_maps(&raw), offset_local_maps(&merged_maps));
+            let final_opt: Vec<Option<Plane<u32>>> = final_maps.iter().cloned().map(Some).collect();
+            let mut stages = vec![
+                StageMaps { name: "raw", maps: &raw },
+                StageMaps { name: "merged", maps: &merged_maps },
+                StageMaps { name: "matched", maps: &matched },
+            ];
+            if lifted.is_some() {
+                stages.push(StageMaps { name: "lifted", maps: &final_opt });
+            }
+            let ids = lifted.as_ref().map(|l| l.object_ids.as_slice());
+            Some(evaluate(&scene, gt, &stages, ids, &pc.eval)?)
+        }
+        None => None,
+    };
+    let summary = RunSummary {
+        out: config.out.clone(),
+        views: scene.views.len(),
+        views_with_masks: has_masks.iter().filter(|&&m| m).count(),
+        gaussians: prepared.as_ref().map(|p| p.len()),
+        raw_masks,
+        merged_masks,
+        matched_objects: matching.n_objects,
+        final_objects: final_ids.len(),
+        match_stats: matching.stats.clone(),
+        lift_stats: lifted.as_ref().map(|l| l.stats.clone()),
+        report,
+        cached_views,
+        resumed: false,
+    };
+    write_json(&config.out.join("metrics.json"), &summary)?;
+    outputs::write_report(&config.out, &scene, &summary)?;
+    write_json(&cache_dir.join("run.json"), &RunCache { key: run_key, summary: summary.clone() })?;
+    Ok(summary)
+}

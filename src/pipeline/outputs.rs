@@ -1,0 +1,67 @@
+//! What `run` writes: `masks/`, `overlays/`, `gaussians.ply`, `report.md`, `metrics.json`.
+
+use super::RunSummary;
+use anyhow::Context;
+use rayon::prelude::*;
+use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
+use splatseg_scene::load::LoadOptions;
+use splatseg_scene::{Plane, Scene};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` per view.
+pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u32>]) -> anyhow::Result<()> {
+    scene.views.par_iter().zip(maps).try_for_each(|(view, map)| -> anyhow::Result<()> {
+        write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
+        let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
+        let path = out.join("overlays").join(format!("{}.png", view.stem));
+        write_png_rgb(&path, &overlay(&image, map, 0.5))?;
+        Ok(())
+    })
+}
+
+/// Writes `report.md`.
+pub fn write_report(out: &Path, scene: &Scene, summary: &RunSummary) -> anyhow::Result<()> {
+    let mut md = String::from("# splatseg run\n\n");
+    let _ = writeln!(md, "Scene: `{}` ({} views).\n", scene.root.display(), scene.views.len());
+    let _ = writeln!(md, "| stage | result |\n| --- | --- |");
+    let _ = writeln!(
+        md,
+        "| raw SAM regions | {} over {} views with masks ({:.1} per view) |",
+        summary.raw_masks,
+        summary.views_with_masks,
+        summary.raw_masks as f64 / summary.views_with_masks.max(1) as f64
+    );
+    let _ = writeln!(
+        md,
+        "| merged (MCM) | {} ({:.1} per view) |",
+        summary.merged_masks,
+        summary.merged_masks as f64 / summary.views_with_masks.max(1) as f64
+    );
+    let _ = writeln!(
+        md,
+        "| matched | {} global objects ({} joins, {} 3D edges, {} cannot-links) |",
+        summary.matched_objects,
+        summary.match_stats.joins,
+        summary.match_stats.edges_3d,
+        summary.match_stats.cannot_links
+    );
+    if let Some(stats) = &summary.lift_stats {
+        let _ = writeln!(
+            md,
+            "| lifted | {} objects in the label maps; Gaussians: {} labelled, {} unreliable (σ² > τ_var), {} in no object, {} unseen |",
+            summary.final_objects, stats.labelled, stats.unreliable, stats.no_object, stats.unseen
+        );
+    }
+    if let Some(report) = &summary.report {
+        md.push_str("\n## Metrics\n\n");
+        md.push_str(&report.to_markdown());
+    }
+    md.push_str("\n## Views\n\n");
+    for view in &scene.views {
+        let _ = writeln!(md, "- `{0}`: [overlay](overlays/{0}.png), [label map](masks/{0}.png)", view.stem);
+    }
+    splatseg_scene::atomic::write_bytes_atomic(&out.join("report.md"), md.as_bytes())
+        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+    Ok(())
+}

@@ -1,0 +1,157 @@
+//! End-to-end tests of the pipeline on synthetic scenes (quality floors) and its bad-input
+//! errors.
+
+use super::{run_pipeline, PipelineConfig, RunConfig, RunSummary};
+use splatseg_cues::DepthKind;
+use splatseg_synth::SynthConfig;
+use std::path::Path;
+
+/// Writes the synthetic scene of `config` into `dir`.
+fn synth(dir: &Path, config: &SynthConfig) {
+    let scene = splatseg_synth::generate(config).expect("synthetic scene");
+    splatseg_synth::write(dir, &scene).expect("write synthetic scene");
+}
+
+fn run_config(scene: &Path, out: &Path) -> RunConfig {
+    RunConfig {
+        scene: scene.to_path_buf(),
+        masks: scene.join("sam"),
+        features: Some(scene.join("features")),
+        depth: None,
+        depth_kind: DepthKind::InverseRelative,
+        gaussians: None,
+        gt: Some(scene.join("gt")),
+        pipeline: PipelineConfig::default(),
+        out: out.to_path_buf(),
+    }
+}
+
+fn metrics<'a>(summary: &'a RunSummary, stage: &str) -> &'a splatseg_eval::Metrics {
+    let report = summary.report.as_ref().expect("ground truth was given");
+    &report.sets.iter().find(|s| s.name == stage).expect("stage scored").metrics
+}
+
+#[test]
+fn synthetic_scenes_meet_the_quality_floors() {
+    for seed in [0, 1] {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let scene = tmp.path().join("scene");
+        synth(&scene, &SynthConfig { seed, ..SynthConfig::default() });
+        let summary = run_pipeline(&run_config(&scene, &tmp.path().join("out"))).expect("pipeline runs");
+        let table = summary.table().unwrap_or_default();
+        println!("seed {seed}\n{table}");
+        let (raw, lifted) = (metrics(&summary, "raw"), metrics(&summary, "lifted"));
+        let acc = lifted.label_accuracy_3d.as_ref().expect("per-Gaussian ground truth").accuracy;
+        assert!(lifted.miou >= 0.85, "seed {seed}: mIoU {:.3}\n{table}", lifted.miou);
+        assert!(lifted.consistency >= 0.95, "seed {seed}: consistency {:.3}\n{table}", lifted.consistency);
+        assert!(
+            lifted.pred_masks as f64 <= 1.5 * lifted.gt_instances as f64,
+            "seed {seed}: {} masks for {} instances\n{table}",
+            lifted.pred_masks,
+            lifted.gt_instances
+        );
+        assert!(acc >= 0.9, "seed {seed}: 3D label accuracy {acc:.3}\n{table}");
+        assert!(lifted.miou > raw.miou + 0.1, "seed {seed}: no clear gain over raw masks\n{table}");
+        assert!(lifted.consistency > raw.consistency + 0.1, "seed {seed}\n{table}");
+        assert!(lifted.pred_masks * 3 < raw.pred_masks, "seed {seed}\n{table}");
+    }
+}
+
+/// A small scene for the error tests.
+fn small_scene(dir: &Path) {
+    synth(dir, &SynthConfig { seed: 3, views: 3, width: 96, height: 72, ..SynthConfig::default() });
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for entry in std::fs::read_dir(from).expect("list") {
+        let path = entry.expect("entry").path();
+        if path.is_file() {
+            std::fs::copy(&path, to.join(path.file_name().expect("name"))).expect("copy");
+        }
+    }
+}
+
+#[test]
+fn rerun_resumes_from_the_cache() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    small_scene(&scene);
+    let config = run_config(&scene, &tmp.path().join("out"));
+    let first = run_pipeline(&config).expect("first run");
+    assert!(!first.resumed && first.cached_views == 0);
+    let second = run_pipeline(&config).expect("second run");
+    assert!(second.resumed, "identical inputs: nothing recomputed");
+    // A changed lift setting recomputes the run but reuses every view's merge.
+    let mut changed = config.clone();
+    changed.pipeline.lift.tau_var = 0.1;
+    let third = run_pipeline(&changed).expect("third run");
+    assert!(!third.resumed);
+    assert_eq!(third.cached_views, third.views_with_masks);
+    assert_eq!(
+        std::fs::read(tmp.path().join("out/masks/view_000.png")).ok().map(|b| b.len() > 0),
+        Some(true)
+    );
+}
+
+#[test]
+fn masks_for_unknown_views_are_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    small_scene(&scene);
+    let masks = tmp.path().join("masks");
+    copy_dir(&scene.join("sam"), &masks);
+    std::fs::copy(masks.join("view_000.json"), masks.join("holiday_042.json")).expect("copy");
+    let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
+    let err = format!("{:#}", run_pipeline(&config).expect_err("unknown view"));
+    assert!(err.contains("holiday_042") && err.contains("does not have"), "{err}");
+}
+
+#[test]
+fn masks_of_the_wrong_size_are_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    small_scene(&scene);
+    let masks = tmp.path().join("masks");
+    copy_dir(&scene.join("sam"), &masks);
+    let mask = splatseg_scene::rle::Rle::encode(&splatseg_scene::Plane::filled(50, 40, true));
+    splatseg_scene::sam::write_sam_json(
+        &masks.join("view_001.json"),
+        &[splatseg_scene::sam::SamMask::from_rle(mask)],
+    )
+    .expect("write");
+    let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
+    let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
+    assert!(err.contains("50×40") && err.contains("view_001.json"), "{err}");
+}
+
+#[test]
+fn ground_truth_of_the_wrong_size_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    small_scene(&scene);
+    let gt = tmp.path().join("gt");
+    copy_dir(&scene.join("gt/instance"), &gt);
+    splatseg_scene::labels::write_label_png(
+        &gt.join("view_002.png"),
+        &splatseg_scene::Plane::filled(10, 10, 1),
+    )
+    .expect("write");
+    let config = RunConfig { gt: Some(gt), ..run_config(&scene, &tmp.path().join("out")) };
+    let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
+    assert!(err.contains("view_002"), "{err}");
+}
+
+#[test]
+fn a_ply_with_too_few_gaussians_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    small_scene(&scene);
+    let g = splatseg_scene::ply::read_ply(&scene.join("gaussians.ply")).expect("read");
+    let half: Vec<usize> = (0..g.len() / 2).collect();
+    let ply = tmp.path().join("half.ply");
+    splatseg_scene::ply::write_ply(&ply, &g.select(&half)).expect("write");
+    let config = RunConfig { gaussians: Some(ply), ..run_config(&scene, &tmp.path().join("out")) };
+    let err = format!("{:#}", run_pipeline(&config).expect_err("too few Gaussians"));
+    assert!(err.contains("fewer Gaussians") && err.contains("half.ply"), "{err}");
+}
