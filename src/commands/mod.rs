@@ -3,6 +3,11 @@
 use clap::{Parser, Subcommand};
 
 pub mod cues;
+pub mod eval;
+pub mod extract;
+pub mod objects;
+pub mod recolor;
+pub mod remove;
 pub mod synth;
 
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
@@ -22,6 +27,16 @@ pub struct Cli {
 pub enum Command {
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
     Cues(cues::Args),
+    /// Score predicted label maps against ground truth (mIoU, boundary mIoU, #masks, consistency).
+    Eval(eval::Args),
+    /// Write the Gaussians of chosen objects of a labelled PLY to a new PLY.
+    Extract(extract::Args),
+    /// List the objects of a labelled PLY (id, Gaussians, bounding box, colour, views).
+    Objects(objects::Args),
+    /// Paint each object of a labelled PLY in its palette colour.
+    Recolor(recolor::Args),
+    /// Write a labelled PLY without chosen objects.
+    Remove(remove::Args),
     /// Write a synthetic multi-object scene with ground truth, simulated SAM masks and cues.
     Synth(synth::Args),
 }
@@ -30,6 +45,11 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Cues(args) => cues::run(args),
+        Command::Eval(args) => eval::run(args),
+        Command::Extract(args) => extract::run(args),
+        Command::Objects(args) => objects::run(args),
+        Command::Recolor(args) => recolor::run(args),
+        Command::Remove(args) => remove::run(args),
         Command::Synth(args) => synth::run(args),
     }
 }

@@ -1,0 +1,143 @@
+//! `splatseg eval`: score predicted label maps (and optionally per-Gaussian ids) against ground
+//! truth with the paper's metrics and splatseg's cross-view ones.
+
+use anyhow::Context;
+use clap::Args as ClapArgs;
+use splatseg_eval::{
+    evaluate_prediction_sets, label_accuracy_3d_files, EvalConfig, EvalReport, IdScope, NamedMetrics,
+    PredictionSet, UnlabelledGt,
+};
+use splatseg_scene::atomic::write_bytes_atomic;
+use std::path::{Path, PathBuf};
+
+/// Score predicted label maps against ground truth.
+///
+/// Both folders hold `<stem>.png` label maps (8- or 16-bit, value = object id, 0 = unlabelled),
+/// matched by stem; other files are ignored. Metrics: mIoU with Hungarian matching over the IoU
+/// matrix accumulated across all views (mean over ground-truth instances, unmatched = 0),
+/// boundary mIoU in the band (M ⊕ 5) \ (M ⊖ 5) of a 5 px disk, #masks (distinct predicted ids)
+/// against the ground-truth instance count, per-view mIoU, cross-view consistency (share of each
+/// instance's pixels carrying its most common non-zero predicted id) and, with
+/// --gt-gaussian-ids and --pred-ply, 3D label accuracy. A ground-truth view without a
+/// prediction is scored as all-unlabelled (with a warning); a prediction for a view the ground
+/// truth lacks is an error.
+///
+/// Example: `splatseg eval --gt scene/gt/instance --pred raw=out/raw --view-local raw
+/// --pred lifted=out/masks`.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// Folder of ground-truth label maps (`<stem>.png`).
+    #[arg(long)]
+    pub gt: PathBuf,
+    /// Folder of predicted label maps, as `DIR` or `NAME=DIR`. Repeat to compare several sets in
+    /// one table (e.g. `--pred raw=A --pred merged=B --pred lifted=C`).
+    #[arg(long, required = true, value_name = "[NAME=]DIR")]
+    pub pred: Vec<String>,
+    /// Name of a --pred set whose ids are numbered per view (raw SAM masks, merged-only
+    /// regions): each (view, id) is then its own mask. Repeat for several sets.
+    #[arg(long, value_name = "NAME")]
+    pub view_local: Vec<String>,
+    /// Ground-truth object id per Gaussian (`.npy`, shape [N], integers, ≤ 0 = no object), for
+    /// the 3D label accuracy.
+    #[arg(long, requires = "pred_ply", value_name = "NPY")]
+    pub gt_gaussian_ids: Option<PathBuf>,
+    /// Labelled PLY (with `object_id`, same Gaussian order) scored against --gt-gaussian-ids, as
+    /// `PLY` (attached to the last --pred set) or `NAME=PLY` (attached to that set).
+    #[arg(long, requires = "gt_gaussian_ids", value_name = "[NAME=]PLY")]
+    pub pred_ply: Option<String>,
+    /// Also write all metrics as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Also write the Markdown tables to this file.
+    #[arg(long, value_name = "FILE")]
+    pub markdown: Option<PathBuf>,
+    /// Radius of the boundary band's disk, in pixels.
+    #[arg(long, default_value_t = 5, value_name = "PX")]
+    pub band_radius: u32,
+    /// Treat ground-truth 0 as "don't care" (left out of every union) instead of background.
+    #[arg(long)]
+    pub ignore_unlabelled: bool,
+}
+
+/// Splits `NAME=VALUE`; a bare value is named by `default_name`.
+fn split_named(text: &str, default_name: impl FnOnce(&Path) -> String) -> (String, PathBuf) {
+    match text.split_once('=') {
+        Some((name, value)) if !name.is_empty() && !value.is_empty() => {
+            (name.to_string(), PathBuf::from(value))
+        }
+        _ => {
+            let path = PathBuf::from(text);
+            (default_name(&path), path)
+        }
+    }
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let cfg = EvalConfig {
+        band_radius_px: args.band_radius,
+        unlabelled_gt: if args.ignore_unlabelled { UnlabelledGt::Ignore } else { UnlabelledGt::Background },
+        pred_id_scope: IdScope::Global,
+    };
+    let sets: Vec<(String, PathBuf)> = args
+        .pred
+        .iter()
+        .map(|p| {
+            split_named(p, |path| {
+                path.file_name()
+                    .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+            })
+        })
+        .collect();
+    if let Some(name) = args.view_local.iter().find(|n| !sets.iter().any(|(s, _)| s == *n)) {
+        anyhow::bail!("--view-local names set `{name}` but no --pred set has that name");
+    }
+    let pred_sets: Vec<PredictionSet> = sets
+        .iter()
+        .map(|(name, dir)| PredictionSet {
+            dir,
+            id_scope: if args.view_local.contains(name) { IdScope::PerView } else { IdScope::Global },
+        })
+        .collect();
+    let metrics = evaluate_prediction_sets(&args.gt, &pred_sets, &cfg)
+        .with_context(|| format!("cannot score predictions against {}", args.gt.display()))?;
+    let mut report = EvalReport {
+        sets: sets
+            .iter()
+            .zip(metrics)
+            .map(|((name, _), metrics)| NamedMetrics { name: name.clone(), metrics })
+            .collect(),
+    };
+
+    if let (Some(gt_ids), Some(pred_ply)) = (&args.gt_gaussian_ids, &args.pred_ply) {
+        let last = report.sets.len() - 1;
+        let (name, ply) = split_named(pred_ply, |_| report.sets[last].name.clone());
+        let set = report
+            .sets
+            .iter_mut()
+            .find(|s| s.name == name)
+            .with_context(|| format!("--pred-ply names set `{name}` but no --pred set has that name"))?;
+        set.metrics.label_accuracy_3d = Some(label_accuracy_3d_files(gt_ids, &ply)?);
+    }
+
+    let markdown = report.to_markdown();
+    for set in &report.sets {
+        for w in &set.metrics.warnings {
+            tracing::warn!("{}: {w}", set.name);
+        }
+    }
+    if let Some(path) = &args.json {
+        let json = serde_json::to_string_pretty(&report).context("cannot serialise the metrics")?;
+        write_bytes_atomic(path, json.as_bytes())?;
+    }
+    if let Some(path) = &args.markdown {
+        write_bytes_atomic(path, markdown.as_bytes())?;
+    }
+    print!(
+        "{}",
+        splatseg_eval::summary_table(
+            &report.sets.iter().map(|s| (s.name.as_str(), &s.metrics)).collect::<Vec<_>>(),
+        )
+    );
+    Ok(())
+}
