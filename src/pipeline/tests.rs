@@ -89,7 +89,7 @@ fn rerun_resumes_from_the_cache() {
     assert!(!third.resumed);
     assert_eq!(third.cached_views, third.views_with_masks);
     assert_eq!(
-        std::fs::read(tmp.path().join("out/masks/view_000.png")).ok().map(|b| b.len() > 0),
+        std::fs::read(tmp.path().join("out/masks/view_000.png")).ok().map(|b| !b.is_empty()),
         Some(true)
     );
 }
