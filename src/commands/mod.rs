@@ -8,6 +8,7 @@ pub mod extract;
 pub mod objects;
 pub mod recolor;
 pub mod remove;
+pub mod render;
 pub mod synth;
 
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
@@ -37,6 +38,8 @@ pub enum Command {
     Recolor(recolor::Args),
     /// Write a labelled PLY without chosen objects.
     Remove(remove::Args),
+    /// Render every view of a scene from a 3DGS PLY (rgb, depth, ids, alpha) on the CPU.
+    Render(render::Args),
     /// Write a synthetic multi-object scene with ground truth, simulated SAM masks and cues.
     Synth(synth::Args),
 }
@@ -50,6 +53,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Objects(args) => objects::run(args),
         Command::Recolor(args) => recolor::run(args),
         Command::Remove(args) => remove::run(args),
+        Command::Render(args) => render::run(args),
         Command::Synth(args) => synth::run(args),
     }
 }
