@@ -2,10 +2,10 @@
 //! threads. The large cases (1M Gaussians, 1080p) run only with `SPLATSEG_BENCH_LARGE=1`.
 //! Results with dates: `crates/render/BENCHMARKS.md`.
 
-mod scene_gen;
+mod common;
 
+use common::{bench_camera, bench_gaussians};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use scene_gen::{bench_camera, bench_gaussians};
 use splatseg_render::{render, render_bwd, render_with_state, OutputGrads, RenderRequest};
 
 fn cases() -> Vec<(usize, u32, u32)> {

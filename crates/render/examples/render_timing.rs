@@ -1,13 +1,14 @@
 //! Times forward and forward+backward renders of a synthetic scene and reports blends and peak
 //! memory (what `BENCHMARKS.md` records; criterion benches in `benches/` do the routine runs).
 //!
-//! `cargo run --release -p splatseg-render --example render_timing -- N WIDTH HEIGHT [THREADS] [--dump DIR]`
+//! `cargo run --release -p splatseg-render --example render_timing -- N WIDTH HEIGHT [THREADS] [--gsplat] [--dump DIR]`
+//! `--gsplat` uses gsplat 1.5's rules (as `tools/bench_gsplat_torch.py`) instead of 3DGS's.
 //! `--dump DIR` writes the scene as `.npy` files for `tools/bench_gsplat_torch.py`.
 
-#[path = "../benches/scene_gen.rs"]
-mod scene_gen;
+#[path = "../benches/common/mod.rs"]
+mod common;
 
-use scene_gen::{bench_camera, bench_gaussians};
+use common::{bench_camera, bench_gaussians};
 use splatseg_render::{render_bwd, render_with_state, OutputGrads, RenderRequest};
 use splatseg_scene::npy::write_npy_f32;
 use std::time::Instant;
@@ -45,7 +46,12 @@ fn main() {
         write_npy_f32(&dir.join("K.npy"), &[3, 3], &k).expect("dump");
         write_npy_f32(&dir.join("size.npy"), &[2], &[w as f32, h as f32]).expect("dump");
     }
-    let req = RenderRequest { rgb: true, depth: true, alpha: true, ..RenderRequest::default() };
+    let settings = if args.iter().any(|a| a == "--gsplat") {
+        splatseg_render::RasterSettings::gsplat_1_5()
+    } else {
+        splatseg_render::RasterSettings::default()
+    };
+    let req = RenderRequest { rgb: true, depth: true, alpha: true, settings, ..RenderRequest::default() };
     let t0 = Instant::now();
     let splats = splatseg_render::project::project(&g, &camera, &req.settings);
     let t1 = Instant::now();

@@ -1,9 +1,10 @@
 //! Tile binning: which splats touch which 16×16 tile, each tile's list sorted front to back.
 //!
-//! Work mapping: tile rectangles and counts per splat in parallel (one splat per work item);
-//! the counting sort into tiles is sequential over splats in index order (so every tile's list
-//! starts in index order); then each tile's list is sorted by depth in parallel (one tile per
-//! work item, stable sort: ties keep index order). The result is independent of the thread count.
+//! Work mapping: tile rectangles per splat in parallel (one splat per work item); the visible
+//! splats are sorted once by (depth, index) with rayon's parallel sort; a sequential counting
+//! sort then drops them into their tiles in that order, so every tile's list comes out front to
+//! back (ties in index order) without per-tile sorting. The result is independent of the thread
+//! count.
 //!
 //! A splat covers tiles `floor((mean − r) / 16) .. ceil((mean + r) / 16)` (half-open, clamped to
 //! the image), per axis, as gsplat's `isect_tiles`.
@@ -75,32 +76,23 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     for t in 0..n_tiles {
         offsets[t + 1] = offsets[t] + counts[t];
     }
+    let mut order: Vec<u32> = (0..splats.len() as u32).filter(|&i| !splats[i as usize].is_culled()).collect();
+    order.par_sort_unstable_by(|&a, &b| {
+        splats[a as usize].depth.total_cmp(&splats[b as usize].depth).then(a.cmp(&b))
+    });
     let mut cursor = offsets.clone();
     let mut ids = vec![0u32; offsets[n_tiles]];
-    for (i, r) in rects.iter().enumerate() {
+    for &i in &order {
+        let r = &rects[i as usize];
         for ty in r[2]..r[3] {
             for tx in r[0]..r[1] {
                 let t = ty * tiles_x + tx;
-                ids[cursor[t]] = i as u32;
+                ids[cursor[t]] = i;
                 cursor[t] += 1;
             }
         }
     }
-    sort_tiles_by_depth(&mut ids, &offsets, splats);
     TileBins { tiles_x, tiles_y, offsets, ids }
-}
-
-fn sort_tiles_by_depth(ids: &mut [u32], offsets: &[usize], splats: &[Splat2d]) {
-    let mut lists: Vec<&mut [u32]> = Vec::with_capacity(offsets.len());
-    let mut rest = ids;
-    for w in offsets.windows(2) {
-        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
-        lists.push(head);
-        rest = tail;
-    }
-    lists.par_iter_mut().for_each(|list| {
-        list.sort_by(|&a, &b| splats[a as usize].depth.total_cmp(&splats[b as usize].depth));
-    });
 }
 
 #[cfg(test)]
