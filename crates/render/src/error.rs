@@ -17,6 +17,17 @@ pub enum RenderError {
         /// The length it should have.
         expected: usize,
     },
+    /// A parameter is NaN or infinite.
+    #[error("{what} of Gaussian {index} is not finite")]
+    NonFinite {
+        /// Which parameter, e.g. "mean".
+        what: &'static str,
+        /// The Gaussian's index.
+        index: usize,
+    },
+    /// Spherical harmonics above degree 3.
+    #[error("spherical harmonics of degree {0} are not supported (at most 3)")]
+    ShDegree(u8),
     /// A camera that cannot be rendered (zero size, non-finite or non-positive focal length, ...).
     #[error("invalid camera: {0}")]
     Camera(String),

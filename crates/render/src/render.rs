@@ -87,6 +87,28 @@ fn validate(g: &Gaussians, request: &RenderRequest) -> RenderResult<()> {
             return Err(RenderError::Shape { what: "feature dimension", got: 0, expected: 1 });
         }
         check_len("features", f.values.len(), n * f.dim)?;
+        check_finite("feature", f.values.chunks_exact(f.dim))?;
+    }
+    if g.sh_degree > 3 {
+        return Err(RenderError::ShDegree(g.sh_degree));
+    }
+    check_finite("mean", g.means.iter().map(|v| v.as_slice()))?;
+    check_finite("log-scale", g.log_scales.iter().map(|v| v.as_slice()))?;
+    check_finite("rotation", g.rotations.iter().map(|v| v.as_slice()))?;
+    check_finite("raw opacity", g.raw_opacities.chunks_exact(1))?;
+    if request.rgb {
+        check_finite("SH coefficient", g.sh_dc.iter().map(|v| v.as_slice()))?;
+        check_finite("SH coefficient", g.sh_rest.chunks(3 * g.rest_per_channel().max(1)))?;
+    }
+    Ok(())
+}
+
+/// Fails on the first row (one per Gaussian) holding a NaN or infinity.
+fn check_finite<'a>(what: &'static str, rows: impl Iterator<Item = &'a [f32]>) -> RenderResult<()> {
+    for (index, row) in rows.enumerate() {
+        if !row.iter().all(|v| v.is_finite()) {
+            return Err(RenderError::NonFinite { what, index });
+        }
     }
     Ok(())
 }
