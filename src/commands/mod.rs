@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 pub mod cues;
 pub mod eval;
 pub mod extract;
+pub mod merge;
 pub mod objects;
 pub mod recolor;
 pub mod remove;
@@ -32,6 +33,8 @@ pub enum Command {
     Eval(eval::Args),
     /// Write the Gaussians of chosen objects of a labelled PLY to a new PLY.
     Extract(extract::Args),
+    /// Merge each view's over-segmented SAM masks with semantic, depth and edge cues (paper §4.2).
+    Merge(merge::Args),
     /// List the objects of a labelled PLY (id, Gaussians, bounding box, colour, views).
     Objects(objects::Args),
     /// Paint each object of a labelled PLY in its palette colour.
@@ -50,6 +53,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cues(args) => cues::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Extract(args) => extract::run(args),
+        Command::Merge(args) => merge::run(args),
         Command::Objects(args) => objects::run(args),
         Command::Recolor(args) => recolor::run(args),
         Command::Remove(args) => remove::run(args),

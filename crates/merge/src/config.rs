@@ -1,7 +1,9 @@
 //! [`MergeConfig`]: every number of the merge stage, read from TOML; defaults are the paper's.
 //!
-//! A TOML file may name a `profile` (`paper`, `literal`, `released-code`); the profile's preset is
-//! the starting point and any other key in the file overrides it:
+//! A TOML (or JSON) table may name a `profile` (`paper`, `literal`, `released-code`); the
+//! profile's preset is the starting point and any other key overrides it. This holds for every
+//! way a `MergeConfig` is deserialised (e.g. as the `[merge]` table of a pipeline config), not
+//! only for [`MergeConfig::from_toml_str`]:
 //!
 //! ```toml
 //! profile = "paper"
@@ -61,7 +63,7 @@ impl Default for ReleasedCodeParams {
 /// "Hyperparameters"); the three values the paper leaves out (`tau_gap_px`, `tau_contact`,
 /// `dilation_steps`) are the released code's.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(from = "MergeConfigTable")]
 pub struct MergeConfig {
     /// Score variant.
     pub profile: Profile,
@@ -96,6 +98,75 @@ pub struct MergeConfig {
     pub relative_depth_gate: Option<f32>,
     /// Released-code profile rules.
     pub released: ReleasedCodeParams,
+}
+
+/// A [`MergeConfig`] as written in a file: every key optional; missing keys come from the
+/// named profile's preset.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MergeConfigTable {
+    #[serde(default)]
+    profile: Option<Profile>,
+    #[serde(default)]
+    tau_merge: Option<f32>,
+    #[serde(default)]
+    tau_depth: Option<f32>,
+    #[serde(default)]
+    w_sem: Option<f32>,
+    #[serde(default)]
+    w_depth: Option<f32>,
+    #[serde(default)]
+    w_dbound: Option<f32>,
+    #[serde(default)]
+    w_edge: Option<f32>,
+    #[serde(default)]
+    sigma_d_sq: Option<f32>,
+    #[serde(default)]
+    tau_gap_px: Option<u32>,
+    #[serde(default)]
+    tau_contact: Option<f32>,
+    #[serde(default)]
+    dilation_steps: Option<u32>,
+    #[serde(default)]
+    max_merges: Option<usize>,
+    #[serde(default)]
+    boundary_statistic: Option<BoundaryStatistic>,
+    #[serde(default, with = "double_option")]
+    relative_depth_gate: Option<Option<f32>>,
+    #[serde(default)]
+    released: Option<ReleasedCodeParams>,
+}
+
+/// Distinguishes a missing key (`None`) from an explicit value.
+mod double_option {
+    use serde::{Deserialize, Deserializer};
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Option<f32>>, D::Error> {
+        Option::<f32>::deserialize(d).map(Some)
+    }
+}
+
+impl From<MergeConfigTable> for MergeConfig {
+    fn from(t: MergeConfigTable) -> Self {
+        let p = MergeConfig::for_profile(t.profile.unwrap_or_default());
+        MergeConfig {
+            tau_merge: t.tau_merge.unwrap_or(p.tau_merge),
+            tau_depth: t.tau_depth.unwrap_or(p.tau_depth),
+            w_sem: t.w_sem.unwrap_or(p.w_sem),
+            w_depth: t.w_depth.unwrap_or(p.w_depth),
+            w_dbound: t.w_dbound.unwrap_or(p.w_dbound),
+            w_edge: t.w_edge.unwrap_or(p.w_edge),
+            sigma_d_sq: t.sigma_d_sq.unwrap_or(p.sigma_d_sq),
+            tau_gap_px: t.tau_gap_px.unwrap_or(p.tau_gap_px),
+            tau_contact: t.tau_contact.unwrap_or(p.tau_contact),
+            dilation_steps: t.dilation_steps.unwrap_or(p.dilation_steps),
+            max_merges: t.max_merges.unwrap_or(p.max_merges),
+            boundary_statistic: t.boundary_statistic.unwrap_or(p.boundary_statistic),
+            relative_depth_gate: t.relative_depth_gate.unwrap_or(p.relative_depth_gate),
+            released: t.released.unwrap_or(p.released),
+            profile: p.profile,
+        }
+    }
 }
 
 impl Default for MergeConfig {
@@ -140,24 +211,7 @@ impl MergeConfig {
     /// Reads a TOML config: the named `profile`'s preset (default `paper`), overridden by the
     /// file's other keys.
     pub fn from_toml_str(text: &str) -> Result<Self, MergeError> {
-        let table: toml::Table =
-            text.parse().map_err(|e: toml::de::Error| MergeError::Config(e.to_string()))?;
-        let profile = match table.get("profile") {
-            None => Profile::Paper,
-            Some(v) => v
-                .clone()
-                .try_into()
-                .map_err(|e: toml::de::Error| MergeError::Config(format!("profile: {e}")))?,
-        };
-        let preset = toml::Table::try_from(MergeConfig::for_profile(profile))
-            .map_err(|e| MergeError::Config(e.to_string()))?;
-        let mut merged = preset;
-        for (k, v) in table {
-            merged.insert(k, v);
-        }
-        let config: MergeConfig = toml::Value::Table(merged)
-            .try_into()
-            .map_err(|e: toml::de::Error| MergeError::Config(e.to_string()))?;
+        let config: MergeConfig = toml::from_str(text).map_err(|e| MergeError::Config(e.to_string()))?;
         config.validate()?;
         Ok(config)
     }
@@ -239,6 +293,15 @@ mod tests {
         assert_eq!(c.w_edge, 0.3);
         assert_eq!(c.boundary_statistic, BoundaryStatistic::Mean);
         let q = MergeConfig::from_toml_str("boundary_statistic = { quantile = 0.9 }").unwrap();
+        // Through any deserialiser, e.g. as a table of a bigger config.
+        let json: MergeConfig =
+            serde_json::from_str(r#"{"profile": "literal", "relative_depth_gate": 0.2}"#).unwrap();
+        assert_eq!((json.profile, json.relative_depth_gate), (Profile::Literal, Some(0.2)));
+        let json: MergeConfig = serde_json::from_str(r#"{"relative_depth_gate": null}"#).unwrap();
+        assert_eq!(json.relative_depth_gate, None);
+        // Round trip.
+        let back: MergeConfig = toml::from_str(&toml::to_string(&MergeConfig::default()).unwrap()).unwrap();
+        assert_eq!(back, MergeConfig::default());
         assert_eq!(q.boundary_statistic, BoundaryStatistic::Quantile(0.9));
         assert_eq!(MergeConfig::from_toml_str("").unwrap(), MergeConfig::default());
     }
