@@ -1,10 +1,11 @@
 //! Tile binning: which splats touch which 16×16 tile, each tile's list sorted front to back.
 //!
 //! Work mapping: tile rectangles per splat in parallel (one splat per work item); the visible
-//! splats are sorted once by (depth, index) with rayon's parallel sort; a sequential counting
-//! sort then drops them into their tiles in that order, so every tile's list comes out front to
-//! back (ties in index order) without per-tile sorting. The result is independent of the thread
-//! count.
+//! splats are sorted once by (depth, index) with rayon's parallel sort and appended, in that
+//! order, to the list of every row of tiles they touch (sequential); then one rayon work item per
+//! row of tiles counts and fills its tiles' lists (a counting sort), so every list comes out front
+//! to back (ties in index order) without per-tile sorting. The result is independent of the
+//! thread count.
 //!
 //! A splat covers tiles `floor((mean − r) / 16) .. ceil((mean + r) / 16)` (half-open, clamped to
 //! the image), per axis, as gsplat's `isect_tiles`.
@@ -64,34 +65,54 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     let tiles_y = height.div_ceil(TILE_SIZE);
     let n_tiles = tiles_x * tiles_y;
     let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
-    let mut counts = vec![0usize; n_tiles + 1];
-    for r in &rects {
-        for ty in r[2]..r[3] {
-            for c in &mut counts[ty * tiles_x + r[0]..ty * tiles_x + r[1]] {
-                *c += 1;
-            }
-        }
-    }
-    let mut offsets = vec![0usize; n_tiles + 1];
-    for t in 0..n_tiles {
-        offsets[t + 1] = offsets[t] + counts[t];
-    }
     let mut order: Vec<u32> = (0..splats.len() as u32).filter(|&i| !splats[i as usize].is_culled()).collect();
     order.par_sort_unstable_by(|&a, &b| {
         splats[a as usize].depth.total_cmp(&splats[b as usize].depth).then(a.cmp(&b))
     });
-    let mut cursor = offsets.clone();
-    let mut ids = vec![0u32; offsets[n_tiles]];
+    // Splats per row of tiles, front to back.
+    let mut rows: Vec<Vec<u32>> = vec![Vec::new(); tiles_y];
     for &i in &order {
         let r = &rects[i as usize];
-        for ty in r[2]..r[3] {
-            for tx in r[0]..r[1] {
-                let t = ty * tiles_x + tx;
-                ids[cursor[t]] = i;
-                cursor[t] += 1;
-            }
+        for row in &mut rows[r[2]..r[3]] {
+            row.push(i);
         }
     }
+    let counts: Vec<Vec<usize>> = rows
+        .par_iter()
+        .map(|row| {
+            let mut counts = vec![0usize; tiles_x];
+            for &i in row {
+                let r = &rects[i as usize];
+                for c in &mut counts[r[0]..r[1]] {
+                    *c += 1;
+                }
+            }
+            counts
+        })
+        .collect();
+    let mut offsets = vec![0usize; n_tiles + 1];
+    for (t, &c) in counts.iter().flatten().enumerate() {
+        offsets[t + 1] = offsets[t] + c;
+    }
+    let mut ids = vec![0u32; offsets[n_tiles]];
+    let mut slices: Vec<&mut [u32]> = Vec::with_capacity(tiles_y);
+    let mut rest = ids.as_mut_slice();
+    for ty in 0..tiles_y {
+        let (head, tail) = rest.split_at_mut(offsets[(ty + 1) * tiles_x] - offsets[ty * tiles_x]);
+        slices.push(head);
+        rest = tail;
+    }
+    slices.into_par_iter().zip(rows.par_iter()).enumerate().for_each(|(ty, (out, row))| {
+        let base = offsets[ty * tiles_x];
+        let mut cursor: Vec<usize> = (0..tiles_x).map(|tx| offsets[ty * tiles_x + tx] - base).collect();
+        for &i in row {
+            let r = &rects[i as usize];
+            for c in &mut cursor[r[0]..r[1]] {
+                out[*c] = i;
+                *c += 1;
+            }
+        }
+    });
     TileBins { tiles_x, tiles_y, offsets, ids }
 }
 
