@@ -3,8 +3,8 @@
 //! Every instance has a base embedding: a shared component plus its own orthogonal direction,
 //! so two different instances have cosine similarity `α_i · α_j ∈ [0.35, 0.6]`. The white
 //! cylinder's embedding is the white box's plus a small perturbation (cosine ≈ 0.9: the same
-//! look gives the same semantics, the paper's ambiguity); the same-depth pair of boxes is
-//! alike (≈ 0.8: two boxes, told apart by their colour edge), and so are the two walls (≈ 0.7).
+//! look gives the same semantics, the paper's ambiguity); the two walls are alike (≈ 0.7).
+//! The same-depth pair (red and blue box) is an ordinary pair of different objects.
 //! Each texture part of an instance perturbs its base a little (cosine ≈ 0.95 to the base), so
 //! fragments of one object stay similar.
 //!

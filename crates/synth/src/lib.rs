@@ -181,12 +181,11 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
     let hard_cases = hard_cases::find_hard_cases(&objects, &rendered);
     let max_id = objects.iter().map(|o| o.id).max().unwrap_or(0);
     let white = hard_cases.white_on_white.ids;
-    let same = hard_cases.same_depth_pair.ids;
     let embeddings = features::Embeddings::new(
         config.seed,
         config.feature_dim,
         max_id,
-        &[(white[0], white[1], 0.45), (same[0], same[1], 0.75), (2, 3, 1.0)],
+        &[(white[0], white[1], 0.45), (2, 3, 1.0)],
     );
     let views: Vec<SynthView> = rendered
         .into_par_iter()
