@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 pub mod cues;
 pub mod eval;
 pub mod extract;
+pub mod info;
 pub mod merge;
 pub mod objects;
 pub mod recolor;
@@ -33,6 +34,8 @@ pub enum Command {
     Eval(eval::Args),
     /// Write the Gaussians of chosen objects of a labelled PLY to a new PLY.
     Extract(extract::Args),
+    /// Show what a scene folder holds: cameras, views, missing images, Gaussians, masks.
+    Info(info::Args),
     /// Merge each view's over-segmented SAM masks with semantic, depth and edge cues (paper §4.2).
     Merge(merge::Args),
     /// List the objects of a labelled PLY (id, Gaussians, bounding box, colour, views).
@@ -53,6 +56,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cues(args) => cues::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Extract(args) => extract::run(args),
+        Command::Info(args) => info::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Objects(args) => objects::run(args),
         Command::Recolor(args) => recolor::run(args),

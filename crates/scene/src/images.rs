@@ -107,6 +107,59 @@ pub(crate) fn camera_at_resolution(camera: &Camera, sample: Option<&Path>, facto
     }
 }
 
+/// How an image of a given size relates to its camera.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFit {
+    /// Exactly the camera's size.
+    Exact,
+    /// Full resolution while the scene is loaded at `resolution > 1`: resized on load.
+    Resize,
+}
+
+/// Checks an image of `size` against `view`'s camera at `options.resolution`; the error names
+/// the file and both sizes.
+fn fit_of(scene: &Scene, view: &View, size: (u32, u32), options: &LoadOptions) -> SceneResult<ImageFit> {
+    let path = &view.image_path;
+    let camera = scene.cameras.get(view.camera_index).ok_or_else(|| {
+        SceneError::invalid("scene", path, format!("view {} has no camera {}", view.name, view.camera_index))
+    })?;
+    let target = (camera.width, camera.height);
+    let factor = options.resolution.max(1) as f64;
+    if size == target {
+        return Ok(ImageFit::Exact);
+    }
+    if factor > 1.0 && is_downscaled(target, size, factor) {
+        return Ok(ImageFit::Resize);
+    }
+    let hint = if factor > 1.0 {
+        format!(
+            " (at resolution {} the image should be {}x{} or about {}x{} at full size)",
+            options.resolution,
+            target.0,
+            target.1,
+            (target.0 as f64 * factor).round(),
+            (target.1 as f64 * factor).round()
+        )
+    } else {
+        String::new()
+    };
+    Err(SceneError::invalid(
+        "image",
+        path,
+        format!(
+            "image is {}x{} but its camera {} is {}x{}{hint}",
+            size.0, size.1, camera.id, target.0, target.1
+        ),
+    ))
+}
+
+/// Checks, from the file header only, that the image of `view` can be loaded at the size of its
+/// camera (the same rule as [`load_image_rgb`]).
+pub fn check_image_size(scene: &Scene, view: &View, options: &LoadOptions) -> SceneResult<ImageFit> {
+    let size = image_size(&view.image_path)?;
+    fit_of(scene, view, size, options)
+}
+
 /// Reads the image of `view` as 8-bit RGB at the size of its camera.
 ///
 /// Images with alpha (Blender scenes) are composited on `options.background`. An image at full
@@ -115,46 +168,20 @@ pub(crate) fn camera_at_resolution(camera: &Camera, sample: Option<&Path>, facto
 /// the file and both sizes.
 pub fn load_image_rgb(scene: &Scene, view: &View, options: &LoadOptions) -> SceneResult<RgbImage> {
     let path = &view.image_path;
-    let camera = scene.cameras.get(view.camera_index).ok_or_else(|| {
-        SceneError::invalid("scene", path, format!("view {} has no camera {}", view.name, view.camera_index))
-    })?;
     let decoded = ImageReader::open(path)
         .map_err(|e| SceneError::io("cannot open image", path, e))?
         .with_guessed_format()
         .map_err(|e| SceneError::io("cannot read image", path, e))?
         .decode()
         .map_err(|source| SceneError::Image { path: path.clone(), source })?;
-    let size = (decoded.width(), decoded.height());
-    let target = (camera.width, camera.height);
-    let factor = options.resolution.max(1) as f64;
-    let needs_resize = size != target;
-    if needs_resize && !(factor > 1.0 && is_downscaled(target, size, factor)) {
-        let hint = if factor > 1.0 {
-            format!(
-                " (at resolution {} the image should be {}x{} or about {}x{} at full size)",
-                options.resolution,
-                target.0,
-                target.1,
-                (target.0 as f64 * factor).round(),
-                (target.1 as f64 * factor).round()
-            )
-        } else {
-            String::new()
-        };
-        return Err(SceneError::invalid(
-            "image",
-            path,
-            format!(
-                "image is {}x{} but its camera {} is {}x{}{hint}",
-                size.0, size.1, camera.id, target.0, target.1
-            ),
-        ));
-    }
+    let fit = fit_of(scene, view, (decoded.width(), decoded.height()), options)?;
     let rgb = composite_on(decoded, options.background);
-    if needs_resize {
-        Ok(image::imageops::resize(&rgb, target.0, target.1, FilterType::Triangle))
-    } else {
-        Ok(rgb)
+    match fit {
+        ImageFit::Exact => Ok(rgb),
+        ImageFit::Resize => {
+            let camera = scene.camera(view);
+            Ok(image::imageops::resize(&rgb, camera.width, camera.height, FilterType::Triangle))
+        }
     }
 }
 
