@@ -27,6 +27,7 @@ pub(crate) struct Footprint {
 
 impl Footprint {
     /// The reach of `s` inside `tile` (`(x0, x1, y0, y1)` half-open); `None` if it reaches no pixel.
+    #[inline(always)]
     pub fn new(s: &Splat2d, alpha_min: f32, tile: (usize, usize, usize, usize)) -> Option<Self> {
         if s.opacity < alpha_min {
             return None;
@@ -50,7 +51,7 @@ impl Footprint {
     }
 
     /// Half-open pixel range of row `py` (inside the box) that can reach α ≥ alpha_min.
-    #[inline]
+    #[inline(always)]
     pub fn row(&self, py: usize) -> (usize, usize) {
         let (bx0, bx1, ..) = self.bbox;
         if !self.exact {
@@ -59,12 +60,13 @@ impl Footprint {
         let [a, b, _] = self.conic;
         let dy = self.my - (py as f32 + 0.5);
         // σ = ½(a·dx² + 2b·dx·dy + c·dy²) ≤ smax, a quadratic in dx = mean_x − pixel centre x.
-        let disc = (dy * dy * -self.det + a * self.two_smax).max(0.0);
-        let min_two_sigma = dy * dy * self.det / a;
-        if min_two_sigma > self.two_smax * (1.0 + 1e-4) + 1e-4 && disc == 0.0 {
+        // Its discriminant is negative (no pixel of the row reaches) when the row's smallest
+        // 2σ, dy²·det/a, exceeds 2·smax; rows grazing the ellipse within rounding are kept.
+        let disc = a * self.two_smax - dy * dy * self.det;
+        if disc < -1e-4 * a * self.two_smax {
             return (bx0, bx0);
         }
-        let root = disc.sqrt();
+        let root = disc.max(0.0).sqrt();
         let dx_lo = (-b * dy - root) / a;
         let dx_hi = (-b * dy + root) / a;
         // Pixel centre x + 0.5 = mx − dx.

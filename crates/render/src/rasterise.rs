@@ -124,6 +124,7 @@ struct TileState {
     walked: Vec<u32>,
     best_w: Vec<f32>,
     best_id: Vec<i32>,
+    /// Channel-major: `acc[ch * 256 + pixel]`.
     acc: Vec<f32>,
 }
 
@@ -211,7 +212,6 @@ fn rasterise_tile_c<const C: usize>(
     let c_count = if C == 0 { inp.channel_count } else { C };
     let (x0, x1, y0, y1) = tile;
     let n_pix = (x1 - x0) * (y1 - y0);
-    let t_min = inp.settings.transmittance_min;
     let mut n_done = 0;
     let mut blends = 0u64;
     for (k, &gid) in list.iter().enumerate() {
@@ -226,39 +226,85 @@ fn rasterise_tile_c<const C: usize>(
         let (_, _, by0, by1) = fp.bbox;
         for py in by0..by1 {
             let (bx0, bx1) = fp.row(py);
+            if bx0 >= bx1 {
+                continue;
+            }
             let row = RowTerms::new(s, py);
-            let base = (py - y0) * TILE_SIZE;
-            for px in bx0..bx1 {
-                let li = base + px - x0;
-                if st.done[li] {
-                    continue;
+            let li0 = (py - y0) * TILE_SIZE + bx0 - x0;
+            let mut weights = [0.0f32; TILE_SIZE];
+            let (stops, blended) = blend_row(
+                &row,
+                s.opacity,
+                inp.settings,
+                bx0,
+                li0..li0 + (bx1 - bx0),
+                k as u32 + 1,
+                gid as i32,
+                st,
+                &mut weights,
+            );
+            n_done += stops;
+            blends += blended;
+            for (ch, &v) in colour.iter().enumerate() {
+                let acc = &mut st.acc[ch * TILE_PIXELS + li0..][..bx1 - bx0];
+                for (a, &w) in acc.iter_mut().zip(&weights) {
+                    *a += w * v;
                 }
-                let Some(pa) = row.alpha(px, s.opacity, inp.settings) else {
-                    continue;
-                };
-                let t = st.t[li];
-                let next_t = t * (1.0 - pa.alpha);
-                if next_t <= t_min {
-                    st.done[li] = true;
-                    n_done += 1;
-                    continue;
-                }
-                let w = pa.alpha * t;
-                let acc = &mut st.acc[li * c_count..][..c_count];
-                for ch in 0..c_count {
-                    acc[ch] += w * colour[ch];
-                }
-                if w > st.best_w[li] {
-                    st.best_w[li] = w;
-                    st.best_id[li] = gid as i32;
-                }
-                st.t[li] = next_t;
-                st.walked[li] = k as u32 + 1;
-                blends += 1;
             }
         }
     }
     blends
+}
+
+/// Blends one splat into the pixels `pixels` (tile-local indices, one row, first column `px0`)
+/// without branches on pixel data, so the loop vectorises; writes each pixel's weight into
+/// `weights` and returns `(pixels that stopped, pixels blended)`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn blend_row(
+    row: &RowTerms,
+    opacity: f32,
+    settings: &RasterSettings,
+    px0: usize,
+    pixels: std::ops::Range<usize>,
+    walk: u32,
+    gid: i32,
+    st: &mut TileState,
+    weights: &mut [f32; TILE_SIZE],
+) -> (usize, u64) {
+    let n = pixels.len();
+    let t_row = &mut st.t[pixels.clone()];
+    let done_row = &mut st.done[pixels.clone()];
+    let walked_row = &mut st.walked[pixels.clone()];
+    let best_w_row = &mut st.best_w[pixels.clone()];
+    let best_id_row = &mut st.best_id[pixels];
+    let (a_min, a_max, t_min) = (settings.alpha_min, settings.alpha_max, settings.transmittance_min);
+    let mut stops = 0usize;
+    let mut blended = 0u64;
+    let mut centre = px0 as f32 + 0.5;
+    for j in 0..n.min(TILE_SIZE) {
+        // Same arithmetic as `RowTerms::alpha` (used by the backward).
+        let dx = row.mx - centre;
+        centre += 1.0;
+        let sigma = row.half_a * dx * dx + row.b_dy * dx + row.half_c_dy2;
+        let alpha = (opacity * fast_exp(-sigma)).min(a_max);
+        let t = t_row[j];
+        let next_t = t * (1.0 - alpha);
+        let live = !done_row[j] & (sigma >= 0.0) & (alpha >= a_min);
+        let stop = live & (next_t <= t_min);
+        let blend = live & !stop;
+        let w = if blend { alpha * t } else { 0.0 };
+        weights[j] = w;
+        t_row[j] = if blend { next_t } else { t };
+        done_row[j] |= stop;
+        walked_row[j] = if blend { walk } else { walked_row[j] };
+        let better = w > best_w_row[j];
+        best_w_row[j] = if better { w } else { best_w_row[j] };
+        best_id_row[j] = if better { gid } else { best_id_row[j] };
+        stops += stop as usize;
+        blended += blend as u64;
+    }
+    (stops, blended)
 }
 
 fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, st: &mut TileState) -> u64 {
@@ -275,8 +321,8 @@ fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, 
                 let pi = (py - y0) * w + px;
                 let t = st.t[li];
                 let dst = &mut out.channels[pi * c_count..(pi + 1) * c_count];
-                for ((d, &a), &bg) in dst.iter_mut().zip(&st.acc[li * c_count..]).zip(inp.background) {
-                    *d = a + t * bg;
+                for (ch, (d, &bg)) in dst.iter_mut().zip(inp.background).enumerate() {
+                    *d = st.acc[ch * TILE_PIXELS + li] + t * bg;
                 }
                 out.final_t[pi] = t;
                 out.walked[pi] = st.walked[li];
