@@ -3,7 +3,6 @@
 
 use candle_core::{Module, Tensor};
 
-use crate::conv::{layer_norm_2d, PatchConvTranspose};
 use crate::error::ModelsResult;
 use crate::weights::Weights;
 
@@ -147,9 +146,15 @@ pub struct MaskDecoder {
     blocks: Vec<TwoWayBlock>,
     final_attn: Attention,
     final_norm: candle_nn::LayerNorm,
-    up1: PatchConvTranspose,
+    /// First 2× transposed conv as a matrix with columns ordered (dy, dx, c): `[D, 4·D/4]`.
+    up1_weight: Tensor,
+    /// `[D/4]`, repeated per (dy, dx) as `[4·D/4]`.
+    up1_bias: Tensor,
     up_norm: candle_nn::LayerNorm,
-    up2: PatchConvTranspose,
+    /// Second 2× transposed conv, `[D/4, 4·D/8]`, columns (dy, dx, c).
+    up2_weight: Tensor,
+    /// `[4·D/8]`.
+    up2_bias: Tensor,
     hypernets: Vec<Mlp>,
     iou_head: Mlp,
     dim: usize,
@@ -167,20 +172,27 @@ impl MaskDecoder {
         let blocks = (0..depth)
             .map(|i| TwoWayBlock::new(w, &format!("transformer.layers.{i}"), dim, i == 0))
             .collect::<ModelsResult<Vec<_>>>()?;
-        let convt = |name: &str, cin: usize, cout: usize| -> ModelsResult<PatchConvTranspose> {
-            PatchConvTranspose::new(
-                &w.get(&format!("{name}.weight"), &[cin, cout, 2, 2])?,
-                w.get(&format!("{name}.bias"), &[cout])?,
-            )
+        // ConvTranspose2d(k = s = 2) as a matrix whose output columns are (dy, dx, c): the upscaled map
+        // stays channels-last in 2×2 blocks, so no pixel shuffle of the large maps is needed
+        let convt = |name: &str, cin: usize, cout: usize| -> ModelsResult<(Tensor, Tensor)> {
+            let weight = w.get(&format!("{name}.weight"), &[cin, cout, 2, 2])?;
+            let weight = weight.permute((0, 2, 3, 1))?.reshape((cin, 4 * cout))?.contiguous()?;
+            let bias =
+                w.get(&format!("{name}.bias"), &[cout])?.unsqueeze(0)?.repeat((4, 1))?.reshape(4 * cout)?;
+            Ok((weight, bias))
         };
+        let (up1_weight, up1_bias) = convt("output_upscaling.0", dim, dim / 4)?;
+        let (up2_weight, up2_bias) = convt("output_upscaling.3", dim / 4, dim / 8)?;
         Ok(Self {
             output_tokens: Tensor::cat(&[w.get("iou_token.weight", &[1, dim])?, mask_tokens], 0)?,
             blocks,
             final_attn: Attention::new(w, "transformer.final_attn_token_to_image", dim)?,
             final_norm: w.layer_norm("transformer.norm_final_attn", dim, 1e-5)?,
-            up1: convt("output_upscaling.0", dim, dim / 4)?,
+            up1_weight,
+            up1_bias,
             up_norm: w.layer_norm("output_upscaling.1", dim / 4, 1e-6)?,
-            up2: convt("output_upscaling.3", dim / 4, dim / 8)?,
+            up2_weight,
+            up2_bias,
             hypernets: (0..num_masks)
                 .map(|i| Mlp::new(w, &format!("output_hypernetworks_mlps.{i}")))
                 .collect::<ModelsResult<Vec<_>>>()?,
@@ -222,9 +234,13 @@ impl MaskDecoder {
         let q = (&queries + &tokens)?;
         let k = keys.broadcast_add(&key_pe)?;
         let queries = self.final_norm.forward(&(&queries + self.final_attn.forward(&q, &k, &keys)?)?)?;
-        let src = keys.transpose(1, 2)?.reshape((b, d, h, w))?;
-        let up = layer_norm_2d(&self.up1.forward(&src)?, &self.up_norm)?.gelu_erf()?;
-        let up = self.up2.forward(&up)?.gelu_erf()?; // [B, D/8, 4h, 4w]
+        // keys: [B, h·w, D] (rows = cells); upscale channels-last in blocks
+        let c1 = d / 4;
+        let c2 = d / 8;
+        let up = keys.reshape((b * h * w, d))?.matmul(&self.up1_weight)?.broadcast_add(&self.up1_bias)?; // [B·h·w, (dy1, dx1, c1)]
+        let up = self.up_norm.forward(&up.reshape((b * h * w * 4, c1))?)?.gelu_erf()?;
+        let up = up.matmul(&self.up2_weight)?.broadcast_add(&self.up2_bias)?.gelu_erf()?; // [B·h·w·4, (dy2, dx2, c2)]
+        let up = up.reshape((b, h * w * 16, c2))?; // pixels ordered (y, x, dy1, dx1, dy2, dx2)
         let hyper: Vec<Tensor> = self
             .hypernets
             .iter()
@@ -232,8 +248,12 @@ impl MaskDecoder {
             .map(|(i, mlp)| mlp.forward(&queries.narrow(1, 1 + i, 1)?.squeeze(1)?))
             .collect::<ModelsResult<_>>()?;
         let hyper = Tensor::stack(&hyper, 1)?; // [B, M, D/8]
-        let (_, c, uh, uw) = up.dims4()?;
-        let masks = hyper.matmul(&up.reshape((b, c, uh * uw))?)?.reshape((b, m, uh, uw))?;
+        let blocked = hyper.matmul(&up.transpose(1, 2)?)?; // [B, M, h·w·16]
+                                                           // pixel (4y + 2·dy1 + dy2, 4x + 2·dx1 + dx2)
+        let masks = blocked
+            .reshape(vec![b * m, h, w, 2, 2, 2, 2])?
+            .permute(vec![0, 1, 3, 5, 2, 4, 6])?
+            .reshape((b, m, 4 * h, 4 * w))?;
         let iou = self.iou_head.forward(&queries.narrow(1, 0, 1)?.squeeze(1)?)?;
         Ok((masks, iou))
     }

@@ -1,0 +1,102 @@
+//! `splatseg cues` end to end with the random-weight checkpoints that
+//! tools/fixtures/make_model_fixtures.py wrote (crates/models/tests/fixtures), and its outputs feeding
+//! `splatseg run`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/models/tests/fixtures")
+}
+
+fn splatseg(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args).output().expect("run splatseg");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "splatseg {args:?} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+fn model_args(f: &Path) -> Vec<String> {
+    [
+        "--dinov2",
+        &f.join("dinov2_tiny").display().to_string(),
+        "--depth-model",
+        &f.join("depth_anything_tiny").display().to_string(),
+        "--sam",
+        &f.join("sam_tiny.pth").display().to_string(),
+        "--dinov2-size",
+        "112",
+        "--depth-size",
+        "112",
+        "--points-per-side",
+        "8",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
+#[test]
+fn cues_on_lego_writes_every_cue_and_caches() {
+    let lego = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/nerf_synthetic_lego");
+    if !lego.exists() {
+        println!("skipped: {} is absent", lego.display());
+        return;
+    }
+    let out = tempfile::tempdir().unwrap();
+    let out_dir = out.path().display().to_string();
+    let mut args: Vec<String> =
+        ["cues", &lego.display().to_string(), "--out", &out_dir, "--resolution", "8", "--max-views", "2"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+    args.extend(model_args(&fixtures()));
+    let argv: Vec<&str> = args.iter().map(String::as_str).collect();
+    let first = splatseg(&argv);
+    assert!(first.contains("8 computed, 0 cached"), "{first}");
+    // 800×800 at resolution 8 → 100×100; DINOv2 at long side 112 → 8×8 patches of the tiny 32-d model
+    let features = splatseg_scene::npy::read_npy(&out.path().join("features/r_0.npy")).unwrap();
+    assert_eq!(features.shape, vec![8, 8, 32]);
+    let norms: Vec<f32> =
+        features.data.chunks(32).map(|v| v.iter().map(|x| x * x).sum::<f32>().sqrt()).collect();
+    assert!(norms.iter().all(|n| (n - 1.0).abs() < 1e-4), "features are L2-normalised");
+    let depth = splatseg_scene::npy::read_npy(&out.path().join("depth/r_1.npy")).unwrap();
+    assert_eq!(depth.shape, vec![100, 100]);
+    let log = splatseg_scene::npy::read_npy(&out.path().join("log/r_0.npy")).unwrap();
+    assert_eq!(log.shape, vec![100, 100]);
+    let masks = splatseg_scene::sam::read_sam_json(&out.path().join("sam/r_0.json")).unwrap();
+    assert!(masks.iter().all(|m| m.size() == (100, 100)), "masks at full image resolution");
+    let second = splatseg(&argv);
+    assert!(second.contains("0 computed, 8 cached"), "{second}");
+}
+
+#[test]
+fn cues_feed_the_pipeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    let cues = dir.path().join("cues");
+    let (scene_s, cues_s) = (scene.display().to_string(), cues.display().to_string());
+    splatseg(&["synth", "--out", &scene_s, "--views", "3", "--size", "96x72"]);
+    let mut args: Vec<String> = ["cues", &scene_s, "--out", &cues_s].iter().map(|s| s.to_string()).collect();
+    args.extend(model_args(&fixtures()));
+    splatseg(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let run_out = dir.path().join("run").display().to_string();
+    let summary = splatseg(&[
+        "run",
+        &scene_s,
+        "--masks",
+        &cues.join("sam").display().to_string(),
+        "--features",
+        &cues.join("features").display().to_string(),
+        "--depth",
+        &cues.join("depth").display().to_string(),
+        "--out",
+        &run_out,
+    ]);
+    assert!(summary.contains("3 views"), "{summary}");
+    assert!(Path::new(&run_out).join("report.md").is_file());
+}
