@@ -3,6 +3,7 @@
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use splatseg_synth::{generate, write, SynthConfig, SynthScene};
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -64,9 +65,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let generated = started.elapsed();
     let summary = write(&args.out, &scene)
         .with_context(|| format!("writing the synthetic scene to {}", args.out.display()))?;
-    println!(
+    let mut text = format!(
         "wrote {} files to {}: {} views of {}x{}, {} instances, {} Gaussians, {} simulated SAM masks \
-         (generated in {:.2} s, written in {:.2} s)",
+         (generated in {:.2} s, written in {:.2} s)\n",
         summary.files,
         summary.root.display(),
         summary.views,
@@ -78,15 +79,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         generated.as_secs_f64(),
         (started.elapsed() - generated).as_secs_f64()
     );
-    print_hard_cases(&scene);
+    text.push_str(&hard_case_lines(&scene));
+    // A closed pipe (e.g. `| head`) is not an error of the command: the files are written.
+    let _ = std::io::stdout().write_all(text.as_bytes());
     Ok(())
 }
 
-fn print_hard_cases(scene: &SynthScene) {
+/// One line per hard case: which objects, and in which views.
+fn hard_case_lines(scene: &SynthScene) -> String {
     let stems = |views: Vec<usize>| {
         views.into_iter().map(|v| scene.views[v].stem.clone()).collect::<Vec<_>>().join(" ")
     };
     let name = |id: u32| scene.objects.get((id as usize).wrapping_sub(1)).map_or("?", |o| o.name.as_str());
+    let names = |mut ids: Vec<u32>| {
+        ids.sort_unstable();
+        ids.dedup();
+        ids.iter().map(|&id| name(id)).collect::<Vec<_>>().join(", ")
+    };
     let hc = &scene.hard_cases;
     let pair = |p: &splatseg_synth::hard_cases::PairCase| {
         format!(
@@ -96,15 +105,12 @@ fn print_hard_cases(scene: &SynthScene) {
             stems(p.views.iter().filter(|v| v.touching).map(|v| v.view).collect())
         )
     };
-    println!("  white-on-white pair: {}", pair(&hc.white_on_white));
-    println!("  same-depth pair:     {}", pair(&hc.same_depth_pair));
-    let mut occluded: Vec<u32> = hc.occlusions.iter().map(|o| o.id).collect();
-    occluded.sort_unstable();
-    occluded.dedup();
-    println!("  occluded objects:    {}", occluded.iter().map(|&id| name(id)).collect::<Vec<_>>().join(", "));
-    let mut cut: Vec<u32> = hc.frame_cuts.iter().map(|c| c.id).collect();
-    cut.sort_unstable();
-    cut.dedup();
-    println!("  cut by the frame:    {}", cut.iter().map(|&id| name(id)).collect::<Vec<_>>().join(", "));
-    println!("  details per view: gt/objects.json");
+    format!(
+        "  white-on-white pair: {}\n  same-depth pair:     {}\n  occluded objects:    {}\n  \
+         cut by the frame:    {}\n  details per view: gt/objects.json\n",
+        pair(&hc.white_on_white),
+        pair(&hc.same_depth_pair),
+        names(hc.occlusions.iter().map(|o| o.id).collect()),
+        names(hc.frame_cuts.iter().map(|c| c.id).collect()),
+    )
 }
