@@ -122,6 +122,26 @@ fn malformed_text_models_name_the_line() {
 }
 
 #[test]
+fn inconsistent_models_are_rejected_when_building_the_scene() {
+    let root = tempfile::tempdir().expect("tempdir");
+    write_scene(root.path());
+    let images_txt = root.path().join("sparse/0/images.txt");
+    std::fs::write(&images_txt, "1 1 0 0 0 0 0 5 9 a_front.png\n\n").expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("camera 9 does not exist");
+    assert_message(&err, &["camera 9", "a_front.png", "images.txt"]);
+    std::fs::write(&images_txt, "1 0 0 0 0 0 0 5 1 a_front.png\n\n").expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("zero quaternion");
+    assert_message(&err, &["zero rotation quaternion", "images.txt"]);
+    std::fs::write(&images_txt, "1 1 0 0 0 0 0 5 1 nowhere.png\n\n").expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("no image exists");
+    assert!(matches!(err, SceneError::Missing { .. }), "{err}");
+    assert_message(&err, &["none of the 1 images", "nowhere.png"]);
+    let zero = LoadOptions { resolution: 0, ..LoadOptions::default() };
+    write_scene(root.path());
+    assert_message(&load_scene(root.path(), &zero).expect_err("resolution 0"), &["resolution factor 0"]);
+}
+
+#[test]
 fn missing_folders_say_what_was_looked_for() {
     let root = tempfile::tempdir().expect("tempdir");
     let err = load_scene(&root.path().join("nope"), &LoadOptions::default()).expect_err("absent path");

@@ -100,6 +100,8 @@ fn reads_npz_stored_and_deflated() {
         assert_values(&arrays["depth"], &ramp(6, 0.5, -1.0), 0.0);
         assert_eq!(arrays["ids"].dtype, NpyDtype::Int64);
         assert_values(&arrays["ids"], &[0.0, 1.0, 2.0, 3.0], 0.0);
+        assert_eq!(arrays["depth"].hwc(), Some((2, 3, 1)));
+        assert_eq!(arrays["ids"].hwc(), None);
         let plane = arrays["depth"].to_plane().expect("2-D");
         assert_eq!((plane.width, plane.height, *plane.get(2, 1)), (3, 2, 1.5));
     }

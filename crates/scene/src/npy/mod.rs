@@ -86,6 +86,16 @@ impl NpyArray {
         (self.data.len() == 1).then(|| self.data[0])
     }
 
+    /// `(h, w, channels)` of a feature map `[h, w, C]`, or of a single-channel map `[h, w]`
+    /// (`channels = 1`); `None` for other ranks.
+    pub fn hwc(&self) -> Option<(usize, usize, usize)> {
+        match self.shape[..] {
+            [h, w] => Some((h, w, 1)),
+            [h, w, c] => Some((h, w, c)),
+            _ => None,
+        }
+    }
+
     /// A `[H, W]` array (or `[H, W, 1]`) as a [`Plane`] of width `W`, height `H`, e.g. a depth map.
     pub fn to_plane(&self) -> Option<Plane<f32>> {
         match self.shape[..] {
