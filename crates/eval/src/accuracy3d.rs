@@ -9,7 +9,7 @@
 //! count as wrong, so withholding ids never raises accuracy.
 
 use crate::error::EvalError;
-use crate::hungarian::max_weight_assignment;
+use crate::hungarian::max_weight_matching_sparse;
 use crate::metrics::LabelAccuracy3d;
 use std::path::Path;
 
@@ -78,19 +78,25 @@ pub fn label_accuracy_3d(gt_ids: &[i64], pred_ids: &[i32]) -> Result<LabelAccura
     pred_objects.dedup();
     pairs.sort_unstable();
 
-    // Matrix over ground-truth ids × predicted ids that co-occur with a labelled Gaussian.
+    // Sparse confusion counts over ground-truth ids × predicted ids.
     let mut cols: Vec<i32> = pairs.iter().map(|p| p.1).collect();
     cols.sort_unstable();
     cols.dedup();
-    let mut counts = vec![0f64; gt_objects.len() * cols.len()];
+    let mut entries: Vec<(usize, usize, f64)> = Vec::new();
     for (g, p) in &pairs {
         if let (Ok(r), Ok(c)) = (gt_objects.binary_search(g), cols.binary_search(p)) {
-            counts[r * cols.len() + c] += 1.0;
+            match entries.last_mut() {
+                Some(last) if (last.0, last.1) == (r, c) => last.2 += 1.0,
+                _ => entries.push((r, c, 1.0)),
+            }
         }
     }
-    let assignment = max_weight_assignment(&counts, gt_objects.len(), cols.len())?;
-    let correct: f64 =
-        assignment.iter().enumerate().filter_map(|(r, c)| c.map(|c| counts[r * cols.len() + c])).sum();
+    let assignment = max_weight_matching_sparse(&entries, gt_objects.len(), cols.len())?;
+    let correct: f64 = assignment
+        .iter()
+        .enumerate()
+        .filter_map(|(r, c)| c.map(|c| entries[entries.partition_point(|e| (e.0, e.1) < (r, c))].2))
+        .sum();
     Ok(LabelAccuracy3d {
         accuracy: if labelled == 0 { 0.0 } else { correct / labelled as f64 },
         labelled_gaussians: labelled,

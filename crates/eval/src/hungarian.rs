@@ -47,6 +47,70 @@ pub fn max_weight_assignment(
     }
 }
 
+/// Maximum-weight matching for a sparse non-negative matrix: `entries` are `(row, col, weight)`
+/// with weight > 0 (absent pairs weigh 0 and are never matched). Returns `[rows]`: the column of
+/// each matched row. The bipartite graph of the entries is split into connected components,
+/// each solved densely, so cost follows the largest component rather than `rows × cols`.
+/// Results equal the dense solution's total weight.
+pub fn max_weight_matching_sparse(
+    entries: &[(usize, usize, f64)],
+    rows: usize,
+    cols: usize,
+) -> Result<Vec<Option<usize>>, EvalError> {
+    if let Some(&(row, col, value)) = entries.iter().find(|e| !e.2.is_finite() || e.0 >= rows || e.1 >= cols)
+    {
+        return Err(EvalError::NonFiniteWeight { row, col, value });
+    }
+    // Union-find over rows (0..rows) and columns (rows..rows + cols).
+    let mut parent: Vec<usize> = (0..rows + cols).collect();
+    fn find(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    for &(r, c, w) in entries {
+        if w > 0.0 {
+            let (a, b) = (find(&mut parent, r), find(&mut parent, rows + c));
+            if a != b {
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    // Group the positive entries by component, in a fixed order.
+    let mut by_root: std::collections::BTreeMap<usize, Vec<(usize, usize, f64)>> = Default::default();
+    for &(r, c, w) in entries {
+        if w > 0.0 {
+            let root = find(&mut parent, r);
+            by_root.entry(root).or_default().push((r, c, w));
+        }
+    }
+    let mut out = vec![None; rows];
+    for (_, comp) in by_root {
+        let mut comp_rows: Vec<usize> = comp.iter().map(|e| e.0).collect();
+        let mut comp_cols: Vec<usize> = comp.iter().map(|e| e.1).collect();
+        comp_rows.sort_unstable();
+        comp_rows.dedup();
+        comp_cols.sort_unstable();
+        comp_cols.dedup();
+        let (nr, nc) = (comp_rows.len(), comp_cols.len());
+        let mut dense = vec![0.0; nr * nc];
+        for &(r, c, w) in &comp {
+            // Both searches succeed: the lists were built from these entries.
+            if let (Ok(i), Ok(j)) = (comp_rows.binary_search(&r), comp_cols.binary_search(&c)) {
+                dense[i * nc + j] += w;
+            }
+        }
+        for (i, j) in max_weight_assignment(&dense, nr, nc)?.into_iter().enumerate() {
+            if let Some(j) = j.filter(|&j| dense[i * nc + j] > 0.0) {
+                out[comp_rows[i]] = Some(comp_cols[j]);
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// Minimum-cost assignment of every row for `n <= m`. `cost`: `[n, m]` row-major, finite.
 /// Returns `[n]` column indices.
 fn min_cost_rows_le_cols(cost: &[f64], n: usize, m: usize) -> Vec<usize> {
@@ -208,6 +272,31 @@ mod tests {
         assert!(matches!(max_weight_assignment(&[1.0; 5], 2, 3), Err(EvalError::BadMatrixShape { .. })));
         let err = max_weight_assignment(&[1.0, f64::NAN, 0.0, 0.0], 2, 2).unwrap_err();
         assert!(matches!(err, EvalError::NonFiniteWeight { row: 0, col: 1, .. }));
+    }
+
+    #[test]
+    fn sparse_matching_equals_dense_total() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for trial in 0..200 {
+            let rows = rng.gen_range(1..=7);
+            let cols = rng.gen_range(1..=7);
+            let w: Vec<f64> = (0..rows * cols)
+                .map(|_| if rng.gen_bool(0.7) { 0.0 } else { rng.gen_range(1..5) as f64 * 0.2 })
+                .collect();
+            let entries: Vec<(usize, usize, f64)> =
+                (0..rows * cols).filter(|&k| w[k] > 0.0).map(|k| (k / cols, k % cols, w[k])).collect();
+            let sparse = max_weight_matching_sparse(&entries, rows, cols).unwrap();
+            let mut used = vec![false; cols];
+            for c in sparse.iter().flatten() {
+                assert!(!used[*c], "trial {trial}: column used twice");
+                used[*c] = true;
+            }
+            assert!(sparse.iter().enumerate().all(|(r, c)| c.is_none_or(|c| w[r * cols + c] > 0.0)));
+            let best = brute_force_best(&w, rows, cols);
+            assert!((total(&w, cols, &sparse) - best).abs() < 1e-9, "trial {trial}: {w:?}");
+        }
+        let bad = max_weight_matching_sparse(&[(0, 3, 1.0)], 1, 2);
+        assert!(bad.is_err());
     }
 
     #[test]

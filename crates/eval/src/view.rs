@@ -5,7 +5,7 @@
 use crate::band::BandScanner;
 use crate::config::EvalConfig;
 use crate::error::EvalError;
-use crate::hungarian::max_weight_assignment;
+use crate::hungarian::max_weight_matching_sparse;
 use serde::{Deserialize, Serialize};
 use splatseg_scene::Plane;
 use std::collections::HashMap;
@@ -191,14 +191,15 @@ impl Hasher for PairHasher {
     }
 }
 
-/// IoU between ground-truth instances and predicted ids from summed pair counts.
+/// IoU between ground-truth instances and predicted ids from summed pair counts, stored
+/// sparsely (only overlapping pairs have a non-zero IoU).
 pub(crate) struct IouTable {
     /// Sorted ground-truth instance ids (non-zero, with pixels).
     pub gt_ids: Vec<u32>,
     /// Sorted predicted ids overlapping at least one instance.
     pub pred_ids: Vec<u32>,
-    /// `[gt_ids.len(), pred_ids.len()]` row-major IoU.
-    pub iou: Vec<f64>,
+    /// `(gt index, pred index, IoU)` for every overlapping pair, sorted.
+    pub entries: Vec<(usize, usize, f64)>,
 }
 
 impl IouTable {
@@ -212,14 +213,13 @@ impl IouTable {
             pixels.iter().filter(|c| c.gt != 0 && c.pred != 0 && c.pixels > 0).map(|c| c.pred).collect();
         pred_ids.sort_unstable();
         pred_ids.dedup();
-        let gt_index = |g: u32| gt_ids.binary_search(&g).ok();
-        let pred_index = |p: u32| pred_ids.binary_search(&p).ok();
         let mut gt_area = vec![0u64; gt_ids.len()];
         let mut pred_area = vec![0u64; pred_ids.len()];
-        let mut inter = vec![0u64; gt_ids.len() * pred_ids.len()];
+        let mut inter: Vec<(usize, usize, u64)> = Vec::new();
         let counts_unlabelled = cfg.unlabelled_gt == crate::config::UnlabelledGt::Background;
-        for c in pixels {
-            let (gi, pi) = (if c.gt == 0 { None } else { gt_index(c.gt) }, pred_index(c.pred));
+        for c in pixels.iter().filter(|c| c.pixels > 0) {
+            let gi = if c.gt == 0 { None } else { gt_ids.binary_search(&c.gt).ok() };
+            let pi = pred_ids.binary_search(&c.pred).ok().filter(|_| c.pred != 0);
             if let Some(gi) = gi {
                 gt_area[gi] += c.pixels;
             }
@@ -228,39 +228,38 @@ impl IouTable {
                     pred_area[pi] += c.pixels;
                 }
                 if let Some(gi) = gi {
-                    inter[gi * pred_ids.len() + pi] += c.pixels;
+                    inter.push((gi, pi, c.pixels));
                 }
             }
         }
-        let np = pred_ids.len();
-        let iou = inter
-            .iter()
-            .enumerate()
-            .map(|(k, &i)| {
-                let union = gt_area[k / np] + pred_area[k % np] - i;
-                if union == 0 {
-                    0.0
-                } else {
-                    i as f64 / union as f64
-                }
-            })
+        inter.sort_unstable();
+        let mut merged: Vec<(usize, usize, u64)> = Vec::with_capacity(inter.len());
+        for (gi, pi, n) in inter {
+            match merged.last_mut() {
+                Some(last) if (last.0, last.1) == (gi, pi) => last.2 += n,
+                _ => merged.push((gi, pi, n)),
+            }
+        }
+        let entries = merged
+            .into_iter()
+            .map(|(gi, pi, i)| (gi, pi, i as f64 / (gt_area[gi] + pred_area[pi] - i) as f64))
             .collect();
-        IouTable { gt_ids, pred_ids, iou }
+        IouTable { gt_ids, pred_ids, entries }
     }
 
     /// For every ground-truth instance (in `gt_ids` order): its matched predicted id and IoU, or
     /// `None` when the optimal assignment gives it nothing with positive IoU.
     pub fn hungarian(&self) -> Vec<Option<(u32, f64)>> {
-        let (rows, cols) = (self.gt_ids.len(), self.pred_ids.len());
-        // The matrix is finite and correctly shaped by construction.
-        let assignment = max_weight_assignment(&self.iou, rows, cols).unwrap_or_else(|_| vec![None; rows]);
+        // Entries are finite, positive and in range by construction.
+        let assignment = max_weight_matching_sparse(&self.entries, self.gt_ids.len(), self.pred_ids.len())
+            .unwrap_or_else(|_| vec![None; self.gt_ids.len()]);
         assignment
             .iter()
             .enumerate()
             .map(|(r, c)| {
-                c.and_then(|c| {
-                    let iou = self.iou[r * cols + c];
-                    (iou > 0.0).then_some((self.pred_ids[c], iou))
+                c.map(|c| {
+                    let k = self.entries.partition_point(|e| (e.0, e.1) < (r, c));
+                    (self.pred_ids[c], self.entries[k].2)
                 })
             })
             .collect()
