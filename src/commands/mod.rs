@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod ablate;
 pub mod cues;
 pub mod eval;
 pub mod extract;
@@ -28,6 +29,8 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Print the merge stage's ablation and sensitivity tables on a synthetic scene.
+    Ablate(ablate::Args),
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
     Cues(cues::Args),
     /// Score predicted label maps against ground truth (mIoU, boundary mIoU, #masks, consistency).
@@ -53,6 +56,7 @@ pub enum Command {
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Ablate(args) => ablate::run(args),
         Command::Cues(args) => cues::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Extract(args) => extract::run(args),
