@@ -6,8 +6,9 @@ use super::progress;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
-    join_touching_objects, lift_labels, render_label_map, render_votes, renumber, view_surface_depth,
-    view_visibility, LiftConfig, Lifted, ObjectFeatures, PosedCamera, PreparedGaussians, ViewVisibility,
+    drop_small_objects, join_touching_objects, lift_labels, render_label_map, render_votes, renumber,
+    view_surface_depth, view_visibility, LiftConfig, Lifted, ObjectFeatures, PosedCamera, PreparedGaussians,
+    ViewVisibility,
 };
 use splatseg_match::{match_masks, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_scene::Plane;
@@ -108,6 +109,7 @@ pub fn lift_and_render(
     prepared: &PreparedGaussians,
     cams: &[PosedCamera],
     visibility: &[ViewVisibility],
+    merged: &[Option<MergedView>],
     matched: &[Option<Plane<u32>>],
     matching: &Matching,
     config: &LiftConfig,
@@ -119,7 +121,9 @@ pub fn lift_and_render(
         .unzip();
     let features = ObjectFeatures { dim: matching.dim, values: &matching.object_features };
     let mut lifted = lift_labels(prepared.len(), &vis, &maps, features, config)?;
-    let joins = join_touching_objects(prepared, &mut lifted, features, config);
+    let local: Vec<(&ViewVisibility, &Plane<u32>)> =
+        visibility.iter().zip(merged).filter_map(|(v, m)| m.as_ref().map(|m| (v, &m.merged))).collect();
+    let joins = join_touching_objects(prepared, &mut lifted, features, &local, config);
     tracing::info!("joined {joins} pairs of touching look-alike objects");
     let votes = render_votes(&lifted, config);
     let bar = progress(cams.len(), "render label maps");
@@ -129,6 +133,8 @@ pub fn lift_and_render(
         .map(|c| render_label_map(prepared, &votes, c.camera, c.world_from_cam, config))
         .collect();
     bar.finish_and_clear();
+    let specks = drop_small_objects(&mut back, &mut lifted.object_ids, config.min_object_px);
+    tracing::info!("dropped {specks} speck objects under {} px", config.min_object_px);
     renumber(&mut back, &mut lifted.object_ids);
     Ok(LiftOutput { lifted, maps: back })
 }

@@ -296,7 +296,7 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
     let matched = lift_stage::matched_maps(&merged, &matching);
     let (final_maps, lifted) = match (&prepared, &visibility) {
         (Some(p), Some(vis)) => {
-            let out = lift_stage::lift_and_render(p, &cams, vis, &matched, &matching, &pc.lift)?;
+            let out = lift_stage::lift_and_render(p, &cams, vis, &merged, &matched, &matching, &pc.lift)?;
             (out.maps, Some(out.lifted))
         }
         _ => {

@@ -29,6 +29,12 @@ pub struct LiftConfig {
     pub contact_voxel_factor: f32,
     /// Neighbouring voxel pairs two objects must share to touch.
     pub min_contact_voxels: u32,
+    /// Touching objects are joined only when at least this share of the views seeing both
+    /// has one merged mask over both (see [`crate::touching`]).
+    pub min_together_share: f32,
+    /// Objects covering fewer pixels than this over all rendered-back label maps are specks
+    /// and are dropped (pixels 0, Gaussians -1): less than two minimal SAM regions.
+    pub min_object_px: u64,
     /// Gaussians seen in fewer views than this get no id.
     pub min_views: u32,
     /// Floor of the frontal factor of the fusion weight (so grazing views still count a little).
@@ -45,7 +51,9 @@ impl Default for LiftConfig {
             surface_transmittance: 0.5,
             tau_var: 0.05,
             unreliable_render_weight: 0.25,
-            tau_touching: 0.85,
+            tau_touching: 0.95,
+            min_together_share: 0.0,
+            min_object_px: 64,
             contact_voxel_factor: 3.0,
             min_contact_voxels: 8,
             min_views: 1,

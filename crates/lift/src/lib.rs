@@ -28,7 +28,7 @@ pub mod visibility;
 pub use config::LiftConfig;
 pub use error::{LiftError, LiftResult};
 pub use lifting::{lift_labels, GaussianStatus, LiftStats, Lifted, ObjectFeatures};
-pub use numbering::renumber;
+pub use numbering::{drop_small_objects, renumber};
 pub use project::PreparedGaussians;
 pub use render_labels::{render_label_map, render_votes, RenderVotes};
 pub use touching::join_touching_objects;

@@ -45,3 +45,28 @@ pub fn renumber(maps: &mut [Plane<u32>], object_ids: &mut [i32]) -> Vec<u32> {
     }
     old_of_new
 }
+
+/// Removes specks: ids whose pixels over all `maps` (`[n_views]` label maps) number fewer than
+/// `min_px` become 0 in the maps and -1 in `object_ids` (`[N]`). Returns how many ids went.
+pub fn drop_small_objects(maps: &mut [Plane<u32>], object_ids: &mut [i32], min_px: u64) -> usize {
+    let mut area: std::collections::BTreeMap<u32, u64> = std::collections::BTreeMap::new();
+    for map in maps.iter() {
+        for &id in map.data.iter().filter(|&&id| id > 0) {
+            *area.entry(id).or_insert(0) += 1;
+        }
+    }
+    let small: std::collections::BTreeSet<u32> =
+        area.into_iter().filter(|&(_, px)| px < min_px).map(|(id, _)| id).collect();
+    if small.is_empty() {
+        return 0;
+    }
+    for map in maps.iter_mut() {
+        for v in map.data.iter_mut().filter(|v| small.contains(v)) {
+            *v = 0;
+        }
+    }
+    for id in object_ids.iter_mut().filter(|id| **id > 0 && small.contains(&(**id as u32))) {
+        *id = -1;
+    }
+    small.len()
+}

@@ -5,16 +5,74 @@
 //! edge) stays in pieces after matching — consistently in every view. In 3D the pieces are
 //! visible as what they are: labelled Gaussians of two objects that *touch* (their Gaussians
 //! share a voxel neighbourhood along a seam) and whose identity features agree. Rule: objects
-//! `P`, `Q` become one when `cos(f_P, f_Q) ≥ tau_touching` and at least `min_contact_voxels`
-//! pairs of 26-neighbouring voxels hold one of each (voxel edge = `contact_voxel_factor` ×
-//! the median Gaussian standard deviation). Objects that look alike but are apart in depth
-//! (the white-on-white pair) never touch, so they stay apart. Pairs are joined best cosine
-//! first (ties by id) with a union-find; the surviving id is the smaller one.
+//! `P`, `Q` become one when
+//! - they touch: at least `min_contact_voxels` pairs of 26-neighbouring voxels hold one of
+//!   each (voxel edge = `contact_voxel_factor` × the median Gaussian standard deviation);
+//! - they look alike: `cos(f_P, f_Q) ≥ tau_touching`;
+//! - the views agree: among the views that see at least `MIN_SEEN` Gaussians of each, a share
+//!   of at least `min_together_share` has one merged mask holding ≥ 20 % of the Gaussians of
+//!   each it sees (pieces of a randomly cut wall are one mask wherever the cut fell elsewhere;
+//!   two touching objects are one mask only where the per-view merge erred).
+//!
+//! Objects that look alike but are apart in depth (the white-on-white pair) never touch, so
+//! they stay apart. Pairs are joined best cosine first (ties by id) with a union-find; the
+//! surviving id is the smaller one.
 
 use crate::config::LiftConfig;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
+use crate::visibility::ViewVisibility;
+use splatseg_scene::Plane;
 use std::collections::{BTreeMap, HashMap};
+
+/// A view counts for a pair only when it sees at least this many Gaussians of each object.
+pub const MIN_SEEN: u32 = 10;
+
+/// Share of an object's Gaussians seen in a view that one mask must hold.
+const MASK_SHARE: f32 = 0.2;
+
+/// One view's per-mask object counts: `(mask, object)` → Gaussians, and object → Gaussians.
+struct ViewCounts {
+    by_mask: HashMap<(u32, u32), u32>,
+    total: HashMap<u32, u32>,
+}
+
+fn view_counts(vis: &ViewVisibility, masks: &Plane<u32>, ids: &[i32]) -> ViewCounts {
+    let mut counts = ViewCounts { by_mask: HashMap::new(), total: HashMap::new() };
+    for (&g, &p) in vis.gaussians.iter().zip(&vis.pixels) {
+        let id = ids[g as usize];
+        let Some(&mask) = masks.data.get(p as usize) else { continue };
+        if id <= 0 || mask == 0 {
+            continue;
+        }
+        *counts.by_mask.entry((mask, id as u32)).or_insert(0) += 1;
+        *counts.total.entry(id as u32).or_insert(0) += 1;
+    }
+    counts
+}
+
+/// Share of the views seeing both `a` and `b` in which one mask holds a good part of each.
+fn together_share(views: &[ViewCounts], a: u32, b: u32) -> f32 {
+    let (mut both, mut together) = (0u32, 0u32);
+    for v in views {
+        let (na, nb) = (v.total.get(&a).copied().unwrap_or(0), v.total.get(&b).copied().unwrap_or(0));
+        if na < MIN_SEEN || nb < MIN_SEEN {
+            continue;
+        }
+        both += 1;
+        let holds = v.by_mask.iter().any(|(&(m, id), &n)| {
+            id == a
+                && n as f32 >= MASK_SHARE * na as f32
+                && v.by_mask.get(&(m, b)).is_some_and(|&k| k as f32 >= MASK_SHARE * nb as f32)
+        });
+        together += holds as u32;
+    }
+    if both == 0 {
+        0.0
+    } else {
+        together as f32 / both as f32
+    }
+}
 
 fn voxel_key(v: [i64; 3]) -> u64 {
     let m = |x: i64| (x as u64) & 0x1f_ffff;
@@ -80,11 +138,13 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
 }
 
 /// Joins touching look-alike objects in `lifted` (object and majority ids), see the module
-/// docs. Returns the number of joins.
+/// docs. `views`: per view, its visibility and its merged (view-local) mask map `[H, W]`.
+/// Returns the number of joins.
 pub fn join_touching_objects(
     gaussians: &PreparedGaussians,
     lifted: &mut Lifted,
     features: ObjectFeatures,
+    views: &[(&ViewVisibility, &Plane<u32>)],
     config: &LiftConfig,
 ) -> usize {
     if features.dim == 0 || config.tau_touching > 1.0 {
@@ -95,14 +155,21 @@ pub fn join_touching_objects(
         return 0;
     }
     let n_objects = features.n_objects();
+    let counts: Vec<ViewCounts> = views.iter().map(|(v, m)| view_counts(v, m, &lifted.object_ids)).collect();
     let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel)
         .into_iter()
         .filter(|&((a, b), count)| count >= config.min_contact_voxels && (b as usize) <= n_objects && a >= 1)
-        .map(|((a, b), _)| {
+        .map(|((a, b), count)| {
             let cos = features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
-            (cos, a, b)
+            (cos, a, b, count)
         })
-        .filter(|&(cos, _, _)| cos >= config.tau_touching)
+        .filter(|&(cos, _, _, _)| cos >= config.tau_touching)
+        .filter(|&(cos, a, b, count)| {
+            let share = together_share(&counts, a, b);
+            tracing::debug!("touching objects {a} and {b}: cos {cos:.3}, contact {count}, together in {share:.2} of views");
+            share >= config.min_together_share
+        })
+        .map(|(cos, a, b, _)| (cos, a, b))
         .collect();
     pairs.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
     let mut parent: Vec<u32> = (0..=n_objects as u32).collect();

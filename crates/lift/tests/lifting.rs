@@ -4,8 +4,8 @@ mod common;
 use common::{camera, gaussians, look_at, sphere};
 use glam::DVec3;
 use splatseg_lift::{
-    lift_labels, render_all, render_votes, renumber, visibility_all, GaussianStatus, LiftConfig, LiftError,
-    ObjectFeatures, PosedCamera, PreparedGaussians, RenderVotes, ViewVisibility,
+    drop_small_objects, lift_labels, render_all, render_votes, renumber, visibility_all, GaussianStatus,
+    LiftConfig, LiftError, ObjectFeatures, PosedCamera, PreparedGaussians, RenderVotes, ViewVisibility,
 };
 use splatseg_scene::Plane;
 
@@ -176,4 +176,16 @@ fn renumber_orders_by_first_appearance() {
     assert_eq!(maps[1].data, vec![3, 2, 0]);
     assert_eq!(ids, vec![2, -1, 4, 1, 3]);
     assert_eq!(old_of_new, vec![0, 7, 3, 5, 9]);
+}
+
+#[test]
+fn specks_are_dropped() {
+    let mut maps = vec![
+        Plane::from_vec(4, 1, vec![1, 1, 2, 0]).unwrap(),
+        Plane::from_vec(4, 1, vec![1, 3, 3, 3]).unwrap(),
+    ];
+    let mut ids = vec![1, 2, 3, -1];
+    assert_eq!(drop_small_objects(&mut maps, &mut ids, 3), 1);
+    assert_eq!(maps[0].data, vec![1, 1, 0, 0]);
+    assert_eq!(ids, vec![1, -1, 3, -1]);
 }
