@@ -41,13 +41,35 @@ struct Reader<'a> {
     pos: usize,
     path: &'a Path,
     format: &'static str,
-    /// What is being read, for messages, e.g. "image 3 of 10".
-    record: String,
+    /// What is being read, for messages: the kind of record ("" before the first), its
+    /// 1-based index, the count, and for images the name once read.
+    record: Record,
+}
+
+#[derive(Default)]
+struct Record {
+    kind: &'static str,
+    index: usize,
+    count: usize,
+    name: Option<String>,
+}
+
+impl std::fmt::Display for Record {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.kind.is_empty() {
+            return f.write_str("the record count");
+        }
+        write!(f, "{} {} of {}", self.kind, self.index, self.count)?;
+        match &self.name {
+            Some(name) => write!(f, " ({name})"),
+            None => Ok(()),
+        }
+    }
 }
 
 impl<'a> Reader<'a> {
     fn new(bytes: &'a [u8], path: &'a Path, format: &'static str) -> Self {
-        Reader { bytes, pos: 0, path, format, record: "the record count".into() }
+        Reader { bytes, pos: 0, path, format, record: Record::default() }
     }
 
     fn invalid(&self, reason: impl Into<String>) -> SceneError {
@@ -116,6 +138,11 @@ impl<'a> Reader<'a> {
         Ok(n as usize)
     }
 
+    /// Starts record `index` (0-based) of `count` records of `kind`.
+    fn start(&mut self, kind: &'static str, index: usize, count: usize) {
+        self.record = Record { kind, index: index + 1, count, name: None };
+    }
+
     fn finish(&self) -> SceneResult<()> {
         if self.pos == self.bytes.len() {
             Ok(())
@@ -139,7 +166,7 @@ fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
     let n = r.count("number of cameras", 24)?;
     let mut cameras = Vec::with_capacity(n);
     for i in 0..n {
-        r.record = format!("camera {} of {n}", i + 1);
+        r.start("camera", i, n);
         let id = r.id("camera_id")?;
         let model_id = r.i32("model_id")?;
         let model = CameraModel::from_colmap_id(model_id).ok_or_else(|| {
@@ -175,7 +202,7 @@ fn read_images(path: &Path) -> SceneResult<Vec<ColmapImage>> {
     let n = r.count("number of images", 4 + 56 + 4 + 1 + 8)?;
     let mut images = Vec::with_capacity(n);
     for i in 0..n {
-        r.record = format!("image {} of {n}", i + 1);
+        r.start("image", i, n);
         let id = r.id("image_id")?;
         let mut qvec = [0.0; 4];
         for q in &mut qvec {
@@ -187,7 +214,7 @@ fn read_images(path: &Path) -> SceneResult<Vec<ColmapImage>> {
         }
         let camera_id = r.id("camera_id")?;
         let name = read_name(&mut r)?;
-        r.record = format!("image {} of {n} ({name})", i + 1);
+        r.record.name = Some(name.clone());
         let num_points = r.count("num_points2D", 24)?;
         let mut keypoints = Vec::with_capacity(num_points);
         for _ in 0..num_points {
@@ -223,7 +250,7 @@ fn read_points(path: &Path) -> SceneResult<Vec<SparsePoint>> {
     let n = r.count("number of points", 8 + 24 + 3 + 8 + 8)?;
     let mut points = Vec::with_capacity(n);
     for i in 0..n {
-        r.record = format!("point {} of {n}", i + 1);
+        r.start("point", i, n);
         let id = r.u64("point3D_id")?;
         let xyz = DVec3::new(r.f64("x")?, r.f64("y")?, r.f64("z")?);
         let rgb = r.array::<3>("rgb")?;
