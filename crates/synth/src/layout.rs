@@ -345,6 +345,53 @@ mod tests {
         }
     }
 
+    /// Centre (xy) and radius of a bounding circle of an object's footprint.
+    fn footprint(shape: &Shape) -> (DVec3, f64) {
+        match *shape {
+            Shape::Cuboid { base_centre, size, .. } => (base_centre, 0.5 * (size.x.hypot(size.y))),
+            Shape::Sphere { centre, radius } => (centre * DVec3::new(1.0, 1.0, 0.0), radius),
+            Shape::Cylinder { base_centre, radius, .. } => (base_centre, radius),
+            Shape::Quad { .. } => (DVec3::ZERO, f64::INFINITY),
+        }
+    }
+
+    #[test]
+    fn objects_stand_apart_inside_the_room_except_the_touching_pair() {
+        for seed in 0..50 {
+            let objects = build_layout(seed);
+            let movable: Vec<&SceneObject> = objects.iter().filter(|o| o.id >= 4).collect();
+            for (i, a) in movable.iter().enumerate() {
+                let (ca, ra) = footprint(&a.shape);
+                assert!(ca.x - ra > WALL_AT && ca.y - ra > WALL_AT, "seed {seed}: {} in a wall", a.name);
+                for b in &movable[i + 1..] {
+                    if a.tags.contains(&HardCase::SameDepthPair) && b.tags.contains(&HardCase::SameDepthPair)
+                    {
+                        continue;
+                    }
+                    let (cb, rb) = footprint(&b.shape);
+                    let gap = (ca - cb).length() - ra - rb;
+                    assert!(gap > 0.02, "seed {seed}: {} and {} overlap ({gap:.3} m)", a.name, b.name);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_same_depth_pair_shares_a_face() {
+        let objects = build_layout(4);
+        let pair: Vec<&SceneObject> =
+            objects.iter().filter(|o| o.tags.contains(&HardCase::SameDepthPair)).collect();
+        let (
+            Shape::Cuboid { base_centre: ca, size: sa, yaw: ya },
+            Shape::Cuboid { base_centre: cb, size: sb, yaw: yb },
+        ) = (&pair[0].shape, &pair[1].shape)
+        else {
+            panic!("the pair are boxes");
+        };
+        assert_eq!(ya, yb);
+        assert!(((*ca - *cb).length() - (sa.x + sb.x) / 2.0).abs() < 1e-12);
+    }
+
     #[test]
     fn seeds_change_the_layout_and_pick_different_extras() {
         let counts: std::collections::BTreeSet<usize> = (0..20).map(|s| build_layout(s).len()).collect();

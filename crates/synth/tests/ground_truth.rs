@@ -378,3 +378,28 @@ fn cameras_orbit_the_scene_with_pixel_centre_conventions() {
         assert!((uv - DVec2::new(160.0, 120.0)).length() < 30.0, "{}: {uv:?}", v.stem);
     }
 }
+
+#[test]
+fn every_sam_mask_lies_within_one_instance_except_white_pair_merges() {
+    for seed in 0..2 {
+        let s = scene(seed);
+        let white = s.white_pair();
+        for sv in &s.views {
+            for m in &sv.sam_masks {
+                let plane = m.segmentation.decode().expect("valid RLE");
+                let mut counts = std::collections::BTreeMap::new();
+                for (inside, &id) in plane.data.iter().zip(&sv.gt_instance.data) {
+                    if *inside {
+                        *counts.entry(id).or_insert(0usize) += 1;
+                    }
+                }
+                let ids: Vec<u32> = counts.keys().copied().collect();
+                assert!(
+                    ids.len() == 1 || ids == white.to_vec(),
+                    "{}: a mask spans instances {counts:?}",
+                    sv.stem
+                );
+            }
+        }
+    }
+}
