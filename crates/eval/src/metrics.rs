@@ -125,6 +125,16 @@ impl Metrics {
         let mut pred_ids: Vec<u32> = pixels.iter().filter(|c| c.pred != 0).map(|c| c.pred).collect();
         pred_ids.sort_unstable();
         pred_ids.dedup();
+        // Views each instance appears in (view pixel lists are sorted by gt).
+        let mut views_per_gt: std::collections::BTreeMap<u32, usize> = Default::default();
+        for v in views {
+            let mut ids: Vec<u32> =
+                v.pixels.iter().filter(|c| c.gt != 0 && c.pixels > 0).map(|c| c.gt).collect();
+            ids.dedup();
+            for id in ids {
+                *views_per_gt.entry(id).or_default() += 1;
+            }
+        }
 
         let instances: Vec<InstanceScore> = table
             .gt_ids
@@ -143,10 +153,7 @@ impl Metrics {
                 InstanceScore {
                     gt_id: g,
                     pixels: total,
-                    views: views
-                        .iter()
-                        .filter(|v| v.pixels.iter().any(|c| c.gt == g && c.pixels > 0))
-                        .count(),
+                    views: views_per_gt.get(&g).copied().unwrap_or(0),
                     matched_pred: m.map(|(p, _)| p),
                     iou,
                     boundary_iou: m.map_or(0.0, |(p, _)| boundary_iou(&band, g, p, cfg).unwrap_or(iou)),
