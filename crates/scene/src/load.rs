@@ -182,6 +182,23 @@ pub fn load_scene(path: &Path, options: &LoadOptions) -> SceneResult<Scene> {
     ))
 }
 
+/// A warning when several views share an image stem (e.g. `cam1/0001.jpg` and `cam2/0001.jpg`):
+/// per-view files named `<stem>.json` / `<stem>.npy` cannot tell them apart.
+pub(crate) fn shared_stem_warning(views: &[View]) -> Option<String> {
+    let mut by_stem: std::collections::BTreeMap<&str, Vec<&str>> = std::collections::BTreeMap::new();
+    for v in views {
+        by_stem.entry(v.stem.as_str()).or_default().push(v.name.as_str());
+    }
+    let shared: Vec<(&str, Vec<&str>)> = by_stem.into_iter().filter(|(_, names)| names.len() > 1).collect();
+    let (stem, names) = shared.first()?;
+    Some(format!(
+        "{} image stems are shared by several views (e.g. {stem}: {}); per-view files named \
+         <stem>.json or <stem>.npy will be matched to the first of them only",
+        shared.len(),
+        names.join(", ")
+    ))
+}
+
 fn with_root(scene: SceneResult<Scene>, root: &Path) -> SceneResult<Scene> {
     scene.map(|s| Scene { root: root.to_path_buf(), ..s })
 }

@@ -11,7 +11,7 @@
 use crate::camera::{Camera, CameraModel, Distortion, Pose};
 use crate::error::{SceneError, SceneResult};
 use crate::images::{camera_at_resolution, check_resolution, image_size, locate_image, with_known_extension};
-use crate::load::{LoadOptions, Scene, SceneFormat, View};
+use crate::load::{shared_stem_warning, LoadOptions, Scene, SceneFormat, View};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -268,7 +268,7 @@ impl Builder<'_> {
                 camera_at_resolution(camera, sample, self.factor)
             })
             .collect();
-        let mut warnings = Vec::new();
+        let mut warnings: Vec<String> = shared_stem_warning(&self.views).into_iter().collect();
         if !self.missing.is_empty() {
             let file_name =
                 self.file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());

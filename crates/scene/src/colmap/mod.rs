@@ -18,7 +18,7 @@ pub use text::{read_model_text, write_model_text};
 
 use crate::error::{SceneError, SceneResult};
 use crate::images::{camera_at_resolution, check_resolution, locate_image};
-use crate::load::{LoadOptions, Scene, SceneFormat, View};
+use crate::load::{shared_stem_warning, LoadOptions, Scene, SceneFormat, View};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -141,6 +141,7 @@ fn model_to_scene(
         .collect();
     let mut points = model.points;
     let mut warnings = Vec::new();
+    warnings.extend(shared_stem_warning(&views));
     if !missing.is_empty() {
         warnings.push(missing_images_warning(&missing, listed, images_file, images_dir));
         let kept: BTreeSet<u32> = views.iter().map(|v| v.image_id).collect();
