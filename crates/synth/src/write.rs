@@ -50,6 +50,7 @@ pub fn write(dir: &Path, scene: &SynthScene) -> Result<SynthSummary, SynthError>
     for r in per_view {
         files += r?;
     }
+    remove_stale_views(dir, scene)?;
     let mut colmap_scene = scene.scene.clone();
     colmap_scene.root = dir.to_path_buf();
     for v in &mut colmap_scene.views {
@@ -83,6 +84,42 @@ pub fn write(dir: &Path, scene: &SynthScene) -> Result<SynthSummary, SynthError>
         sam_masks: scene.views.iter().map(|v| v.sam_masks.len()).sum(),
         files,
     })
+}
+
+/// The folders holding one file per view, with the file extension.
+const PER_VIEW_FOLDERS: [(&str, &str); 6] = [
+    ("images", "png"),
+    ("gt/instance", "png"),
+    ("gt/depth", "npy"),
+    ("sam", "json"),
+    ("features", "npy"),
+    ("depth", "npy"),
+];
+
+/// Removes per-view files of an earlier, larger synthetic scene written into the same folder
+/// (`view_NNN.*` whose view this scene does not have), so the folder never lists masks or cues
+/// for views the COLMAP model lacks. Other files are left alone.
+fn remove_stale_views(dir: &Path, scene: &SynthScene) -> Result<(), SynthError> {
+    let current: std::collections::BTreeSet<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
+    for (folder, ext) in PER_VIEW_FOLDERS {
+        let folder = dir.join(folder);
+        let entries = std::fs::read_dir(&folder)
+            .map_err(|e| splatseg_scene::SceneError::io("cannot list folder", &folder, e))?;
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let (Some(stem), Some(e)) = (path.file_stem().and_then(|s| s.to_str()), path.extension()) else {
+                continue;
+            };
+            let ours = stem
+                .strip_prefix("view_")
+                .is_some_and(|n| n.len() >= 3 && n.bytes().all(|b| b.is_ascii_digit()));
+            if ours && e == ext && !current.contains(stem) {
+                std::fs::remove_file(&path)
+                    .map_err(|e| splatseg_scene::SceneError::io("cannot remove stale view file", &path, e))?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Writes the per-view files of `v`; returns how many.

@@ -136,3 +136,24 @@ fn writing_into_a_file_path_fails_cleanly() {
     let err = write(&file, &s).expect_err("cannot write into a file");
     assert!(err.to_string().contains("not_a_dir"), "{err}");
 }
+
+#[test]
+fn rewriting_with_fewer_views_removes_the_stale_view_files_only() {
+    let dir = tempfile::tempdir().expect("tmp");
+    write(dir.path(), &generate(&small(0)).expect("generate")).expect("write");
+    let keep = dir.path().join("sam").join("notes.txt");
+    std::fs::write(&keep, b"mine").expect("write");
+    let fewer = SynthConfig { views: 2, ..small(0) };
+    write(dir.path(), &generate(&fewer).expect("generate")).expect("write");
+    for folder in ["images", "gt/instance", "gt/depth", "sam", "features", "depth"] {
+        let names: Vec<String> = std::fs::read_dir(dir.path().join(folder))
+            .expect("folder")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("view_"))
+            .collect();
+        assert_eq!(names.len(), 2, "{folder}: {names:?}");
+    }
+    assert!(keep.is_file());
+    let loaded = load_scene(dir.path(), &LoadOptions::default()).expect("loads");
+    assert_eq!(loaded.views.len(), 2);
+}
