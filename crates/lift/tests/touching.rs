@@ -69,3 +69,32 @@ fn touching_different_objects_stay_apart() {
     assert_eq!(joins, 0);
     assert_eq!(l.object_ids, ids);
 }
+
+#[test]
+fn views_that_keep_the_pieces_apart_block_the_join() {
+    // Two touching look-alike pieces; every view sees all 800 Gaussians (one per pixel) and
+    // its merged masks keep the pieces apart (mask 1 | mask 2).
+    let mut means = patch(0.0, 2.0);
+    means.extend(patch(0.4, 2.0));
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
+    let vis = splatseg_lift::ViewVisibility {
+        gaussians: (0..800).collect(),
+        pixels: (0..800).collect(),
+        weights: vec![1.0; 800],
+    };
+    let apart =
+        splatseg_scene::Plane::from_vec(800, 1, (0..800).map(|p| if p < 400 { 1 } else { 2 }).collect())
+            .unwrap();
+    let together = splatseg_scene::Plane::filled(800, 1, 1u32);
+    let config = LiftConfig { min_together_share: 0.5, ..LiftConfig::default() };
+    let features = ObjectFeatures { dim: 2, values: &FEATURES };
+    // One view of three unites them: share 1/3 < 0.5, no join.
+    let views = [(&vis, &apart), (&vis, &apart), (&vis, &together)];
+    let mut l = lifted(ids.clone());
+    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, &config), 0);
+    // Two of three: share 2/3, joined.
+    let views = [(&vis, &apart), (&vis, &together), (&vis, &together)];
+    let mut l = lifted(ids);
+    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, &config), 1);
+}
