@@ -6,7 +6,7 @@
 //! - [`sh`]: view-dependent colour from spherical harmonics, degree 0–3.
 //! - [`bin`]: 16×16 tile lists sorted by depth.
 //! - [`rasterise`]: front-to-back alpha blending of any number of channels.
-//! - [`render()`](render::render) / [`render_bwd`](render::render_bwd): the whole pass, driven by
+//! - [`render()`](render::render) / [`render_bwd`]: the whole pass, driven by
 //!   a [`RenderRequest`] (rgb, expected depth, alpha, max-weight ids, features).
 //! - [`export`]: PNG / `.npy` writers for rendered outputs.
 //!

@@ -614,20 +614,47 @@ pub fn rasterise_bwd(
                 }
             },
         );
-        for (r, &gid) in bins.ids[first..last].iter().enumerate() {
-            let rec = &records[r * rl..(r + 1) * rl];
-            let g = gid as usize;
-            out.mean2d[g][0] += rec[0];
-            out.mean2d[g][1] += rec[1];
-            for k in 0..3 {
-                out.conic[g][k] += rec[2 + k];
-            }
-            out.opacity[g] += rec[5];
-            for (d, &v) in out.channels[g * c..(g + 1) * c].iter_mut().zip(&rec[6..]) {
-                *d += v;
-            }
-        }
+        scatter_records(&bins.ids[first..last], &records, c, &mut out);
         ty0 = ty1;
     }
     out
+}
+
+/// Adds per-(splat, tile) records (`[len(ids), 6 + c]`) into the per-splat totals, each splat's
+/// records in list order. Splat indices are split into one contiguous range per thread; every
+/// thread scans all records and adds those of its range, so the sums do not depend on the
+/// thread count.
+fn scatter_records(ids: &[u32], records: &[f32], c: usize, out: &mut RasterGrads) {
+    let rl = record_len(c);
+    let n = out.opacity.len();
+    let per = n.div_ceil(rayon::current_num_threads().max(1)).max(1);
+    let add = |lo: usize, m2: &mut [[f32; 2]], con: &mut [[f32; 3]], op: &mut [f32], ch: &mut [f32]| {
+        for (r, &gid) in ids.iter().enumerate() {
+            let g = (gid as usize).wrapping_sub(lo);
+            if g >= op.len() {
+                continue;
+            }
+            let rec = &records[r * rl..(r + 1) * rl];
+            m2[g][0] += rec[0];
+            m2[g][1] += rec[1];
+            for k in 0..3 {
+                con[g][k] += rec[2 + k];
+            }
+            op[g] += rec[5];
+            for (d, &v) in ch[g * c..(g + 1) * c].iter_mut().zip(&rec[6..]) {
+                *d += v;
+            }
+        }
+    };
+    if c == 0 || per >= n {
+        add(0, &mut out.mean2d, &mut out.conic, &mut out.opacity, &mut out.channels);
+        return;
+    }
+    out.mean2d
+        .par_chunks_mut(per)
+        .zip(out.conic.par_chunks_mut(per))
+        .zip(out.opacity.par_chunks_mut(per))
+        .zip(out.channels.par_chunks_mut(per * c))
+        .enumerate()
+        .for_each(|(i, (((m2, con), op), ch))| add(i * per, m2, con, op, ch));
 }
