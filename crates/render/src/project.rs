@@ -304,9 +304,85 @@ pub(crate) fn project_one_bwd(
     }
 }
 
+/// Backward of [`project`]: per-Gaussian raw-parameter gradients (`[N]`) from per-splat
+/// gradients (`grads: [N]`); culled Gaussians get zeros. (SH colour gradients are separate:
+/// [`crate::sh::colour_bwd`].)
+pub fn project_bwd(
+    gaussians: &Gaussians,
+    camera: &RenderCamera,
+    settings: &RasterSettings,
+    splats: &[Splat2d],
+    grads: &[SplatGrad],
+) -> Vec<ParamGrad> {
+    let cam = ProjCam::new(camera);
+    (0..gaussians.len())
+        .into_par_iter()
+        .map(|i| {
+            if splats[i].is_culled() {
+                ParamGrad::default()
+            } else {
+                project_one_bwd(&cam, gaussians, i, settings, &grads[i])
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use splatseg_scene::{Camera, Pose};
+
+    /// d(conic·w + mean2d·v + depth·u)/d(params) against central differences.
+    #[test]
+    fn projection_backward_matches_finite_differences() {
+        let g = Gaussians {
+            means: vec![[0.3, -0.2, 3.0]],
+            log_scales: vec![[-1.0, -1.6, -1.3]],
+            rotations: vec![[0.9, 0.2, -0.3, 0.1]],
+            raw_opacities: vec![0.4],
+            ..Default::default()
+        };
+        let camera =
+            RenderCamera::from_scene(&Camera::pinhole(1, 64, 48, 60.0, 61.0, 32.0, 24.0), &Pose::IDENTITY);
+        let settings = RasterSettings::default();
+        let grad = SplatGrad { mean2d: [0.7, -0.4], conic: [2.0, -1.5, 3.0], opacity: 0.6, depth: 0.3 };
+        let loss = |g: &Gaussians| {
+            let s = project(g, &camera, &settings)[0];
+            let c: f64 = (0..3).map(|k| s.conic[k] as f64 * grad.conic[k] as f64).sum();
+            c + s.mean2d[0] as f64 * 0.7 - s.mean2d[1] as f64 * 0.4
+                + s.opacity as f64 * 0.6
+                + s.depth as f64 * 0.3
+        };
+        let splats = project(&g, &camera, &settings);
+        let an = project_bwd(&g, &camera, &settings, &splats, &[grad])[0];
+        let h = 1e-3f32;
+        let fd = |f: &dyn Fn(&mut Gaussians, f32)| {
+            let (mut up, mut dn) = (g.clone(), g.clone());
+            f(&mut up, h);
+            f(&mut dn, -h);
+            ((loss(&up) - loss(&dn)) / (2.0 * h as f64)) as f32
+        };
+        for k in 0..3 {
+            let d = fd(&|g, h| g.means[0][k] += h);
+            assert!((d - an.mean[k]).abs() < 2e-2 * (1.0 + d.abs()), "mean[{k}]: fd {d} vs {}", an.mean[k]);
+            let d = fd(&|g, h| g.log_scales[0][k] += h);
+            assert!(
+                (d - an.log_scales[k]).abs() < 2e-2 * (1.0 + d.abs()),
+                "log_scale[{k}]: fd {d} vs {}",
+                an.log_scales[k]
+            );
+        }
+        for k in 0..4 {
+            let d = fd(&|g, h| g.rotations[0][k] += h);
+            assert!(
+                (d - an.rotation[k]).abs() < 2e-2 * (1.0 + d.abs()),
+                "rotation[{k}]: fd {d} vs {}",
+                an.rotation[k]
+            );
+        }
+        let d = fd(&|g, h| g.raw_opacities[0] += h);
+        assert!((d - an.raw_opacity).abs() < 1e-3, "raw opacity: fd {d} vs {}", an.raw_opacity);
+    }
 
     #[test]
     fn quaternion_backward_matches_finite_differences() {
