@@ -11,8 +11,10 @@
 use crate::bin::{bin, TileBins};
 use crate::camera::RenderCamera;
 use crate::error::{RenderError, RenderResult};
-use crate::project::{project, project_one_bwd, ProjCam, Splat2d, SplatGrad};
-use crate::rasterise::{rasterise, rasterise_bwd, RasterInputs, RasterOutput, RasterOutputGrads};
+use crate::project::{project, project_one_bwd, ParamGrad, ProjCam, Splat2d, SplatGrad};
+use crate::rasterise::{
+    rasterise, rasterise_bwd, RasterGrads, RasterInputs, RasterOutput, RasterOutputGrads,
+};
 use crate::request::{GaussianGrads, OutputGrads, RenderOutput, RenderRequest, RenderStats};
 use crate::sh::{colour, colour_bwd, ShCoeffs};
 use rayon::prelude::*;
@@ -280,13 +282,64 @@ fn channel_grads(
     Ok((g_ch, g_t))
 }
 
-/// Gradients of one block of Gaussians, concatenated in block order.
-#[derive(Default)]
-struct Block {
-    grads: GaussianGrads,
+/// Gaussians per work item of the per-Gaussian backward.
+const BLOCK: usize = 4096;
+
+/// What the per-Gaussian backward reads.
+struct GaussianBwd<'a> {
+    gaussians: &'a Gaussians,
+    state: &'a RenderState,
+    raster: &'a RasterGrads,
+    cam: ProjCam,
+    centre: [f32; 3],
+    settings: &'a crate::settings::RasterSettings,
 }
 
-const BLOCK: usize = 4096;
+impl GaussianBwd<'_> {
+    /// Gradients of the Gaussians in `range` (SH colour, features, projection).
+    fn block(&self, range: std::ops::Range<usize>) -> GaussianGrads {
+        let layout = self.state.layout;
+        let c = layout.count;
+        let k3 = 3 * self.gaussians.rest_per_channel();
+        let mut g = GaussianGrads {
+            sh_rest: vec![0.0; range.len() * k3],
+            features: layout.features.map(|(_, d)| vec![0.0; range.len() * d]),
+            ..Default::default()
+        };
+        for (j, i) in range.enumerate() {
+            let chg = &self.raster.channels[i * c..(i + 1) * c];
+            let mut dc = [0.0f32; 3];
+            let mut dir_grad = [0.0f32; 3];
+            let mut pg = ParamGrad::default();
+            if !self.state.splats[i].is_culled() {
+                if let Some(at) = layout.rgb {
+                    let rest = &mut g.sh_rest[j * k3..(j + 1) * k3];
+                    let d_colour = [chg[at], chg[at + 1], chg[at + 2]];
+                    let coeffs = sh_coeffs(self.gaussians, i);
+                    let dir = view_dir(self.gaussians, i, self.centre);
+                    dir_grad = colour_bwd(&coeffs, self.state.sh_degree, dir, d_colour, &mut dc, rest);
+                }
+                if let (Some((at, d)), Some(f)) = (layout.features, g.features.as_mut()) {
+                    f[j * d..(j + 1) * d].copy_from_slice(&chg[at..at + d]);
+                }
+                let sg = SplatGrad {
+                    mean2d: self.raster.mean2d[i],
+                    conic: self.raster.conic[i],
+                    opacity: self.raster.opacity[i],
+                    depth: layout.depth.map_or(0.0, |at| chg[at]),
+                };
+                pg = project_one_bwd(&self.cam, self.gaussians, i, self.settings, &sg);
+            }
+            g.means.push([0, 1, 2].map(|k| pg.mean[k] + dir_grad[k]));
+            g.log_scales.push(pg.log_scales);
+            g.rotations.push(pg.rotation);
+            g.raw_opacities.push(pg.raw_opacity);
+            g.sh_dc.push(dc);
+            g.means2d.push(self.raster.mean2d[i]);
+        }
+        g
+    }
+}
 
 /// Backward of [`render_with_state`]: gradients w.r.t. the Gaussians' raw parameters given the
 /// gradients of a loss w.r.t. the outputs. `gaussians`, `camera` and `request` must be those of
@@ -320,63 +373,26 @@ pub fn render_bwd(
         &state.raster,
         &RasterOutputGrads { channels: &g_ch, final_t: Some(&g_t) },
     );
-    let cam = ProjCam::new(camera);
-    let centre = camera.centre_f32();
+    let ctx = GaussianBwd {
+        gaussians,
+        state,
+        raster: &rg,
+        cam: ProjCam::new(camera),
+        centre: camera.centre_f32(),
+        settings: &request.settings,
+    };
     let n = gaussians.len();
-    let k3 = 3 * gaussians.rest_per_channel();
-    let blocks: Vec<Block> = (0..n.div_ceil(BLOCK))
+    let blocks: Vec<GaussianGrads> = (0..n.div_ceil(BLOCK))
         .into_par_iter()
-        .map(|b| {
-            let mut blk = Block::default();
-            let g = &mut blk.grads;
-            let range = b * BLOCK..((b + 1) * BLOCK).min(n);
-            g.sh_rest = vec![0.0; range.len() * k3];
-            if let Some((_, d)) = layout.features {
-                g.features = Some(vec![0.0; range.len() * d]);
-            }
-            for (j, i) in range.enumerate() {
-                let s = &state.splats[i];
-                let c = layout.count;
-                let chg = &rg.channels[i * c..(i + 1) * c];
-                let mut dc = [0.0f32; 3];
-                let mut dir_grad = [0.0f32; 3];
-                let mut pg = Default::default();
-                if !s.is_culled() {
-                    if let Some(at) = layout.rgb {
-                        let rest = &mut g.sh_rest[j * k3..(j + 1) * k3];
-                        let d_colour = [chg[at], chg[at + 1], chg[at + 2]];
-                        let coeffs = sh_coeffs(gaussians, i);
-                        let dir = view_dir(gaussians, i, centre);
-                        dir_grad = colour_bwd(&coeffs, state.sh_degree, dir, d_colour, &mut dc, rest);
-                    }
-                    if let (Some((at, d)), Some(f)) = (layout.features, g.features.as_mut()) {
-                        f[j * d..(j + 1) * d].copy_from_slice(&chg[at..at + d]);
-                    }
-                    let sg = SplatGrad {
-                        mean2d: rg.mean2d[i],
-                        conic: rg.conic[i],
-                        opacity: rg.opacity[i],
-                        depth: layout.depth.map_or(0.0, |at| chg[at]),
-                    };
-                    pg = project_one_bwd(&cam, gaussians, i, &request.settings, &sg);
-                }
-                let pg: crate::project::ParamGrad = pg;
-                g.means.push([0, 1, 2].map(|k| pg.mean[k] + dir_grad[k]));
-                g.log_scales.push(pg.log_scales);
-                g.rotations.push(pg.rotation);
-                g.raw_opacities.push(pg.raw_opacity);
-                g.sh_dc.push(dc);
-                g.means2d.push(rg.mean2d[i]);
-            }
-            blk
-        })
+        .map(|b| ctx.block(b * BLOCK..((b + 1) * BLOCK).min(n)))
         .collect();
     Ok(concat(blocks, layout.features.is_some()))
 }
 
-fn concat(blocks: Vec<Block>, features: bool) -> GaussianGrads {
+/// Concatenates per-block gradients in block order.
+fn concat(blocks: Vec<GaussianGrads>, features: bool) -> GaussianGrads {
     let mut out = GaussianGrads { features: features.then(Vec::new), ..Default::default() };
-    for Block { grads: g } in blocks {
+    for g in blocks {
         out.means.extend(g.means);
         out.log_scales.extend(g.log_scales);
         out.rotations.extend(g.rotations);
