@@ -29,21 +29,61 @@ pub(crate) struct Edge {
     pub band: Vec<u32>,
 }
 
-/// Horizontal label set of one pixel: up to `2r + 1` distinct labels.
-#[derive(Clone, Copy)]
-struct HSet {
-    labels: [u32; 17],
-    len: u8,
+/// Marks a horizontal window with two or more labels in [`RingRow::single`].
+const MIXED: u32 = u32::MAX;
+
+/// The horizontal label sets of one image row: per pixel, the distinct non-zero labels among
+/// the `2r + 1` pixels around it.
+struct RingRow {
+    /// `[W]` 0 = no label, `l` = only label `l`, [`MIXED`] = see `labels`/`lens`.
+    single: Vec<u32>,
+    /// `[W, 2r+1]` the labels of mixed windows.
+    labels: Vec<u32>,
+    /// `[W]` number of labels of mixed windows.
+    lens: Vec<u8>,
+    /// `[W]` scratch: last index of the run of equal labels containing each pixel.
+    run_end: Vec<usize>,
 }
 
-impl HSet {
-    const EMPTY: HSet = HSet { labels: [0; 17], len: 0 };
+impl RingRow {
+    fn new(w: usize, k: usize) -> Self {
+        RingRow { single: vec![0; w], labels: vec![0; w * k], lens: vec![0; w], run_end: vec![0; w] }
+    }
 
-    #[inline]
-    fn insert(&mut self, l: u32) {
-        if l != 0 && !self.labels[..self.len as usize].contains(&l) {
-            self.labels[self.len as usize] = l;
-            self.len += 1;
+    fn fill(&mut self, row: &[u32], radius: usize) {
+        let (w, k) = (row.len(), 2 * radius + 1);
+        for x in (0..w).rev() {
+            self.run_end[x] = if x + 1 < w && row[x + 1] == row[x] { self.run_end[x + 1] } else { x };
+        }
+        for x in 0..w {
+            let lo = x.saturating_sub(radius);
+            let hi = (x + radius).min(w - 1);
+            if self.run_end[lo] >= hi {
+                self.single[x] = row[lo];
+                continue;
+            }
+            let out = &mut self.labels[x * k..(x + 1) * k];
+            let mut n = 0;
+            for &l in &row[lo..=hi] {
+                if l != 0 && !out[..n].contains(&l) {
+                    out[n] = l;
+                    n += 1;
+                }
+            }
+            self.lens[x] = n as u8;
+            self.single[x] = match n {
+                0 => 0,
+                1 => out[0],
+                _ => MIXED,
+            };
+        }
+    }
+
+    fn labels_at(&self, x: usize, k: usize) -> &[u32] {
+        match self.single[x] {
+            0 => &[],
+            MIXED => &self.labels[x * k..x * k + self.lens[x] as usize],
+            _ => std::slice::from_ref(&self.single[x]),
         }
     }
 }
@@ -77,50 +117,39 @@ impl Junctions {
 pub(crate) fn build_edges(labels: &Plane<u32>, radius: usize) -> (Vec<Edge>, Junctions) {
     let (w, h) = labels.size();
     let k = 2 * radius + 1;
-    let mut ring: Vec<Vec<HSet>> = vec![vec![HSet::EMPTY; w]; k];
     let mut index: HashMap<(u32, u32), usize> = HashMap::new();
     let mut edges: Vec<Edge> = Vec::new();
     let mut junctions = Junctions::default();
-    let fill_row = |y: usize, out: &mut Vec<HSet>| {
-        let row = labels.row(y);
-        for (x, o) in out.iter_mut().enumerate() {
-            let lo = x.saturating_sub(radius);
-            let hi = (x + radius).min(w - 1);
-            let mut s = HSet::EMPTY;
-            // Fast path: run of one label.
-            let first = row[lo];
-            if row[lo..=hi].iter().all(|&l| l == first) {
-                s.insert(first);
-            } else {
-                row[lo..=hi].iter().for_each(|&l| s.insert(l));
-            }
-            *o = s;
-        }
-    };
     if w == 0 || h == 0 {
         return (edges, junctions);
     }
+    let mut ring: Vec<RingRow> = (0..k).map(|_| RingRow::new(w, k)).collect();
     junctions.start = vec![u32::MAX; w * h];
     // Rows y−r ..= y+r live in ring slots (row mod k).
     for y in 0..radius.min(h) {
-        fill_row(y, &mut ring[y % k]);
+        ring[y % k].fill(labels.row(y), radius);
     }
-    let mut window: Vec<u32> = Vec::with_capacity(k * 17);
+    let mut window: Vec<u32> = Vec::with_capacity(k * k);
+    let mut rows: Vec<usize> = Vec::with_capacity(k);
+    let mut last: Option<((u32, u32), usize)> = None;
     for y in 0..h {
         if y + radius < h {
-            let yy = y + radius;
-            fill_row(yy, &mut ring[yy % k]);
+            ring[(y + radius) % k].fill(labels.row(y + radius), radius);
         }
-        let rows: Vec<usize> = (y.saturating_sub(radius)..=(y + radius).min(h - 1)).map(|r| r % k).collect();
+        rows.clear();
+        rows.extend((y.saturating_sub(radius)..=(y + radius).min(h - 1)).map(|r| r % k));
         for x in 0..w {
             // Fast path: every row holds at most the same single label.
             let mut single = 0u32;
             let mut simple = true;
             for &r in &rows {
-                let s = &ring[r][x];
-                match s.len {
+                match ring[r].single[x] {
                     0 => {}
-                    1 if single == 0 || single == s.labels[0] => single = s.labels[0],
+                    MIXED => {
+                        simple = false;
+                        break;
+                    }
+                    l if single == 0 || single == l => single = l,
                     _ => {
                         simple = false;
                         break;
@@ -132,15 +161,11 @@ pub(crate) fn build_edges(labels: &Plane<u32>, radius: usize) -> (Vec<Edge>, Jun
             }
             window.clear();
             for &r in &rows {
-                let s = &ring[r][x];
-                for &l in &s.labels[..s.len as usize] {
+                for &l in ring[r].labels_at(x, k) {
                     if !window.contains(&l) {
                         window.push(l);
                     }
                 }
-            }
-            if window.len() < 2 {
-                continue;
             }
             window.sort_unstable();
             let p = (y * w + x) as u32;
@@ -152,10 +177,14 @@ pub(crate) fn build_edges(labels: &Plane<u32>, radius: usize) -> (Vec<Edge>, Jun
             for i in 0..window.len() {
                 for j in i + 1..window.len() {
                     let key = (window[i], window[j]);
-                    let e = *index.entry(key).or_insert_with(|| {
-                        edges.push(Edge { a: key.0, b: key.1, band: Vec::new() });
-                        edges.len() - 1
-                    });
+                    let e = match last {
+                        Some((lk, le)) if lk == key => le,
+                        _ => *index.entry(key).or_insert_with(|| {
+                            edges.push(Edge { a: key.0, b: key.1, band: Vec::new() });
+                            edges.len() - 1
+                        }),
+                    };
+                    last = Some((key, e));
                     edges[e].band.push(p);
                 }
             }

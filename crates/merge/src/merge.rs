@@ -145,7 +145,8 @@ fn check_inputs(inputs: &ViewInputs) -> MergeResultOf<()> {
 }
 
 /// Initial per-region state (area, depth sum, descriptor sum, bbox, outline maxima).
-fn initial_states(inputs: &ViewInputs) -> Vec<RegionState> {
+/// Outline maxima are computed only when `outlines` is set (the literal profile reads them).
+fn initial_states(inputs: &ViewInputs, outlines: bool) -> Vec<RegionState> {
     let labels = &inputs.regions.labels;
     let d = &inputs.descriptors;
     let mut states: Vec<RegionState> = (0..inputs.regions.count())
@@ -175,6 +176,9 @@ fn initial_states(inputs: &ViewInputs) -> Vec<RegionState> {
                 s.bbox[2].max(x as u32),
                 s.bbox[3].max(y as u32),
             ];
+            if !outlines {
+                continue;
+            }
             let outline = (x > 0 && labels.data[p - 1] != l)
                 || (x + 1 < w && labels.data[p + 1] != l)
                 || (y > 0 && labels.data[p - w] != l)
@@ -237,8 +241,11 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
         metric_depth: inputs.metric_depth.as_ref(),
     };
     // Region ids are input labels 1..=n; index 0 unused.
-    let mut states: Vec<Option<RegionState>> =
-        std::iter::once(None).chain(initial_states(inputs).into_iter().map(Some)).collect();
+    let mut states: Vec<Option<RegionState>> = std::iter::once(None)
+        .chain(
+            initial_states(inputs, config.profile == crate::config::Profile::Literal).into_iter().map(Some),
+        )
+        .collect();
     let mut versions = vec![0u32; n + 1];
     let mut parent: Vec<u32> = (0..=n as u32).collect();
     let (built, junctions) = build_edges(labels, config.dilation_steps as usize);
