@@ -102,7 +102,8 @@ pub struct PerViewFolder {
     pub unmatched_files: Vec<String>,
 }
 
-/// Runs the command.
+/// Runs the command: prints the report, and fails (exit code 1) when some image cannot be
+/// loaded at its camera's size.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let report = inspect(&args)?;
     if args.json {
@@ -110,7 +111,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         print!("{}", format_report(&report));
     }
-    Ok(())
+    // Images the pipeline cannot load make the scene unusable: say so with the exit code too.
+    match report.image_problems.first() {
+        Some(first) => anyhow::bail!(
+            "{} image(s) cannot be used as they are; the first: {first}",
+            report.image_problems.len()
+        ),
+        None => Ok(()),
+    }
 }
 
 /// Loads the scene and everything beside it that `args` points to.
