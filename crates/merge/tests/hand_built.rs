@@ -290,3 +290,16 @@ fn the_maximum_on_the_boundary_is_too_noisy_for_a_faint_stripe() {
     assert_eq!(d.outcome, Outcome::BelowThreshold);
     assert!(d.terms.edge_boundary > 0.5);
 }
+
+#[test]
+fn views_without_regions_or_with_one_region_pass_through() {
+    let empty = view(|_, _| 0, &[], |_, _| 0.5, |_, _| 0.5);
+    let r = merge_view(&empty, &MergeConfig::default()).unwrap();
+    assert!(r.regions.is_empty() && r.log.decisions.is_empty());
+    assert!(r.labels.data.iter().all(|&l| l == 0));
+    let one = view(|_, _| 1, &[[0.0, 1.0, 0.0]], |_, _| 0.5, |_, _| 0.5);
+    let r = merge_view(&one, &MergeConfig::default()).unwrap();
+    assert_eq!(r.regions.len(), 1);
+    assert_eq!(r.regions[0].area, (W * H) as u64);
+    assert_eq!(r.regions[0].bbox_px, [0, 0, W as u32 - 1, H as u32 - 1]);
+}
