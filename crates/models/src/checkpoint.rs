@@ -50,7 +50,10 @@ pub fn from_hf_cache(model_id: &str, kind: ModelKind) -> ModelsResult<Checkpoint
     let repo = cache.join(format!("models--{}", model_id.replace('/', "--")));
     in_cache_repo(&repo).ok_or_else(|| ModelsError::NotFound {
         kind,
-        reason: format!("model `{model_id}` is not in the Hugging Face cache (looked in {})", repo.display()),
+        reason: format!(
+            "no such file or folder, and no model `{model_id}` in the Hugging Face cache (looked in {})",
+            repo.display()
+        ),
         path: PathBuf::from(model_id),
     })
 }

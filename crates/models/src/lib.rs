@@ -1,9 +1,19 @@
 //! Foundation models for splatseg's cues, written on candle-core / candle-nn (CPU):
 //!
-//! - [`dinov2`]: DINOv2 ViT-S/B/L 14 (with or without registers), patch features `[h/14, w/14, C]`.
-//! - [`resample`]: PyTorch-exact bicubic / bilinear resizing.
-//! - [`checkpoint`] + [`weights`]: finding and reading `.safetensors` / `.pth` checkpoints, original and
-//!   Hugging Face names, with errors that say which file and which tensor is wrong.
+//! - [`dinov2`]: DINOv2 ViT-S/B/L 14 (with or without registers), patch features `[h/14, w/14, C]`
+//!   for any size that is a multiple of 14, positional embeddings resized as the references do.
+//! - [`depth_anything`]: Depth Anything V2 (DPT head), relative inverse depth at the input size,
+//!   and the [0, 1] normalisation (0 = near) the merging stage uses.
+//! - [`sam`]: Segment Anything ViT-B/L/H and its automatic mask generator, output as
+//!   `splatseg_scene::sam::SamMask`.
+//! - [`checkpoint`] + [`weights`]: finding (`--model PATH`, Hugging Face snapshot folders, the local
+//!   Hugging Face cache) and reading `.safetensors` / `.pth` checkpoints, original and Hugging Face
+//!   names, with errors that say which file is expected and which tensor is missing or mis-shaped.
+//! - [`resample`]: PyTorch-exact bicubic / bilinear (antialiased or not) resizing; [`conv`]: our own
+//!   2D convolution (candle-core 0.9.2's tiled CPU kernel misreads NCHW input when `C_in == W`).
+//!
+//! Parity with `transformers` and `segment-anything` is tested from fixtures written by
+//! `tools/fixtures/make_model_fixtures.py`; timings are in `BENCHMARKS.md` beside this crate.
 
 pub mod attention;
 pub mod checkpoint;
