@@ -3,8 +3,10 @@
 //!
 //! Entry point: [`merge_view`] on a [`ViewInputs`] (regions from SAM masks, descriptors, depth,
 //! `∇D`, LoG edges; built by [`cues::build_view_inputs`] from raw cues) with a [`MergeConfig`].
-//! The score, its profiles and the reasons for the default reading are documented in [`score`];
-//! the adjacency graph in `graph`; the greedy loop in `merge`.
+//! The score, its profiles and the reasons for the default reading (with measured numbers) are
+//! documented in [`score`]; the adjacency graph in `graph`; the greedy loop in `merge`;
+//! measuring against ground truth (ablation, sensitivity) in [`study`], printed by
+//! `splatseg ablate`. Speed and quality tables: `crates/merge/BENCHMARKS.md`.
 
 pub mod config;
 pub mod cues;
