@@ -51,7 +51,8 @@ pub struct Args {
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let options = LoadOptions { resolution: args.resolution, ..LoadOptions::default() };
-    let scene = load_scene(&args.scene, &options).with_context(|| format!("cannot load scene {}", args.scene.display()))?;
+    let scene = load_scene(&args.scene, &options)
+        .with_context(|| format!("cannot load scene {}", args.scene.display()))?;
     for warning in &scene.warnings {
         tracing::warn!("{warning}");
     }
@@ -67,11 +68,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..RenderRequest::default()
     };
     let bar = ProgressBar::new(scene.views.len() as u64);
-    bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} views ({eta})")?.progress_chars("=> "));
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} views ({eta})")?.progress_chars("=> "),
+    );
     bar.set_message("rendering");
     for view in &scene.views {
         let camera = RenderCamera::from_scene(scene.camera(view), &view.world_from_cam);
-        let out = render(&gaussians, &camera, &request).with_context(|| format!("cannot render view {}", view.name))?;
+        let out = render(&gaussians, &camera, &request)
+            .with_context(|| format!("cannot render view {}", view.name))?;
         let path = |suffix: &str| args.out.join(format!("{}_{suffix}", view.stem));
         if let Some(rgb) = &out.rgb {
             write_rgb_png(&path("rgb.png"), rgb, out.width, out.height)?;
