@@ -7,21 +7,28 @@ use splatseg_scene::load::{check_image_size, ImageFit, LoadOptions, SceneFormat}
 use splatseg_scene::{load_scene, Camera, Scene};
 use std::path::{Path, PathBuf};
 
+/// The long help of `splatseg info --help` (set on the subcommand in `commands/mod.rs`).
+pub const LONG_ABOUT: &str = "\
+Show what a scene folder holds: format, cameras, views, missing or mis-sized images, sparse \
+points, the Gaussians of a 3DGS PLY and which views have SAM masks or cue maps.
+
+PATH is any scene splatseg reads: a COLMAP folder (sparse/0/ + images/, binary or text model), \
+a COLMAP model folder itself, a NeRF/Blender folder (transforms_train.json) or an instant-ngp / \
+nerfstudio folder or file (transforms.json).
+
+Per-view inputs are matched by image stem: IMG_0001.jpg <-> sam/IMG_0001.json, \
+features/IMG_0001.npy, depth/IMG_0001.npy. Folders named sam, masks, features and depth inside \
+PATH are checked automatically.
+
+Exits with an error when an image cannot be loaded at its camera's size.
+
+Examples:
+  splatseg info data/garden
+  splatseg info data/garden --resolution 4 --gaussians output/point_cloud.ply --masks sam_out
+  splatseg info data/lego --json";
+
 /// Show what a scene folder holds: format, cameras, views, missing or mis-sized images, sparse
 /// points, the Gaussians of a 3DGS PLY and which views have SAM masks or cue maps.
-///
-/// PATH is any scene splatseg reads: a COLMAP folder (`sparse/0/` + `images/`, binary or text
-/// model), a COLMAP model folder itself, a NeRF/Blender folder (`transforms_train.json`) or an
-/// instant-ngp / nerfstudio folder or file (`transforms.json`).
-///
-/// Per-view inputs are matched by image stem: `IMG_0001.jpg` ↔ `sam/IMG_0001.json`,
-/// `features/IMG_0001.npy`, `depth/IMG_0001.npy`. Folders named `sam`, `masks`, `features` and
-/// `depth` inside PATH are checked automatically.
-///
-/// Examples:
-///   splatseg info data/garden
-///   splatseg info data/garden --resolution 4 --gaussians output/point_cloud.ply --masks sam_out
-///   splatseg info data/lego --json
 #[derive(Debug, ClapArgs)]
 pub struct Args {
     /// Scene folder (or transforms .json file).
