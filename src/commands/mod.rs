@@ -2,7 +2,9 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod ablate;
 pub mod cues;
+pub mod demo;
 pub mod eval;
 pub mod extract;
 pub mod info;
@@ -11,6 +13,7 @@ pub mod objects;
 pub mod recolor;
 pub mod remove;
 pub mod render;
+pub mod run;
 pub mod synth;
 
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
@@ -28,13 +31,18 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Print the merge stage's ablation and sensitivity tables on a synthetic scene.
+    Ablate(ablate::Args),
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
     Cues(cues::Args),
+    /// Run the whole pipeline on a generated synthetic scene and print the metrics.
+    Demo(demo::Args),
     /// Score predicted label maps against ground truth (mIoU, boundary mIoU, #masks, consistency).
     Eval(eval::Args),
     /// Write the Gaussians of chosen objects of a labelled PLY to a new PLY.
     Extract(extract::Args),
     /// Show what a scene folder holds: cameras, views, missing images, Gaussians, masks.
+    #[command(long_about = info::LONG_ABOUT)]
     Info(info::Args),
     /// Merge each view's over-segmented SAM masks with semantic, depth and edge cues (paper §4.2).
     Merge(merge::Args),
@@ -46,6 +54,8 @@ pub enum Command {
     Remove(remove::Args),
     /// Render every view of a scene from a 3DGS PLY (rgb, depth, ids, alpha) on the CPU.
     Render(render::Args),
+    /// Run the pipeline (cues → merge → match → lift → eval) on a scene with SAM masks.
+    Run(run::Args),
     /// Write a synthetic multi-object scene with ground truth, simulated SAM masks and cues.
     Synth(synth::Args),
 }
@@ -53,7 +63,9 @@ pub enum Command {
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Ablate(args) => ablate::run(args),
         Command::Cues(args) => cues::run(args),
+        Command::Demo(args) => demo::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Extract(args) => extract::run(args),
         Command::Info(args) => info::run(args),
@@ -62,6 +74,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Recolor(args) => recolor::run(args),
         Command::Remove(args) => remove::run(args),
         Command::Render(args) => render::run(args),
+        Command::Run(args) => run::run(args),
         Command::Synth(args) => synth::run(args),
     }
 }
@@ -71,4 +84,12 @@ pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).init();
+}
+
+/// Parses an image size written `WIDTHxHEIGHT` (e.g. `320x240`).
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{text}`"))?;
+    let parse =
+        |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` is not a whole number of pixels"));
+    Ok((parse(w)?, parse(h)?))
 }
