@@ -72,9 +72,17 @@ fn check_amg(fixture_name: &str) {
     assert_eq!(ours.len(), reference.len(), "mask count");
     let mut used = vec![false; ours.len()];
     for (i, (rle, pred_iou, stability)) in reference.iter().enumerate() {
+        // masks of a random model overlap heavily: among unused masks with IoU ≥ 0.98 take the one whose
+        // predicted IoU is closest, else the best IoU (which then fails the assertion below)
+        let close = |j: usize| (ours[j].predicted_iou - pred_iou).abs();
         let best = (0..ours.len())
-            .filter(|&j| !used[j])
-            .max_by(|&a, &b| iou(&ours[a].segmentation, rle).total_cmp(&iou(&ours[b].segmentation, rle)))
+            .filter(|&j| !used[j] && iou(&ours[j].segmentation, rle) >= 0.98)
+            .min_by(|&a, &b| close(a).total_cmp(&close(b)))
+            .or_else(|| {
+                (0..ours.len()).filter(|&j| !used[j]).max_by(|&a, &b| {
+                    iou(&ours[a].segmentation, rle).total_cmp(&iou(&ours[b].segmentation, rle))
+                })
+            })
             .unwrap();
         let matched = iou(&ours[best].segmentation, rle);
         assert!(matched >= 0.98, "reference mask {i}: best IoU {matched}");
@@ -109,4 +117,16 @@ fn wrong_checkpoint_errors_name_the_tensor_and_shapes() {
     let dinov2 = Weights::load(&fixture("dinov2_tiny/model.safetensors"), ModelKind::Sam).unwrap();
     let err = Sam::from_weights(&dinov2).unwrap_err().to_string();
     assert!(err.contains("image_encoder.patch_embed.proj.weight") && err.contains("sam_vit_b"), "{err}");
+}
+
+#[test]
+fn image_resize_matches_pil_bilinear() {
+    let io = read_io("sam_tiny_io.safetensors");
+    let (rgb, h, w) = image();
+    for (oh, ow) in [(37, 50), (80, 107), (48, 30)] {
+        let reference = io[&format!("pil_resized_{oh}x{ow}")].flatten_all().unwrap().to_vec1::<u8>().unwrap();
+        let ours = splatseg_models::resample::resize_rgb8_like_pil(&rgb, (h, w), (oh, ow));
+        let worst = ours.iter().zip(&reference).map(|(a, b)| (*a as i32 - *b as i32).abs()).max().unwrap();
+        assert!(worst <= 1, "{oh}×{ow}: max difference {worst} grey levels");
+    }
 }
