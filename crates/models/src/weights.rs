@@ -32,14 +32,19 @@ impl Weights {
         }
         let is_zip_or_pickle = magic.starts_with(b"PK") || magic[0] == 0x80;
         let raw: Vec<(String, Tensor)> = if is_zip_or_pickle {
-            let mut found = candle_core::pickle::read_all(path).map_err(|e| unreadable(e.to_string()))?;
+            // a plain state dict, or one nested under `model` / `state_dict` (training checkpoints)
+            let mut found = candle_core::pickle::read_all(path);
             for key in ["model", "state_dict"] {
-                if !found.is_empty() {
+                if matches!(&found, Ok(t) if !t.is_empty()) {
                     break;
                 }
-                found = candle_core::pickle::read_all_with_key(path, Some(key)).unwrap_or_default();
+                if let Ok(nested) = candle_core::pickle::read_all_with_key(path, Some(key)) {
+                    if !nested.is_empty() {
+                        found = Ok(nested);
+                    }
+                }
             }
-            found
+            found.map_err(|e| unreadable(e.to_string()))?
         } else {
             candle_core::safetensors::load(path, &Device::Cpu)
                 .map_err(|e| unreadable(e.to_string()))?
