@@ -1,0 +1,89 @@
+//! The binary as users meet it: exit codes and messages on bad input, and the settings file.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn splatseg(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args).output().expect("the splatseg binary runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A tiny synthetic capture written by `splatseg synth`.
+fn tiny_scene(dir: &Path) {
+    let out =
+        splatseg(&["synth", "--out", dir.to_str().expect("utf-8 path"), "--views", "2", "--size", "64x48"]);
+    assert!(out.status.success(), "synth failed: {}", stderr(&out));
+}
+
+#[test]
+fn info_on_a_missing_folder_fails_and_names_it() {
+    let out = splatseg(&["info", "/definitely/not/here/scene_xyz"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("scene_xyz"), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+}
+
+#[test]
+fn run_with_a_missing_masks_folder_fails_and_names_it() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let masks = tmp.path().join("no_masks_here");
+    let out = splatseg(&[
+        "run",
+        scene.to_str().expect("utf-8"),
+        "--masks",
+        masks.to_str().expect("utf-8"),
+        "--out",
+        tmp.path().join("out").to_str().expect("utf-8"),
+    ]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("no_masks_here"), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+}
+
+#[test]
+fn extract_from_an_unlabelled_ply_says_to_run_the_pipeline_first() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let out_ply = tmp.path().join("object.ply");
+    let out = splatseg(&[
+        "extract",
+        scene.join("gaussians.ply").to_str().expect("utf-8"),
+        "--ids",
+        "3",
+        "--out",
+        out_ply.to_str().expect("utf-8"),
+    ]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("object_id"), "{}", stderr(&out));
+    assert!(!out_ply.exists(), "nothing may be written on error");
+}
+
+#[test]
+fn a_truncated_ply_is_rejected_with_its_path() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let ply = scene.join("gaussians.ply");
+    let bytes = std::fs::read(&ply).expect("ply");
+    let cut = tmp.path().join("cut.ply");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+    let out = splatseg(&["objects", cut.to_str().expect("utf-8")]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("cut.ply"), "{}", stderr(&out));
+}
+
+#[test]
+fn config_prints_the_papers_defaults_as_toml() {
+    let out = splatseg(&["config"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(text.contains("tau_merge = 0.85\n"), "{text}");
+    assert!(text.contains("tau_depth = 0.15\n"), "{text}");
+    assert!(text.contains("[matching]") && text.contains("[lift]"), "{text}");
+}
