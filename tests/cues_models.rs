@@ -1,6 +1,6 @@
 //! `splatseg cues` end to end with the random-weight checkpoints that
 //! tools/fixtures/make_model_fixtures.py wrote (crates/models/tests/fixtures), and its outputs feeding
-//! `splatseg run`.
+//! `splatseg merge` and `splatseg run`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -72,6 +72,34 @@ fn cues_on_lego_writes_every_cue_and_caches() {
     assert!(masks.iter().all(|m| m.size() == (100, 100)), "masks at full image resolution");
     let second = splatseg(&argv);
     assert!(second.contains("0 computed, 8 cached"), "{second}");
+
+    // The cues feed `splatseg merge` as they are.
+    let merged = out.path().join("merged");
+    let cue = |name: &str| out.path().join(name).display().to_string();
+    let lego_s = lego.display().to_string();
+    let merged_s = merged.display().to_string();
+    let (sam, features, depth) = (cue("sam"), cue("features"), cue("depth"));
+    let said = splatseg(&[
+        "merge",
+        &lego_s,
+        "--masks",
+        &sam,
+        "--features",
+        &features,
+        "--depth",
+        &depth,
+        "--resolution",
+        "8",
+        "--out",
+        &merged_s,
+    ]);
+    assert!(said.contains("merged 2 views"), "{said}");
+    for stem in ["r_0", "r_1"] {
+        let labels =
+            splatseg_scene::labels::read_label_png(&merged.join(format!("masks/{stem}.png"))).unwrap();
+        assert_eq!((labels.width, labels.height), (100, 100));
+        assert!(merged.join(format!("merge/{stem}.json")).is_file());
+    }
 }
 
 #[test]

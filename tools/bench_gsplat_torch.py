@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Times gsplat's pure-PyTorch reference on the CPU on the scene `render_timing --dump DIR` wrote,
-for the speed ratio recorded in `crates/render/BENCHMARKS.md`.
+for the speed ratio recorded in `BENCHMARKS.md` (section render).
 
 Projection and colour are gsplat's own `_torch_impl` functions (`_quat_scale_to_covar_preci`,
 `_fully_fused_projection`, `_spherical_harmonics`). gsplat's reference binning (`_isect_tiles`)

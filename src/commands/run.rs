@@ -24,8 +24,9 @@ pub struct Args {
     /// Folder of depth maps `<image stem>.npy`; without it depth is rendered from the Gaussians.
     #[arg(long)]
     pub depth: Option<PathBuf>,
-    /// What --depth holds: `inverse-relative` (monocular models) or `metric-z`.
-    #[arg(long, default_value = "inverse-relative", value_parser = parse_depth_kind)]
+    /// What --depth holds: `inverse` (relative inverse depth from monocular models such as Depth
+    /// Anything V2; larger = nearer) or `metric` (camera z, 0 = no surface), as in `splatseg merge`.
+    #[arg(long, default_value = "inverse", value_parser = parse_depth_kind)]
     pub depth_kind: DepthKind,
     /// 3DGS PLY (default: SCENE/gaussians.ply when present).
     #[arg(long)]
@@ -44,9 +45,9 @@ pub struct Args {
 
 fn parse_depth_kind(text: &str) -> Result<DepthKind, String> {
     match text {
-        "inverse-relative" => Ok(DepthKind::InverseRelative),
-        "metric-z" => Ok(DepthKind::MetricZ),
-        other => Err(format!("`{other}`: expected inverse-relative or metric-z")),
+        "inverse" | "inverse-relative" => Ok(DepthKind::InverseRelative),
+        "metric" | "metric-z" => Ok(DepthKind::MetricZ),
+        other => Err(format!("`{other}`: expected `inverse` (relative inverse depth, e.g. Depth Anything) or `metric` (camera z)")),
     }
 }
 

@@ -6,7 +6,7 @@
 //! The score, its profiles and the reasons for the default reading (with measured numbers) are
 //! documented in [`score`]; the adjacency graph in `graph`; the greedy loop in `merge`;
 //! measuring against ground truth (ablation, sensitivity) in [`study`], printed by
-//! `splatseg ablate`. Speed and quality tables: `crates/merge/BENCHMARKS.md`.
+//! `splatseg ablate`. Speed and quality tables: the merge section of the workspace `BENCHMARKS.md`.
 
 pub mod config;
 pub mod cues;

@@ -13,7 +13,7 @@
 //!   2D convolution (candle-core 0.9.2's tiled CPU kernel misreads NCHW input when `C_in == W`).
 //!
 //! Parity with `transformers` and `segment-anything` is tested from fixtures written by
-//! `tools/fixtures/make_model_fixtures.py`; timings are in `BENCHMARKS.md` beside this crate.
+//! `tools/fixtures/make_model_fixtures.py`; timings are in the models section of the workspace `BENCHMARKS.md`.
 
 pub mod attention;
 pub mod checkpoint;

@@ -1,6 +1,6 @@
 //! Criterion benchmarks: forward and forward+backward at 800×800 for 100k Gaussians, on 1 and 2
 //! threads. The large cases (1M Gaussians, 1080p) run only with `SPLATSEG_BENCH_LARGE=1`.
-//! Results with dates: `crates/render/BENCHMARKS.md`.
+//! Results with dates: `BENCHMARKS.md` (section render).
 
 mod common;
 

@@ -1,5 +1,5 @@
 //! `render` stage: a tile-based CPU rasteriser for 3D Gaussians, forward and backward,
-//! following gsplat's math (see `BENCHMARKS.md` in this crate for speed).
+//! following gsplat's math (see the render section of the workspace `BENCHMARKS.md` for speed).
 //!
 //! Pipeline, one module per kernel (each with its backward):
 //! - [`project`]: 3D Gaussians → screen-space splats (EWA, 0.3 px low-pass, culling).
