@@ -35,7 +35,18 @@ fn metrics<'a>(summary: &'a RunSummary, stage: &str) -> &'a splatseg_eval::Metri
 /// with the scene's monocular-like depth maps (`--depth`).
 #[test]
 fn synthetic_scenes_meet_the_quality_floors() {
-    for seed in [0, 1] {
+    floors_on_seeds(&[0, 1]);
+}
+
+/// The same floors on seeds no setting was tuned on (the look-alike join's τ_touching was chosen on
+/// seeds 0–4).
+#[test]
+fn held_out_synthetic_scenes_meet_the_quality_floors() {
+    floors_on_seeds(&[7]);
+}
+
+fn floors_on_seeds(seeds: &[u64]) {
+    for &seed in seeds {
         let tmp = tempfile::tempdir().expect("temp dir");
         let scene = tmp.path().join("scene");
         synth(&scene, &SynthConfig { seed, ..SynthConfig::default() });
