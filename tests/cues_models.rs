@@ -128,3 +128,38 @@ fn cues_feed_the_pipeline() {
     assert!(summary.contains("3 views"), "{summary}");
     assert!(Path::new(&run_out).join("report.md").is_file());
 }
+
+#[test]
+fn run_computes_the_cues_itself_when_given_model_checkpoints() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    let out = dir.path().join("run");
+    let (scene_s, out_s) = (scene.display().to_string(), out.display().to_string());
+    splatseg(&["synth", "--out", &scene_s, "--views", "2", "--size", "70x56"]);
+    let f = fixtures();
+    let (sam, dinov2, depth) = (
+        f.join("sam_tiny.pth").display().to_string(),
+        f.join("dinov2_tiny").display().to_string(),
+        f.join("depth_anything_tiny").display().to_string(),
+    );
+    let said = splatseg(&[
+        "run",
+        &scene_s,
+        "--sam",
+        &sam,
+        "--dinov2",
+        &dinov2,
+        "--depth-model",
+        &depth,
+        "--out",
+        &out_s,
+    ]);
+    assert!(said.contains("2 views"), "{said}");
+    for stem in ["view_000", "view_001"] {
+        assert!(out.join(format!("cues/sam/{stem}.json")).is_file());
+        assert!(out.join(format!("cues/features/{stem}.npy")).is_file());
+        assert!(out.join(format!("cues/depth/{stem}.npy")).is_file());
+        let labels = splatseg_scene::labels::read_label_png(&out.join(format!("masks/{stem}.png"))).unwrap();
+        assert_eq!((labels.width, labels.height), (70, 56));
+    }
+}

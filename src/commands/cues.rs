@@ -64,6 +64,28 @@ pub struct Args {
     pub max_views: Option<usize>,
 }
 
+impl Args {
+    /// The command-line defaults for `scene` → `out`, with no model (for callers such as `run`).
+    pub fn defaults_for(scene: PathBuf, out: PathBuf) -> Args {
+        Args {
+            scene,
+            out,
+            dinov2: None,
+            depth_model: None,
+            sam: None,
+            dinov2_size: 518,
+            depth_size: 518,
+            points_per_side: 32,
+            crop_layers: 0,
+            min_region_area: 0,
+            no_log: false,
+            resolution: 1,
+            split: "train".to_string(),
+            max_views: None,
+        }
+    }
+}
+
 /// One model run per view, with its cache key.
 trait Cue {
     /// Folder name under OUT and file extension.

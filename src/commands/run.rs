@@ -1,6 +1,7 @@
 //! `splatseg run`: the whole pipeline on a scene with SAM masks (see `crate::pipeline`).
 
 use crate::pipeline::{run_pipeline, PipelineConfig, RunConfig};
+use anyhow::Context;
 use clap::Args as ClapArgs;
 use splatseg_cues::DepthKind;
 use std::path::PathBuf;
@@ -8,15 +9,32 @@ use std::path::PathBuf;
 /// Run cues → merge → match → lift (→ eval with --gt) on a scene and write per-view label maps
 /// with global object ids, the labelled PLY, overlays, report.md and metrics.json.
 ///
+/// Cues come from files you already have (--masks, --features, --depth) or are computed in-process
+/// from model checkpoints (--sam, --dinov2, --depth-model; as `splatseg cues`, into OUT/cues).
+/// Without features the model-free colour/texture descriptors are used; without depth it is
+/// rendered from the Gaussians.
+///
 /// Each stage's results are cached in OUT/cache keyed by the inputs and settings, so a rerun
 /// resumes where it can.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
     /// Scene folder (COLMAP `sparse/0` + `images/`, or transforms.json).
     pub scene: PathBuf,
-    /// Folder of SAM automatic masks, `<image stem>.json` (COCO RLE) per view.
-    #[arg(long)]
-    pub masks: PathBuf,
+    /// Folder of SAM automatic masks, `<image stem>.json` (COCO RLE) per view. Not needed with
+    /// --sam (the masks are then computed into OUT/cues/sam).
+    #[arg(long, required_unless_present = "sam")]
+    pub masks: Option<PathBuf>,
+    /// Segment Anything checkpoint: compute the masks in-process with the automatic mask
+    /// generator (as `splatseg cues --sam`) instead of reading --masks.
+    #[arg(long, conflicts_with = "masks")]
+    pub sam: Option<PathBuf>,
+    /// DINOv2 checkpoint: compute the dense features in-process instead of reading --features.
+    #[arg(long, conflicts_with = "features")]
+    pub dinov2: Option<PathBuf>,
+    /// Depth Anything V2 checkpoint: compute relative depth in-process instead of reading
+    /// --depth or rendering it from the Gaussians.
+    #[arg(long = "depth-model", conflicts_with = "depth")]
+    pub depth_model: Option<PathBuf>,
     /// Folder of dense feature maps `<image stem>.npy` (`[h, w, C]`, e.g. DINOv2 patches);
     /// without it, the model-free colour/texture descriptors are used.
     #[arg(long)]
@@ -43,6 +61,35 @@ pub struct Args {
     pub out: PathBuf,
 }
 
+/// Cue folders computed in-process by the models given on the command line.
+struct ComputedCues {
+    masks: Option<PathBuf>,
+    features: Option<PathBuf>,
+    depth: Option<PathBuf>,
+}
+
+/// Runs `splatseg cues` into OUT/cues for the models given (cached by model and image content).
+fn compute_model_cues(args: &Args) -> anyhow::Result<ComputedCues> {
+    if args.sam.is_none() && args.dinov2.is_none() && args.depth_model.is_none() {
+        return Ok(ComputedCues { masks: None, features: None, depth: None });
+    }
+    let out = args.out.join("cues");
+    super::cues::run(super::cues::Args {
+        dinov2: args.dinov2.clone(),
+        depth_model: args.depth_model.clone(),
+        sam: args.sam.clone(),
+        no_log: true,
+        ..super::cues::Args::defaults_for(args.scene.clone(), out.clone())
+    })
+    .context("computing cues with the given models")?;
+    let folder = |given: bool, name: &str| given.then(|| out.join(name));
+    Ok(ComputedCues {
+        masks: folder(args.sam.is_some(), "sam"),
+        features: folder(args.dinov2.is_some(), "features"),
+        depth: folder(args.depth_model.is_some(), "depth"),
+    })
+}
+
 fn parse_depth_kind(text: &str) -> Result<DepthKind, String> {
     match text {
         "inverse" | "inverse-relative" => Ok(DepthKind::InverseRelative),
@@ -57,12 +104,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => PipelineConfig::from_file(path)?,
         None => PipelineConfig::default(),
     };
+    let computed = compute_model_cues(&args)?;
     let config = RunConfig {
+        masks: computed.masks.or(args.masks).context("either --masks or --sam is needed")?,
+        features: computed.features.or(args.features),
+        depth_kind: if computed.depth.is_some() { DepthKind::InverseRelative } else { args.depth_kind },
+        depth: computed.depth.or(args.depth),
         scene: args.scene,
-        masks: args.masks,
-        features: args.features,
-        depth: args.depth,
-        depth_kind: args.depth_kind,
         gaussians: args.gaussians,
         gt: args.gt,
         pipeline,
