@@ -87,3 +87,38 @@ fn config_prints_the_papers_defaults_as_toml() {
     assert!(text.contains("tau_depth = 0.15\n"), "{text}");
     assert!(text.contains("[matching]") && text.contains("[lift]"), "{text}");
 }
+
+#[test]
+fn render_takes_the_background_as_r_g_b_and_rejects_other_forms() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let (scene_s, ply) = (scene.to_str().expect("utf-8"), scene.join("gaussians.ply"));
+    let out = tmp.path().join("rendered");
+    let render = |background: &str| {
+        splatseg(&[
+            "render",
+            scene_s,
+            "--gaussians",
+            ply.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+            "--what",
+            "rgb",
+            "--background",
+            background,
+        ])
+    };
+    let ok = render("1,1,1");
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    assert!(out.join("view_000_rgb.png").is_file());
+    for bad in ["1,1", "1,1,1,1", "2,0,0", "red"] {
+        let failed = render(bad);
+        assert!(!failed.status.success(), "--background {bad} was accepted");
+        assert!(
+            stderr(&failed).contains("R,G,B") || stderr(&failed).contains("number"),
+            "{}",
+            stderr(&failed)
+        );
+    }
+}

@@ -43,9 +43,9 @@ pub struct Args {
     /// Image down-scaling factor, as 3DGS's `--resolution` (1, 2, 4 or 8).
     #[arg(long, default_value_t = 1)]
     pub resolution: u32,
-    /// Background colour R,G,B in [0, 1].
-    #[arg(long, value_delimiter = ',', num_args = 3, default_value = "0,0,0")]
-    pub background: Vec<f32>,
+    /// Background colour R,G,B in [0, 1] (e.g. `1,1,1` for white).
+    #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
+    pub background: [f32; 3],
 }
 
 /// Runs the command.
@@ -64,7 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         depth: want(What::Depth),
         alpha: want(What::Alpha),
         max_weight_ids: want(What::Ids),
-        background: [args.background[0], args.background[1], args.background[2]],
+        background: args.background,
         ..RenderRequest::default()
     };
     let bar = ProgressBar::new(scene.views.len() as u64);
@@ -94,4 +94,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_with_message("rendered");
     tracing::info!("wrote {} views to {}", scene.views.len(), args.out.display());
     Ok(())
+}
+
+/// Parses `R,G,B` with each channel in [0, 1].
+fn parse_rgb(text: &str) -> Result<[f32; 3], String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|_| format!("`{v}` is not a number")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [r, g, b] if values.iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
+        _ => Err(format!("expected R,G,B with each channel in [0, 1], got `{text}`")),
+    }
 }
