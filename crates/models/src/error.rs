@@ -39,7 +39,8 @@ impl ModelKind {
             }
             ModelKind::Sam => {
                 "a Segment Anything checkpoint: `sam_vit_b_01ec64.pth`, `sam_vit_l_0b3195.pth` or \
-                 `sam_vit_h_4b8939.pth` from the facebookresearch/segment-anything release"
+                 `sam_vit_h_4b8939.pth` from the facebookresearch/segment-anything release, or MobileSAM's \
+                 `mobile_sam.pt`"
             }
         }
     }

@@ -4,8 +4,8 @@
 //!   for any size that is a multiple of 14, positional embeddings resized as the references do.
 //! - [`depth_anything`]: Depth Anything V2 (DPT head), relative inverse depth at the input size,
 //!   and the [0, 1] normalisation (0 = near) the merging stage uses.
-//! - [`sam`]: Segment Anything ViT-B/L/H and its automatic mask generator, output as
-//!   `splatseg_scene::sam::SamMask`.
+//! - [`sam`]: Segment Anything ViT-B/L/H, MobileSAM (TinyViT image encoder, `mobile_sam.pt`) and the
+//!   automatic mask generator, output as `splatseg_scene::sam::SamMask`.
 //! - [`checkpoint`] + [`weights`]: finding (`--model PATH`, Hugging Face snapshot folders, the local
 //!   Hugging Face cache) and reading `.safetensors` / `.pth` checkpoints, original and Hugging Face
 //!   names, with errors that say which file is expected and which tensor is missing or mis-shaped.
@@ -13,7 +13,8 @@
 //!   2D convolution (candle-core 0.9.2's tiled CPU kernel misreads NCHW input when `C_in == W`).
 //!
 //! Parity with `transformers` and `segment-anything` is tested from fixtures written by
-//! `tools/fixtures/make_model_fixtures.py`; timings are in the models section of the workspace `BENCHMARKS.md`.
+//! `tools/fixtures/make_model_fixtures.py` (MobileSAM against ultralytics' TinyViT:
+//! `tools/fixtures/make_mobile_sam_fixtures.py`); timings are in the models section of the workspace `BENCHMARKS.md`.
 
 pub mod attention;
 pub mod checkpoint;

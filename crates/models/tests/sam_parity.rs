@@ -20,7 +20,7 @@ fn image() -> (Vec<u8>, usize, usize) {
 #[test]
 fn encoder_and_decoder_match_reference() {
     let sam = Sam::load(&fixture("sam_tiny.pth")).unwrap();
-    let cfg = sam.encoder_config();
+    let cfg = sam.encoder_config().unwrap();
     assert_eq!(
         (cfg.img_size, cfg.window_size, cfg.global_blocks.clone(), cfg.num_heads),
         (64, 3, vec![1], 2)

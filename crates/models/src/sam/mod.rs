@@ -1,13 +1,16 @@
 //! Segment Anything (Kirillov et al. 2023): image encoder, point prompt encoder, mask decoder, and the
 //! automatic mask generator ([`amg`]) with the reference's algorithm and defaults.
 //!
-//! Loads the official `sam_vit_{b,l,h}_*.pth` checkpoints (sizes inferred from the tensors).
+//! Loads the official `sam_vit_{b,l,h}_*.pth` checkpoints and MobileSAM's `mobile_sam.pt` (TinyViT image
+//! encoder, [`tiny_vit`]; same prompt encoder and mask decoder), told apart by their tensor names, sizes
+//! inferred from the tensors.
 
 pub mod amg;
 pub mod image_encoder;
 pub mod mask_decoder;
 pub mod masks;
 pub mod prompt_encoder;
+pub mod tiny_vit;
 
 use std::path::Path;
 
@@ -18,9 +21,13 @@ use crate::error::{ModelKind, ModelsError, ModelsResult};
 use crate::resample::{resize_rgb8_like_pil, AxisResize, AxisTaps, Resample};
 use crate::weights::Weights;
 pub use amg::{generate_masks, AmgConfig};
-use image_encoder::{ImageEncoder, ImageEncoderConfig};
+use image_encoder::ImageEncoderConfig;
 use mask_decoder::MaskDecoder;
 use prompt_encoder::PromptEncoder;
+use tiny_vit::{TinyVit, TinyVitConfig};
+
+/// Input side of the released SAM and MobileSAM models.
+pub const DEFAULT_IMG_SIZE: usize = 1024;
 
 /// SAM's pixel mean (RGB, 0–255).
 pub const PIXEL_MEAN: [f32; 3] = [123.675, 116.28, 103.53];
@@ -33,6 +40,44 @@ pub struct Sam {
     encoder: ImageEncoder,
     prompt: PromptEncoder,
     decoder: MaskDecoder,
+}
+
+/// The image encoder of a checkpoint: SAM's ViT or MobileSAM's TinyViT.
+#[derive(Debug, Clone)]
+pub enum ImageEncoder {
+    /// `sam_vit_{b,l,h}` (`image_encoder.patch_embed.proj.*`, `image_encoder.blocks.*`).
+    Vit(image_encoder::ImageEncoder),
+    /// `mobile_sam.pt` (`image_encoder.patch_embed.seq.*`, `image_encoder.layers.*`).
+    TinyVit(TinyVit),
+}
+
+impl ImageEncoder {
+    /// Builds the encoder the `image_encoder.`-stripped tensors describe.
+    pub fn from_weights(enc: &Weights) -> ModelsResult<Self> {
+        if enc.contains("patch_embed.seq.0.c.weight") {
+            let config = TinyVitConfig::infer(enc, DEFAULT_IMG_SIZE)?;
+            Ok(Self::TinyVit(TinyVit::new(enc, config)?))
+        } else {
+            let config = ImageEncoderConfig::infer(enc)?;
+            Ok(Self::Vit(image_encoder::ImageEncoder::new(enc, config)?))
+        }
+    }
+
+    /// Square input side.
+    pub fn img_size(&self) -> usize {
+        match self {
+            Self::Vit(e) => e.config().img_size,
+            Self::TinyVit(e) => e.config().img_size,
+        }
+    }
+
+    /// `pixels`: `[3, S, S]` normalised and padded. Returns `[out_chans, h, w]`.
+    pub fn forward(&self, pixels: &Tensor) -> ModelsResult<Tensor> {
+        match self {
+            Self::Vit(e) => e.forward(pixels),
+            Self::TinyVit(e) => e.forward(pixels),
+        }
+    }
 }
 
 /// An image run through the encoder, ready for prompts.
@@ -60,23 +105,46 @@ impl Sam {
 
     /// Builds the model from the official tensor names (`image_encoder.*`, `prompt_encoder.*`, `mask_decoder.*`).
     pub fn from_weights(weights: &Weights) -> ModelsResult<Self> {
-        let enc = weights.sub("image_encoder.");
-        let config = ImageEncoderConfig::infer(&enc)?;
-        let encoder = ImageEncoder::new(&enc, config)?;
+        let encoder = ImageEncoder::from_weights(&weights.sub("image_encoder."))?;
         let decoder = MaskDecoder::new(&weights.sub("mask_decoder."))?;
         let prompt = PromptEncoder::new(&weights.sub("prompt_encoder."), decoder.dim())?;
         Ok(Self { encoder, prompt, decoder })
     }
 
-    /// The image encoder's configuration.
-    pub fn encoder_config(&self) -> &ImageEncoderConfig {
-        self.encoder.config()
+    /// The ViT image encoder's configuration (`None` for MobileSAM's TinyViT).
+    pub fn encoder_config(&self) -> Option<&ImageEncoderConfig> {
+        match &self.encoder {
+            ImageEncoder::Vit(e) => Some(e.config()),
+            ImageEncoder::TinyVit(_) => None,
+        }
+    }
+
+    /// The image encoder.
+    pub fn image_encoder(&self) -> &ImageEncoder {
+        &self.encoder
+    }
+
+    /// Runs a TinyViT model at another square input side (a multiple of 16; the released models use
+    /// 1024, which is also what the checkpoint is loaded with). A ViT's side is fixed by its positional
+    /// embedding: only its own side is accepted.
+    pub fn with_input_size(mut self, side: usize) -> ModelsResult<Self> {
+        match &mut self.encoder {
+            ImageEncoder::TinyVit(e) => e.set_img_size(side)?,
+            ImageEncoder::Vit(e) if e.config().img_size == side => {}
+            ImageEncoder::Vit(e) => {
+                return Err(ModelsError::Input(format!(
+                    "this SAM ViT encoder takes {0}×{0} inputs, not {side}×{side}",
+                    e.config().img_size
+                )))
+            }
+        }
+        Ok(self)
     }
 
     /// The size the image is resized to before padding: long side = the encoder input side
     /// (`ResizeLongestSide.get_preprocess_shape`).
     pub fn input_size_for(&self, height: usize, width: usize) -> (usize, usize) {
-        preprocess_shape(height, width, self.encoder.config().img_size)
+        preprocess_shape(height, width, self.encoder.img_size())
     }
 
     /// Encodes an image (`rgb`: interleaved `[height, width, 3]`, 8-bit) as `SamPredictor.set_image`
@@ -85,7 +153,7 @@ impl Sam {
         if rgb.len() != height * width * 3 || height == 0 || width == 0 {
             return Err(ModelsError::Input(format!("{} bytes for a {width}×{height} RGB image", rgb.len())));
         }
-        let side = self.encoder.config().img_size;
+        let side = self.encoder.img_size();
         let (ih, iw) = self.input_size_for(height, width);
         let resized = resize_rgb8_like_pil(rgb, (height, width), (ih, iw));
         let mut chw = vec![0f32; 3 * side * side];
@@ -133,7 +201,7 @@ impl Sam {
             })
             .collect();
         let positive = vec![true; points.len()];
-        let sparse = self.prompt.embed_points(&scaled, &positive, self.encoder.config().img_size)?;
+        let sparse = self.prompt.embed_points(&scaled, &positive, self.encoder.img_size())?;
         let (masks, iou) = self.decoder.forward(&image.embedding, &image.dense_pe, &sparse)?;
         let m = masks.dims()[1];
         Ok((masks.narrow(1, 1, m - 1)?, iou.narrow(1, 1, m - 1)?))
@@ -143,7 +211,7 @@ impl Sam {
     /// padded square input, crop to the resized image, bilinear to the original size
     /// (`Sam.postprocess_masks`), composed into one resize per axis.
     pub fn upscale_taps(&self, image: &ImageEmbedding, low: (usize, usize)) -> (AxisTaps, AxisTaps) {
-        let side = self.encoder.config().img_size;
+        let side = self.encoder.img_size();
         let axis = |low_len: usize, input_len: usize, original_len: usize| {
             let to_square = AxisTaps::new(AxisResize::to_len(low_len, side), Resample::Bilinear);
             let to_original = AxisTaps::new(AxisResize::to_len(input_len, original_len), Resample::Bilinear);
