@@ -7,8 +7,8 @@ use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
     drop_small_objects, join_touching_objects, lift_labels, render_label_map, render_votes, renumber,
-    view_surface_depth, view_visibility, LiftConfig, Lifted, ObjectFeatures, PosedCamera, PreparedGaussians,
-    ViewVisibility,
+    snap_to_regions, view_surface_depth, view_visibility, FinalMaps, LiftConfig, Lifted, ObjectFeatures,
+    PosedCamera, PreparedGaussians, ViewVisibility,
 };
 use splatseg_match::{match_masks, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_scene::Plane;
@@ -99,12 +99,14 @@ pub fn matched_maps(merged: &[Option<MergedView>], matching: &Matching) -> Vec<O
 pub struct LiftOutput {
     /// Per-Gaussian results (ids renumbered to match `maps`).
     pub lifted: Lifted,
-    /// `[n_views]` label maps rendered back from the labelled Gaussians, final ids.
+    /// `[n_views]` label maps rendered back from the labelled Gaussians (snapped onto the
+    /// merged regions with `final_maps = "snapped"`), final ids.
     pub maps: Vec<Plane<u32>>,
 }
 
 /// Lifts the matched maps of the views with masks onto the Gaussians, renders every view back
-/// and renumbers the ids by first appearance.
+/// (snapping the rendered ids onto the merged regions with `final_maps = "snapped"`), drops
+/// specks and renumbers the ids by first appearance.
 pub fn lift_and_render(
     prepared: &PreparedGaussians,
     cams: &[PosedCamera],
@@ -133,6 +135,13 @@ pub fn lift_and_render(
         .map(|c| render_label_map(prepared, &votes, c.camera, c.world_from_cam, config))
         .collect();
     bar.finish_and_clear();
+    if config.final_maps == FinalMaps::Snapped {
+        for (map, m) in back.iter_mut().zip(merged) {
+            if let Some(m) = m {
+                *map = snap_to_regions(&m.merged, map);
+            }
+        }
+    }
     let specks = drop_small_objects(&mut back, &mut lifted.object_ids, config.min_object_px);
     tracing::info!("dropped {specks} speck objects under {} px", config.min_object_px);
     renumber(&mut back, &mut lifted.object_ids);

@@ -8,6 +8,7 @@
 //!   where their centre lands, and their fusion weight (frontal, near views weigh more).
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
 //! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
+//! - [`snap`]: rendered ids snapped onto a view's merged regions (optional final maps).
 //! - [`touching`]: objects that touch in 3D and look alike become one.
 //! - [`numbering`]: final stable renumbering of the ids.
 //!
@@ -22,15 +23,17 @@ pub mod lifting;
 pub mod numbering;
 pub mod project;
 pub mod render_labels;
+pub mod snap;
 pub mod touching;
 pub mod visibility;
 
-pub use config::LiftConfig;
+pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
 pub use lifting::{lift_labels, GaussianStatus, LiftStats, Lifted, ObjectFeatures};
 pub use numbering::{drop_small_objects, renumber};
 pub use project::PreparedGaussians;
 pub use render_labels::{render_label_map, render_votes, RenderVotes};
+pub use snap::snap_to_regions;
 pub use touching::join_touching_objects;
 pub use visibility::{view_surface_depth, view_visibility, ViewVisibility};
 
