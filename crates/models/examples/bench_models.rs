@@ -3,14 +3,23 @@
 //! ```text
 //! cargo run --release -p splatseg-models --example bench_models -- dinov2 CHECKPOINT 518
 //! cargo run --release -p splatseg-models --example bench_models -- depth CHECKPOINT 518
+//! cargo run --release -p splatseg-models --example bench_models -- depth-vs-candle CHECKPOINT 518
 //! cargo run --release -p splatseg-models --example bench_models -- sam-encoder CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- sam-amg CHECKPOINT 1024 [POINTS_PER_SIDE]
 //! ```
+//!
+//! `depth-vs-candle` times ours against candle-transformers' Depth Anything V2-S (square inputs only;
+//! its output is 520² for 518² from a padding bug) on the same weights. If CHECKPOINT (a `.safetensors`
+//! path) does not exist, random weights at the released ViT-S size are written there first, under the
+//! original `pretrained.*` / `depth_head.*` names that both implementations read.
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
-use candle_core::{DType, Device, Tensor};
+use candle_core::{DType, Device, Module, Tensor};
+use candle_nn::{VarBuilder, VarMap};
+use candle_transformers::models::{depth_anything_v2, dinov2 as ct_dinov2};
 use splatseg_models::depth_anything::DepthAnything;
 use splatseg_models::dinov2::Dinov2;
 use splatseg_models::sam::{generate_masks, AmgConfig, Sam};
@@ -43,6 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 println!("run {run}: {:?} in {:.2?}", d.dims(), t.elapsed());
             }
         }
+        "depth-vs-candle" => depth_vs_candle(path, size)?,
         "sam-encoder" => {
             let model = Sam::load(path)?;
             let rgb = Tensor::rand(0f32, 255.0, (1024 * 1024 * 3,), &Device::Cpu)?
@@ -82,6 +92,51 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("{} masks for {points}² points on {size}² in {:.2?}", masks.len(), t.elapsed());
         }
         other => return Err(format!("unknown model `{other}`").into()),
+    }
+    Ok(())
+}
+
+/// Ours against candle-transformers' Depth Anything V2-S on the same (random, if `path` is missing) weights.
+fn depth_vs_candle(path: &Path, size: usize) -> Result<(), Box<dyn std::error::Error>> {
+    let device = Device::Cpu;
+    let config = depth_anything_v2::DepthAnythingV2Config::vit_small();
+    if !path.exists() {
+        // Building candle-transformers' model on a VarMap creates every tensor it reads, at the
+        // released shapes, randomly initialised; saving the map gives the shared checkpoint.
+        let varmap = VarMap::new();
+        let vb = VarBuilder::from_varmap(&varmap, DType::F32, &device);
+        let backbone = Arc::new(ct_dinov2::vit_small(vb.pp("pretrained"))?);
+        depth_anything_v2::DepthAnythingV2::new(
+            backbone,
+            depth_anything_v2::DepthAnythingV2Config::vit_small(),
+            vb,
+        )?;
+        varmap.save(path)?;
+        println!("wrote random weights to {}", path.display());
+    }
+    let x = Tensor::randn(0f32, 1.0, (3, size, size), &device)?;
+
+    let t = Instant::now();
+    let ours = DepthAnything::load(path)?;
+    println!("ours: load {:.2?}", t.elapsed());
+    for run in 0..2 {
+        let t = Instant::now();
+        let d = ours.forward(&x)?;
+        println!("ours run {run}: {:?} in {:.2?}", d.dims(), t.elapsed());
+    }
+    drop(ours);
+
+    let t = Instant::now();
+    // SAFETY: the checkpoint is not modified while mapped.
+    let vb = unsafe { VarBuilder::from_mmaped_safetensors(&[path], DType::F32, &device)? };
+    let backbone = Arc::new(ct_dinov2::vit_small(vb.pp("pretrained"))?);
+    let theirs = depth_anything_v2::DepthAnythingV2::new(backbone, config, vb)?;
+    println!("candle-transformers: load {:.2?}", t.elapsed());
+    let batch = x.unsqueeze(0)?;
+    for run in 0..2 {
+        let t = Instant::now();
+        let d = theirs.forward(&batch)?;
+        println!("candle-transformers run {run}: {:?} in {:.2?}", d.dims(), t.elapsed());
     }
     Ok(())
 }
