@@ -102,6 +102,14 @@ fn automatic_masks_with_crops_and_small_region_removal_match_reference() {
     check_amg("sam_tiny_amg_crops.json");
 }
 
+/// The reference's own NMS thresholds (box 0.7, crop 0.7, one crop layer): with a random model every
+/// mask spans the image, so NMS and crop de-duplication must keep exactly the one the reference keeps
+/// (same count, same mask, same predicted IoU, i.e. the same score order and tie handling).
+#[test]
+fn automatic_masks_with_the_reference_nms_thresholds_match_reference() {
+    check_amg("sam_tiny_amg_nms.json");
+}
+
 #[test]
 fn wrong_checkpoint_errors_name_the_tensor_and_shapes() {
     use splatseg_models::weights::Weights;
