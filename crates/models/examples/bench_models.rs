@@ -4,7 +4,9 @@
 //! cargo run --release -p splatseg-models --example bench_models -- dinov2 CHECKPOINT 518
 //! cargo run --release -p splatseg-models --example bench_models -- depth CHECKPOINT 518
 //! cargo run --release -p splatseg-models --example bench_models -- depth-vs-candle CHECKPOINT 518
+//! cargo run --release -p splatseg-models --example bench_models -- dinov2-vs-candle CHECKPOINT 518
 //! cargo run --release -p splatseg-models --example bench_models -- sam-encoder CHECKPOINT
+//! cargo run --release -p splatseg-models --example bench_models -- sam-vs-candle CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- sam-amg CHECKPOINT 1024 [POINTS_PER_SIDE]
 //! ```
 //!
@@ -12,6 +14,11 @@
 //! its output is 520² for 518² from a padding bug) on the same weights. If CHECKPOINT (a `.safetensors`
 //! path) does not exist, random weights at the released ViT-S size are written there first, under the
 //! original `pretrained.*` / `depth_head.*` names that both implementations read.
+//!
+//! `dinov2-vs-candle` does the same for DINOv2 ViT-S/14 (the patch features after the final norm, on a
+//! SIZE² input; the written checkpoint has the original facebookresearch names plus the classifier
+//! `head.*` that candle-transformers requires and ours ignores), and `sam-vs-candle` for the SAM ViT-B
+//! image encoder at 1024² (official `image_encoder.*` / `prompt_encoder.*` / `mask_decoder.*` names).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -19,6 +26,7 @@ use std::time::Instant;
 
 use candle_core::{DType, Device, Module, Tensor};
 use candle_nn::{VarBuilder, VarMap};
+use candle_transformers::models::segment_anything::sam as ct_sam;
 use candle_transformers::models::{depth_anything_v2, dinov2 as ct_dinov2};
 use splatseg_models::depth_anything::DepthAnything;
 use splatseg_models::dinov2::Dinov2;
@@ -27,7 +35,7 @@ use splatseg_models::sam::{generate_masks, AmgConfig, Sam};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 3 {
-        return Err("usage: bench_models dinov2|depth|sam-encoder|sam-amg CHECKPOINT [SIZE] [POINTS]".into());
+        return Err("usage: bench_models dinov2|depth|depth-vs-candle|dinov2-vs-candle|sam-encoder|sam-vs-candle|sam-amg CHECKPOINT [SIZE] [POINTS]".into());
     }
     let path = Path::new(&args[2]);
     let size: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(518);
@@ -53,6 +61,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         "depth-vs-candle" => depth_vs_candle(path, size)?,
+        "dinov2-vs-candle" => dinov2_vs_candle(path, size)?,
+        "sam-vs-candle" => sam_vs_candle(path)?,
         "sam-encoder" => {
             let model = Sam::load(path)?;
             let rgb = Tensor::rand(0f32, 255.0, (1024 * 1024 * 3,), &Device::Cpu)?
@@ -137,6 +147,85 @@ fn depth_vs_candle(path: &Path, size: usize) -> Result<(), Box<dyn std::error::E
         let t = Instant::now();
         let d = theirs.forward(&batch)?;
         println!("candle-transformers run {run}: {:?} in {:.2?}", d.dims(), t.elapsed());
+    }
+    Ok(())
+}
+
+/// Ours against candle-transformers' DINOv2 ViT-S/14 on the same (random, if `path` is missing) weights:
+/// normalised last-layer patch features of a `size`² input.
+fn dinov2_vs_candle(path: &Path, size: usize) -> Result<(), Box<dyn std::error::Error>> {
+    let device = Device::Cpu;
+    if !path.exists() {
+        // As in `depth_vs_candle`: the VarMap holds every tensor candle-transformers reads (including
+        // its classifier head), at the released ViT-S/14 shapes.
+        let varmap = VarMap::new();
+        let vb = VarBuilder::from_varmap(&varmap, DType::F32, &device);
+        ct_dinov2::vit_small(vb)?;
+        varmap.save(path)?;
+        println!("wrote random weights to {}", path.display());
+    }
+    let x = Tensor::randn(0f32, 1.0, (3, size, size), &device)?;
+
+    let t = Instant::now();
+    let ours = Dinov2::load(path)?;
+    println!("ours: load {:.2?}", t.elapsed());
+    for run in 0..2 {
+        let t = Instant::now();
+        let f = ours.patch_features(&x)?;
+        println!("ours run {run}: {:?} in {:.2?}", f.dims(), t.elapsed());
+    }
+    drop(ours);
+
+    let t = Instant::now();
+    // SAFETY: the checkpoint is not modified while mapped.
+    let vb = unsafe { VarBuilder::from_mmaped_safetensors(&[path], DType::F32, &device)? };
+    let theirs = ct_dinov2::vit_small(vb)?;
+    println!("candle-transformers: load {:.2?}", t.elapsed());
+    let batch = x.unsqueeze(0)?;
+    for run in 0..2 {
+        let t = Instant::now();
+        // Last block (of 12), final norm, reshaped to [1, C, h, w], no class token.
+        let f = theirs.get_intermediate_layers(&batch, &[11], true, false, true)?;
+        println!("candle-transformers run {run}: {:?} in {:.2?}", f.dims(), t.elapsed());
+    }
+    Ok(())
+}
+
+/// Ours against candle-transformers' SAM ViT-B image encoder at 1024² on the same (random, if `path` is
+/// missing) weights.
+fn sam_vs_candle(path: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    let device = Device::Cpu;
+    // ViT-B: 768 wide, 12 blocks, 12 heads, global attention in blocks 2, 5, 8, 11.
+    let build = |vb: VarBuilder| ct_sam::Sam::new(768, 12, 12, &[2, 5, 8, 11], vb);
+    if !path.exists() {
+        let varmap = VarMap::new();
+        build(VarBuilder::from_varmap(&varmap, DType::F32, &device))?;
+        varmap.save(path)?;
+        println!("wrote random weights to {}", path.display());
+    }
+    let rgb = Tensor::rand(0f32, 255.0, (1024 * 1024 * 3,), &device)?.to_dtype(DType::U8)?.to_vec1::<u8>()?;
+
+    let t = Instant::now();
+    let ours = Sam::load(path)?;
+    println!("ours: load {:.2?}", t.elapsed());
+    for run in 0..2 {
+        let t = Instant::now();
+        let e = ours.embed_image(&rgb, 1024, 1024)?;
+        println!("ours run {run}: {:?} in {:.2?}", e.features.dims(), t.elapsed());
+    }
+    drop(ours);
+
+    let t = Instant::now();
+    // SAFETY: the checkpoint is not modified while mapped.
+    let vb = unsafe { VarBuilder::from_mmaped_safetensors(&[path], DType::F32, &device)? };
+    let theirs = build(vb)?;
+    println!("candle-transformers: load {:.2?}", t.elapsed());
+    // [3, 1024, 1024] u8; `embeddings` normalises with the same mean / std and pads (nothing here).
+    let image = Tensor::from_vec(rgb, (1024, 1024, 3), &device)?.permute((2, 0, 1))?;
+    for run in 0..2 {
+        let t = Instant::now();
+        let e = theirs.embeddings(&image)?;
+        println!("candle-transformers run {run}: {:?} in {:.2?}", e.dims(), t.elapsed());
     }
     Ok(())
 }
