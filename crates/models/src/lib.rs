@@ -16,6 +16,7 @@
 //! `tools/fixtures/make_model_fixtures.py` (MobileSAM against ultralytics' TinyViT:
 //! `tools/fixtures/make_mobile_sam_fixtures.py`); timings are in the models section of the workspace `BENCHMARKS.md`.
 
+pub mod activation;
 pub mod attention;
 pub mod checkpoint;
 pub mod conv;

@@ -3,6 +3,8 @@
 
 use candle_core::{Module, Tensor};
 
+use super::rel_pos_attention::RelPosAttention;
+use crate::activation::gelu_erf;
 use crate::conv::{layer_norm_2d, Conv2d};
 use crate::error::ModelsResult;
 use crate::weights::{ConvSpec, Weights};
@@ -70,16 +72,13 @@ struct Block {
     norm1: candle_nn::LayerNorm,
     qkv: candle_nn::Linear,
     proj: candle_nn::Linear,
-    /// `[2·S − 1, head_dim]`.
-    rel_pos_h: Tensor,
-    /// `[2·S − 1, head_dim]`.
-    rel_pos_w: Tensor,
+    /// Fused attention holding the `[2·S − 1, head_dim]` relative position tables.
+    attention: RelPosAttention,
     norm2: candle_nn::LayerNorm,
     lin1: candle_nn::Linear,
     lin2: candle_nn::Linear,
     /// 0 = global.
     window: usize,
-    num_heads: usize,
 }
 
 /// The image encoder.
@@ -120,13 +119,23 @@ impl ImageEncoder {
                     norm1: w.layer_norm(&format!("{pre}.norm1"), c, 1e-6)?,
                     qkv: w.linear(&format!("{pre}.attn.qkv"), c, 3 * c)?,
                     proj: w.linear(&format!("{pre}.attn.proj"), c, c)?,
-                    rel_pos_h: w.get(&format!("{pre}.attn.rel_pos_h"), &[2 * side - 1, head_dim])?,
-                    rel_pos_w: w.get(&format!("{pre}.attn.rel_pos_w"), &[2 * side - 1, head_dim])?,
+                    attention: RelPosAttention {
+                        heads: config.num_heads,
+                        side_h: side,
+                        side_w: side,
+                        rel_pos_h: w
+                            .get(&format!("{pre}.attn.rel_pos_h"), &[2 * side - 1, head_dim])?
+                            .flatten_all()?
+                            .to_vec1()?,
+                        rel_pos_w: w
+                            .get(&format!("{pre}.attn.rel_pos_w"), &[2 * side - 1, head_dim])?
+                            .flatten_all()?
+                            .to_vec1()?,
+                    },
                     norm2: w.layer_norm(&format!("{pre}.norm2"), c, 1e-6)?,
                     lin1: w.linear(&format!("{pre}.mlp.lin1"), c, mlp)?,
                     lin2: w.linear(&format!("{pre}.mlp.lin2"), mlp, c)?,
                     window,
-                    num_heads: config.num_heads,
                 })
             })
             .collect::<ModelsResult<Vec<_>>>()?;
@@ -196,56 +205,15 @@ impl Block {
                 .narrow(1, 0, w)?
         };
         let x = (x + attended)?;
-        let mlp = self.lin2.forward(&self.lin1.forward(&self.norm2.forward(&x)?)?.gelu_erf()?)?;
+        let mlp = self.lin2.forward(&gelu_erf(&self.lin1.forward(&self.norm2.forward(&x)?)?)?)?;
         Ok((x + mlp)?)
     }
 
     /// Attention over each `[S, S]` window with decomposed relative positions; `x`: `[B, S, S, C]`.
     fn attention(&self, x: &Tensor) -> ModelsResult<Tensor> {
         let (b, sh, sw, c) = x.dims4()?;
-        let heads = self.num_heads;
-        let hd = c / heads;
-        let n = sh * sw;
-        let qkv = self.qkv.forward(x)?.reshape((b, n, 3, heads, hd))?.permute((2, 0, 3, 1, 4))?; // [3, B, heads, N, hd]
-        let q = qkv.get(0)?.reshape((b * heads, n, hd))?.contiguous()?;
-        let k = qkv.get(1)?.reshape((b * heads, n, hd))?.contiguous()?;
-        let v = qkv.get(2)?.reshape((b * heads, n, hd))?.contiguous()?;
-        let rh = relative_table(&self.rel_pos_h, sh)?; // [sh, sh, hd]
-        let rw = relative_table(&self.rel_pos_w, sw)?; // [sw, sw, hd]
-        let scale = 1.0 / (hd as f64).sqrt();
-        // one (batch·head) slice at a time keeps the N×N scores of a global block small
-        let chunk = (1usize << 24).div_ceil(n * n).clamp(1, b * heads);
-        let mut outs = Vec::new();
-        let mut start = 0;
-        while start < b * heads {
-            let len = chunk.min(b * heads - start);
-            let qc = q.narrow(0, start, len)?;
-            let mut scores = (&qc * scale)?.matmul(&k.narrow(0, start, len)?.t()?)?; // [len, N, N]
-                                                                                     // rel_h[i, y, x, ky] = Σ_c q[i, y, x, c]·rh[y, ky, c]; rel_w[i, y, x, kx] = Σ_c q·rw[x, kx, c]
-            let q_rows = qc.reshape((len, sh, sw, hd))?.permute((1, 0, 2, 3))?.reshape((sh, len * sw, hd))?;
-            let rel_h = q_rows.matmul(&rh.t()?)?.reshape((sh, len, sw, sh))?.permute((1, 0, 2, 3))?;
-            let q_cols = qc.reshape((len, sh, sw, hd))?.permute((2, 0, 1, 3))?.reshape((sw, len * sh, hd))?;
-            let rel_w = q_cols.matmul(&rw.t()?)?.reshape((sw, len, sh, sw))?.permute((1, 2, 0, 3))?;
-            scores = scores
-                .reshape((len, sh, sw, sh, sw))?
-                .broadcast_add(&rel_h.unsqueeze(4)?)?
-                .broadcast_add(&rel_w.unsqueeze(3)?)?
-                .reshape((len, n, n))?;
-            let weights = candle_nn::ops::softmax_last_dim(&scores)?;
-            outs.push(weights.matmul(&v.narrow(0, start, len)?)?);
-            start += len;
-        }
-        let out = Tensor::cat(&outs, 0)?; // [B·heads, N, hd]
-        let out = out.reshape((b, heads, sh, sw, hd))?.permute((0, 2, 3, 1, 4))?.reshape((b, sh, sw, c))?;
+        let qkv = self.qkv.forward(x)?.reshape((b, sh * sw, 3 * c))?;
+        let out = self.attention.forward(&qkv)?.reshape((b, sh, sw, c))?;
         Ok(self.proj.forward(&out)?)
     }
-}
-
-/// `table[q, k] = rel_pos[q − k + size − 1]`: `[size, size, head_dim]` from `rel_pos`: `[2·size − 1, head_dim]`.
-fn relative_table(rel_pos: &Tensor, size: usize) -> ModelsResult<Tensor> {
-    let (_, hd) = rel_pos.dims2()?;
-    let indices: Vec<u32> =
-        (0..size).flat_map(|q| (0..size).map(move |k| (q + size - 1 - k) as u32)).collect();
-    let indices = Tensor::from_vec(indices, size * size, rel_pos.device())?;
-    Ok(rel_pos.index_select(&indices, 0)?.reshape((size, size, hd))?)
 }

@@ -10,6 +10,7 @@ pub mod image_encoder;
 pub mod mask_decoder;
 pub mod masks;
 pub mod prompt_encoder;
+pub mod rel_pos_attention;
 pub mod tiny_vit;
 
 use std::path::Path;
