@@ -24,6 +24,7 @@ pub mod depth_anything;
 pub mod dinov2;
 pub mod error;
 pub mod image;
+pub mod kernels;
 pub mod resample;
 pub mod sam;
 pub mod weights;

@@ -12,6 +12,7 @@ use gemm::Parallelism;
 use rayon::prelude::*;
 
 use crate::error::ModelsResult;
+use crate::kernels::{dot, exp_shifted_in_place, max_of};
 
 /// Query rows per task: small enough that a global block's score slab (`ROWS × 4096` floats, 2 MB) stays
 /// in cache, large enough that the matrix products stay efficient.
@@ -111,18 +112,13 @@ impl RelPosAttention {
                     let offset = (x + self.side_w - 1 - kx) * head_dim;
                     *out = dot(q_row, &self.rel_pos_w[offset..offset + head_dim]);
                 }
-                let mut max = f32::NEG_INFINITY;
                 for (key_row, &bias_h) in row.chunks_mut(self.side_w).zip(&s.rel_h) {
                     for (value, &bias_w) in key_row.iter_mut().zip(&s.rel_w) {
                         *value += bias_h + bias_w;
-                        max = max.max(*value);
                     }
                 }
-                let mut sum = 0.0;
-                for value in row.iter_mut() {
-                    *value = (*value - max).exp();
-                    sum += *value;
-                }
+                let max = max_of(row);
+                let sum = exp_shifted_in_place(row, max);
                 let inv = 1.0 / sum;
                 row.iter_mut().for_each(|value| *value *= inv);
             }
@@ -173,10 +169,6 @@ impl Scratch {
             rel_w: vec![0.0; side_w],
         }
     }
-}
-
-fn dot(a: &[f32], b: &[f32]) -> f32 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl CustomOp1 for RelPosAttention {

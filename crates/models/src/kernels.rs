@@ -1,0 +1,112 @@
+//! Small numeric kernels written so the compiler vectorises them (fixed lane counts, no branches, no
+//! library calls in the loops); shared by the fused CPU ops.
+
+/// Lanes of the partial sums: independent accumulators the compiler keeps in SIMD registers. The lane
+/// order is fixed, so results are reproducible.
+const LANES: usize = 8;
+
+/// `Σ a·b` with `LANES` partial sums.
+pub fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let mut lanes = [0f32; LANES];
+    let (a_chunks, b_chunks) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    let tail: f32 = a_chunks.remainder().iter().zip(b_chunks.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in a_chunks.zip(b_chunks) {
+        for lane in 0..LANES {
+            lanes[lane] += x[lane] * y[lane];
+        }
+    }
+    lanes.iter().sum::<f32>() + tail
+}
+
+/// The largest value (−∞ for none; NaN-free input).
+pub fn max_of(values: &[f32]) -> f32 {
+    let larger = |m: f32, v: f32| if v > m { v } else { m };
+    let mut lanes = [f32::NEG_INFINITY; LANES];
+    let chunks = values.chunks_exact(LANES);
+    let tail = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &v| larger(m, v));
+    for chunk in chunks {
+        for lane in 0..LANES {
+            lanes[lane] = larger(lanes[lane], chunk[lane]);
+        }
+    }
+    lanes.iter().fold(tail, |m, &v| larger(m, v))
+}
+
+/// Replaces every `v` by `exp(v − shift)` and returns their sum: the numerator and denominator of a
+/// softmax. Needs `v ≤ shift` (as with `shift` = the maximum); relative error below 3e-7 (tested).
+pub fn exp_shifted_in_place(values: &mut [f32], shift: f32) -> f32 {
+    let mut lanes = [0f32; LANES];
+    let mut chunks = values.chunks_exact_mut(LANES);
+    for chunk in &mut chunks {
+        for lane in 0..LANES {
+            chunk[lane] = exp_non_positive(chunk[lane] - shift);
+            lanes[lane] += chunk[lane];
+        }
+    }
+    let mut tail = 0.0;
+    for value in chunks.into_remainder() {
+        *value = exp_non_positive(*value - shift);
+        tail += *value;
+    }
+    lanes.iter().sum::<f32>() + tail
+}
+
+/// `eˣ` for `x ≤ 0` (below −87 it returns about 1.6e-38 instead of smaller values or 0, which no softmax
+/// notices): `2ⁿ · p(r)` with `n = round(x / ln 2)`, `r = x − n·ln 2` in two parts (Cody–Waite) and `p` the
+/// degree-7 Taylor polynomial (truncation error < 1e-8 on |r| ≤ ln 2 / 2).
+#[inline(always)]
+fn exp_non_positive(x: f32) -> f32 {
+    /// Adding then subtracting 1.5·2²³ rounds an f32 of magnitude < 2²² to the nearest integer.
+    const ROUND: f32 = 12_582_912.0;
+    const LN2_HI: f32 = 0.693_145_75;
+    const LN2_LO: f32 = 1.428_606_8e-6;
+    let x = if x < -87.0 { -87.0 } else { x };
+    let n = (x * std::f32::consts::LOG2_E + ROUND) - ROUND;
+    let r = (x - n * LN2_HI) - n * LN2_LO;
+    let mut p = 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    let two_to_n = f32::from_bits(((n as i32 + 127) as u32) << 23);
+    p * two_to_n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exp_is_within_three_ulp_of_f64_over_the_softmax_range() {
+        let mut worst = 0f64;
+        for i in 0..=870_000 {
+            let x = -(i as f32) * 1e-4;
+            let ours = f64::from(exp_non_positive(x));
+            let exact = f64::from(x).exp();
+            worst = worst.max((ours - exact).abs() / exact);
+        }
+        assert!(worst < 3e-7, "worst relative error {worst}");
+        assert_eq!(exp_non_positive(0.0), 1.0);
+    }
+
+    #[test]
+    fn softmax_pieces_match_plain_loops() {
+        let values: Vec<f32> = (0..1003).map(|i| ((i * 37 % 101) as f32 - 50.0) * 0.13).collect();
+        let max = max_of(&values);
+        assert_eq!(max, values.iter().cloned().fold(f32::NEG_INFINITY, f32::max));
+        let mut exps = values.clone();
+        let sum = exp_shifted_in_place(&mut exps, max);
+        let expected: Vec<f64> = values.iter().map(|&v| f64::from(v - max).exp()).collect();
+        for (a, b) in exps.iter().zip(&expected) {
+            assert!((f64::from(*a) - b).abs() <= 3e-7 * b);
+        }
+        assert!((f64::from(sum) - expected.iter().sum::<f64>()).abs() < 1e-5 * f64::from(sum));
+        let b: Vec<f32> = (0..1003).map(|i| (i % 7) as f32 - 3.0).collect();
+        let plain: f64 = values.iter().zip(&b).map(|(x, y)| f64::from(*x) * f64::from(*y)).sum();
+        assert!((f64::from(dot(&values, &b)) - plain).abs() < 1e-3);
+        assert_eq!(max_of(&[]), f32::NEG_INFINITY);
+    }
+}
