@@ -95,6 +95,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 points_per_side: points,
                 pred_iou_thresh: 0.0,
                 stability_score_thresh: 0.0,
+                // keep every mask (random weights give near-identical full-image boxes that NMS would
+                // fold into one): the worst case for memory
+                box_nms_thresh: 1.0,
                 ..AmgConfig::default()
             };
             let t = Instant::now();
