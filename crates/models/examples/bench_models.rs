@@ -7,6 +7,7 @@
 //! cargo run --release -p splatseg-models --example bench_models -- dinov2-vs-candle CHECKPOINT 518
 //! cargo run --release -p splatseg-models --example bench_models -- sam-encoder CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- sam-vs-candle CHECKPOINT
+//! cargo run --release -p splatseg-models --example bench_models -- mobile-sam-vs-candle CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- sam-amg CHECKPOINT 1024 [POINTS_PER_SIDE]
 //! ```
 //!
@@ -18,7 +19,8 @@
 //! `dinov2-vs-candle` does the same for DINOv2 ViT-S/14 (the patch features after the final norm, on a
 //! SIZE² input; the written checkpoint has the original facebookresearch names plus the classifier
 //! `head.*` that candle-transformers requires and ours ignores), and `sam-vs-candle` for the SAM ViT-B
-//! image encoder at 1024² (official `image_encoder.*` / `prompt_encoder.*` / `mask_decoder.*` names).
+//! image encoder at 1024² (official `image_encoder.*` / `prompt_encoder.*` / `mask_decoder.*` names);
+//! `mobile-sam-vs-candle` the same for MobileSAM's TinyViT-5M encoder (`mobile_sam.pt` names).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -35,7 +37,7 @@ use splatseg_models::sam::{generate_masks, AmgConfig, Sam};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 3 {
-        return Err("usage: bench_models dinov2|depth|depth-vs-candle|dinov2-vs-candle|sam-encoder|sam-vs-candle|sam-amg CHECKPOINT [SIZE] [POINTS]".into());
+        return Err("usage: bench_models dinov2|depth|depth-vs-candle|dinov2-vs-candle|sam-encoder|sam-vs-candle|mobile-sam-vs-candle|sam-amg CHECKPOINT [SIZE] [POINTS]".into());
     }
     let path = Path::new(&args[2]);
     let size: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(518);
@@ -62,7 +64,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         "depth-vs-candle" => depth_vs_candle(path, size)?,
         "dinov2-vs-candle" => dinov2_vs_candle(path, size)?,
-        "sam-vs-candle" => sam_vs_candle(path)?,
+        "sam-vs-candle" => sam_vs_candle(path, false)?,
+        "mobile-sam-vs-candle" => sam_vs_candle(path, true)?,
         "sam-encoder" => {
             let model = Sam::load(path)?;
             let rgb = Tensor::rand(0f32, 255.0, (1024 * 1024 * 3,), &Device::Cpu)?
@@ -194,12 +197,18 @@ fn dinov2_vs_candle(path: &Path, size: usize) -> Result<(), Box<dyn std::error::
     Ok(())
 }
 
-/// Ours against candle-transformers' SAM ViT-B image encoder at 1024² on the same (random, if `path` is
-/// missing) weights.
-fn sam_vs_candle(path: &Path) -> Result<(), Box<dyn std::error::Error>> {
+/// Ours against candle-transformers' SAM ViT-B (or, with `tiny`, MobileSAM's TinyViT-5M) image encoder at
+/// 1024² on the same (random, if `path` is missing) weights.
+fn sam_vs_candle(path: &Path, tiny: bool) -> Result<(), Box<dyn std::error::Error>> {
     let device = Device::Cpu;
     // ViT-B: 768 wide, 12 blocks, 12 heads, global attention in blocks 2, 5, 8, 11.
-    let build = |vb: VarBuilder| ct_sam::Sam::new(768, 12, 12, &[2, 5, 8, 11], vb);
+    let build = |vb: VarBuilder| {
+        if tiny {
+            ct_sam::Sam::new_tiny(vb)
+        } else {
+            ct_sam::Sam::new(768, 12, 12, &[2, 5, 8, 11], vb)
+        }
+    };
     if !path.exists() {
         let varmap = VarMap::new();
         build(VarBuilder::from_varmap(&varmap, DType::F32, &device))?;

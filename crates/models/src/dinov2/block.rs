@@ -4,6 +4,7 @@ use candle_core::Tensor;
 use candle_nn::Module;
 
 use super::config::Dinov2Config;
+use crate::activation::gelu_erf;
 use crate::error::ModelsResult;
 use crate::weights::Weights;
 
@@ -43,7 +44,7 @@ impl Block {
     pub(crate) fn forward(&self, tokens: &Tensor) -> ModelsResult<Tensor> {
         let attended = self.attention(&self.norm1.forward(tokens)?)?;
         let tokens = (tokens + attended.broadcast_mul(&self.ls1)?)?;
-        let hidden = self.fc1.forward(&self.norm2.forward(&tokens)?)?.gelu_erf()?;
+        let hidden = gelu_erf(&self.fc1.forward(&self.norm2.forward(&tokens)?)?)?;
         let mlp = self.fc2.forward(&hidden)?;
         Ok((tokens + mlp.broadcast_mul(&self.ls2)?)?)
     }

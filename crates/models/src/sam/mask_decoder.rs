@@ -3,6 +3,7 @@
 
 use candle_core::{Module, Tensor};
 
+use crate::activation::gelu_erf;
 use crate::error::ModelsResult;
 use crate::weights::Weights;
 
@@ -238,8 +239,8 @@ impl MaskDecoder {
         let c1 = d / 4;
         let c2 = d / 8;
         let up = keys.reshape((b * h * w, d))?.matmul(&self.up1_weight)?.broadcast_add(&self.up1_bias)?; // [B·h·w, (dy1, dx1, c1)]
-        let up = self.up_norm.forward(&up.reshape((b * h * w * 4, c1))?)?.gelu_erf()?;
-        let up = up.matmul(&self.up2_weight)?.broadcast_add(&self.up2_bias)?.gelu_erf()?; // [B·h·w·4, (dy2, dx2, c2)]
+        let up = gelu_erf(&self.up_norm.forward(&up.reshape((b * h * w * 4, c1))?)?)?;
+        let up = gelu_erf(&up.matmul(&self.up2_weight)?.broadcast_add(&self.up2_bias)?)?; // [B·h·w·4, (dy2, dx2, c2)]
         let up = up.reshape((b, h * w * 16, c2))?; // pixels ordered (y, x, dy1, dx1, dy2, dx2)
         let hyper: Vec<Tensor> = self
             .hypernets

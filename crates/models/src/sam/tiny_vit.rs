@@ -15,6 +15,7 @@
 use candle_core::{Device, Module, Tensor};
 use rayon::prelude::*;
 
+use crate::activation::gelu_erf;
 use crate::conv::{layer_norm_2d, Conv2d};
 use crate::error::{ModelsError, ModelsResult};
 use crate::weights::{ConvSpec, Weights};
@@ -214,10 +215,10 @@ struct MbConv {
 
 impl MbConv {
     fn forward(&self, x: &Tensor) -> ModelsResult<Tensor> {
-        let y = self.conv1.forward(x)?.gelu_erf()?;
-        let y = self.conv2.forward(&y)?.gelu_erf()?;
+        let y = gelu_erf(&self.conv1.forward(x)?)?;
+        let y = gelu_erf(&self.conv2.forward(&y)?)?;
         let y = self.conv3.forward(&y)?;
-        Ok((y + x)?.gelu_erf()?)
+        Ok(gelu_erf(&(y + x)?)?)
     }
 }
 
@@ -239,8 +240,8 @@ impl PatchMerging {
     }
 
     fn forward(&self, x: &Tensor) -> ModelsResult<Tensor> {
-        let y = self.conv1.forward(x)?.gelu_erf()?;
-        let y = self.conv2.forward(&y)?.gelu_erf()?;
+        let y = gelu_erf(&self.conv1.forward(x)?)?;
+        let y = gelu_erf(&self.conv2.forward(&y)?)?;
         self.conv3.forward(&y)
     }
 }
@@ -335,7 +336,7 @@ impl Block {
         let x = (x + attended)?;
         let map = x.permute((2, 0, 1))?.contiguous()?;
         let x = self.local_conv.forward(&map)?.permute((1, 2, 0))?.contiguous()?;
-        let mlp = self.fc2.forward(&self.fc1.forward(&self.mlp_norm.forward(&x)?)?.gelu_erf()?)?;
+        let mlp = self.fc2.forward(&gelu_erf(&self.fc1.forward(&self.mlp_norm.forward(&x)?)?)?)?;
         Ok((x + mlp)?)
     }
 
@@ -466,7 +467,7 @@ impl TinyVit {
                 pixels.dims()
             )));
         }
-        let mut x = self.patch1.forward(pixels)?.gelu_erf()?;
+        let mut x = gelu_erf(&self.patch1.forward(pixels)?)?;
         x = self.patch2.forward(&x)?; // [C, H, W]
         for (stage, merge) in &self.stages {
             x = match stage {
