@@ -9,6 +9,30 @@
 
 use crate::plane::Plane;
 
+/// The largest mask [`Rle::check`] (and so [`Rle::decode`] and [`Rle::from_coco_string`])
+/// accepts: 2^28 pixels (e.g. 16384 × 16384, 256 MB as a `bool` mask). Larger declared sizes
+/// are refused before anything of that size is allocated; no camera image splatseg handles
+/// comes near it, so a bigger `size` in a mask file is corrupt or hostile.
+pub const MAX_MASK_PIXELS: u64 = 1 << 28;
+
+/// Checks a declared mask size (`height × width`, as a file states it) against
+/// [`MAX_MASK_PIXELS`] and the `u32` range, without allocating anything.
+pub fn check_declared_size(height: u64, width: u64) -> Result<(), String> {
+    if height > u32::MAX as u64 || width > u32::MAX as u64 {
+        return Err(format!(
+            "declared mask size [{height}, {width}] (height, width) has a side beyond 32 bits"
+        ));
+    }
+    let pixels = height.saturating_mul(width);
+    if pixels > MAX_MASK_PIXELS {
+        return Err(format!(
+            "declared mask size [{height}, {width}] (height, width) is {pixels} pixels, more than the \
+             {MAX_MASK_PIXELS} (2^28) a mask may have"
+        ));
+    }
+    Ok(())
+}
+
 /// A COCO RLE mask. `counts` alternate zeros/ones runs in column-major order.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Rle {
@@ -66,8 +90,10 @@ impl Rle {
         self.height as u64 * self.width as u64
     }
 
-    /// Checks that the counts sum to `height · width`.
+    /// Checks that the size is at most [`MAX_MASK_PIXELS`] and that the counts sum to exactly
+    /// `height · width`.
     pub fn check(&self) -> Result<(), String> {
+        check_declared_size(self.height as u64, self.width as u64)?;
         let total: u64 = self.counts.iter().map(|&c| c as u64).sum();
         if total != self.pixel_count() {
             return Err(format!(
@@ -80,8 +106,8 @@ impl Rle {
         Ok(())
     }
 
-    /// Decodes into a mask (`[height, width]` row-major). Fails if the counts do not sum to
-    /// `height · width`.
+    /// Decodes into a mask (`[height, width]` row-major). Fails, before allocating, if the size
+    /// is above [`MAX_MASK_PIXELS`] or the counts do not sum to `height · width`.
     pub fn decode(&self) -> Result<Plane<bool>, String> {
         self.check()?;
         let (w, h) = (self.width as usize, self.height as usize);
@@ -106,7 +132,8 @@ impl Rle {
 
     /// Tight bounding box `[x, y, w, h]` in pixels of the inside pixels (`w` = number of
     /// columns spanned, as pycocotools' `toBbox`); `[0, 0, 0, 0]` for an empty mask.
-    /// SAM's JSON `bbox` has `w, h` one smaller than this (it subtracts max and min indices).
+    /// SAM's JSON `bbox` has `w, h` one smaller than this (it subtracts max and min indices):
+    /// see [`Rle::bbox_xywh_sam`].
     pub fn bbox_xywh(&self) -> [u32; 4] {
         let h = self.height.max(1) as u64;
         let (mut x0, mut y0, mut x1, mut y1) = (u64::MAX, u64::MAX, 0u64, 0u64);
@@ -137,6 +164,15 @@ impl Rle {
         [x0 as u32, y0 as u32, (x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32]
     }
 
+    /// Tight bounding box as Segment Anything writes it in its JSON and `metadata.csv`:
+    /// `[x_min, y_min, x_max - x_min, y_max - y_min]` with inclusive max indices (its
+    /// `box_xyxy_to_xywh` of `batched_mask_to_box`), so a single pixel has `w = h = 0`;
+    /// `[0, 0, 0, 0]` for an empty mask.
+    pub fn bbox_xywh_sam(&self) -> [u32; 4] {
+        let [x, y, w, h] = self.bbox_xywh();
+        [x, y, w.saturating_sub(1), h.saturating_sub(1)]
+    }
+
     /// The compressed COCO string of the counts (what pycocotools' `encode` and SAM's
     /// `coco_rle` output store in `segmentation.counts`).
     pub fn to_coco_string(&self) -> String {
@@ -163,11 +199,12 @@ impl Rle {
     }
 
     /// Parses a compressed COCO counts string for a `height × width` mask. Fails on characters
-    /// outside the alphabet, a string ending inside a count, negative counts, or counts that
-    /// do not sum to `height · width`.
+    /// outside the alphabet, a string ending inside a count, negative counts, a size above
+    /// [`MAX_MASK_PIXELS`] (checked first), or counts that do not sum to `height · width`.
     pub fn from_coco_string(height: u32, width: u32, s: &str) -> Result<Rle, String> {
         /// 12 groups of 5 bits hold any delta of two u32 counts.
         const MAX_GROUPS: u32 = 12;
+        check_declared_size(height as u64, width as u64)?;
         let bytes = s.as_bytes();
         let mut counts: Vec<u32> = Vec::with_capacity(bytes.len());
         let mut p = 0;

@@ -8,8 +8,8 @@
 mod json;
 mod png_folder;
 
-pub use json::{read_sam_json, write_sam_json};
-pub use png_folder::{read_sam_png_folder, write_sam_png_folder};
+pub use json::{read_sam_json, read_sam_json_for_image, write_sam_json};
+pub use png_folder::{read_sam_png_folder, read_sam_png_folder_for_image, write_sam_png_folder};
 
 use crate::error::{SceneError, SceneResult};
 use crate::rle::Rle;
@@ -20,10 +20,11 @@ use std::path::Path;
 pub struct SamMask {
     /// The mask, COCO RLE over the image.
     pub segmentation: Rle,
-    /// Bounding box `[x, y, w, h]` in pixels as the file gave it (SAM's own boxes have
-    /// `w = x_max - x_min`); from [`Rle::bbox_xywh`] when absent.
+    /// Bounding box `[x, y, w, h]` in pixels in SAM's convention (`w = x_max - x_min`, see
+    /// [`Rle::bbox_xywh_sam`]). The readers always recompute it from the mask: a file's own
+    /// value is not trusted.
     pub bbox_xywh: [f64; 4],
-    /// Number of pixels inside (from the mask when absent).
+    /// Number of pixels inside; the readers recompute it from the mask.
     pub area: u64,
     /// SAM's predicted IoU (1 when absent).
     pub predicted_iou: f64,
@@ -36,10 +37,10 @@ pub struct SamMask {
 }
 
 impl SamMask {
-    /// A mask whose metadata is derived from the RLE: area and bbox from the mask, predicted
-    /// IoU and stability 1, no prompt points, the whole image as crop box.
+    /// A mask whose metadata is derived from the RLE: area and bbox (SAM's convention) from the
+    /// mask, predicted IoU and stability 1, no prompt points, the whole image as crop box.
     pub fn from_rle(segmentation: Rle) -> SamMask {
-        let bbox = segmentation.bbox_xywh().map(f64::from);
+        let bbox = segmentation.bbox_xywh_sam().map(f64::from);
         let crop = [0.0, 0.0, segmentation.width as f64, segmentation.height as f64];
         SamMask {
             area: segmentation.area(),
@@ -74,20 +75,84 @@ pub fn check_mask_sizes(masks: &[SamMask], width: u32, height: u32, path: &Path)
     }
 }
 
+/// Checks a mask's declared size (`height × width` as the file states it, before anything of
+/// that size is allocated) against the image it belongs to when `expected` (`(width, height)`)
+/// is known, and in any case against [`crate::rle::MAX_MASK_PIXELS`].
+pub(crate) fn check_declared_mask_size(
+    height: u64,
+    width: u64,
+    expected: Option<(u32, u32)>,
+) -> Result<(), String> {
+    if let Some((image_w, image_h)) = expected {
+        if (height, width) != (image_h as u64, image_w as u64) {
+            return Err(format!(
+                "declared size [{height}, {width}] (height, width) does not match the image, which is \
+                 [{image_h}, {image_w}]"
+            ));
+        }
+    }
+    crate::rle::check_declared_size(height, width)
+}
+
+/// Counts the masks whose file `area` / `bbox` disagreed with the decoded mask and logs one
+/// warning for the file (not one per mask).
+pub(crate) fn warn_recomputed(disagreeing: usize, total: usize, path: &Path) {
+    if disagreeing > 0 {
+        tracing::warn!(
+            "{disagreeing} of {total} masks have an area or bbox that disagrees with the mask itself; \
+             using the values recomputed from the masks: {}",
+            path.display()
+        );
+    }
+}
+
+/// Replaces `mask`'s area and bbox by those of its segmentation. Returns whether the values
+/// given (`None` = absent, not a disagreement) differed.
+pub(crate) fn recompute_area_bbox(mask: &mut SamMask, area: Option<f64>, bbox: Option<[f64; 4]>) -> bool {
+    mask.area = mask.segmentation.area();
+    mask.bbox_xywh = mask.segmentation.bbox_xywh_sam().map(f64::from);
+    let area_differs = area.is_some_and(|a| a != mask.area as f64);
+    let bbox_differs = bbox.is_some_and(|b| b != mask.bbox_xywh);
+    area_differs || bbox_differs
+}
+
+/// Like [`read_view_masks`] for the view whose image is `width × height`: every mask's size is
+/// checked against it while reading, before a mask of a declared size is allocated, and the
+/// error names the mask file.
+pub fn read_view_masks_for_image(
+    dir: &Path,
+    stem: &str,
+    width: u32,
+    height: u32,
+) -> SceneResult<Option<Vec<SamMask>>> {
+    read_view_masks_sized(dir, stem, Some((width, height)))
+}
+
 /// Loads the masks of one view from a per-view folder: `<dir>/<stem>.json` (SAM JSON) or
 /// `<dir>/<stem>/metadata.csv` (SAM PNG folder), in that order of preference.
-/// `Ok(None)` if neither exists; an error if `dir` itself does not exist.
+/// `Ok(None)` if neither exists; an error if `dir` itself does not exist. Mask sizes are only
+/// checked against [`crate::rle::MAX_MASK_PIXELS`]: prefer [`read_view_masks_for_image`] when
+/// the image size is known.
 pub fn read_view_masks(dir: &Path, stem: &str) -> SceneResult<Option<Vec<SamMask>>> {
+    read_view_masks_sized(dir, stem, None)
+}
+
+/// [`read_view_masks`] with an optional expected `(width, height)`.
+fn read_view_masks_sized(
+    dir: &Path,
+    stem: &str,
+    expected: Option<(u32, u32)>,
+) -> SceneResult<Option<Vec<SamMask>>> {
     if !dir.is_dir() {
         return Err(SceneError::missing("SAM mask folder", dir));
     }
     let json = dir.join(format!("{stem}.json"));
     if json.is_file() {
-        return read_sam_json(&json).map(Some);
+        return json::read_json_sized(&json, expected).map(Some);
     }
     let folder = dir.join(stem);
     if folder.join("metadata.csv").is_file() {
-        return read_sam_png_folder(&folder).map(Some);
+        return png_folder::read_folder_sized(&folder, expected).map(Some);
     }
     Ok(None)
 }

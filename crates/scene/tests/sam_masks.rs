@@ -45,9 +45,10 @@ fn json_with_compressed_and_uncompressed_counts_reads_the_same_mask() {
         (6, [1.0, 1.0, 1.0, 2.0], 0.91, 0.97)
     );
     assert_eq!(m.point_coords, vec![[1.5, 2.5]]);
-    // Defaults: area and bbox from the mask, scores 1, whole-image crop box, no points.
+    // Defaults: area and bbox from the mask (bbox in SAM's convention, w = x_max - x_min, the
+    // same as the file's own boxes), scores 1, whole-image crop box, no points.
     let d = &masks[1];
-    assert_eq!((d.area, d.bbox_xywh), (6, [1.0, 1.0, 2.0, 3.0]));
+    assert_eq!((d.area, d.bbox_xywh), (6, [1.0, 1.0, 1.0, 2.0]));
     assert_eq!((d.predicted_iou, d.stability_score), (1.0, 1.0));
     assert_eq!(d.crop_box_xywh, [0.0, 0.0, 6.0, 4.0]);
     assert!(d.point_coords.is_empty());

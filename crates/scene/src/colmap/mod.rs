@@ -16,9 +16,11 @@ pub use binary::{read_model_binary, write_model_binary};
 pub use model::{ColmapCamera, ColmapImage, ColmapModel};
 pub use text::{read_model_text, write_model_text};
 
+use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
 use crate::images::{camera_at_resolution, check_resolution, locate_image};
-use crate::load::{shared_stem_warning, LoadOptions, Scene, SceneFormat, View};
+use crate::load::{shared_stem_warning, Keypoint, LoadOptions, Scene, SceneFormat, View};
+use glam::DVec2;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -52,7 +54,8 @@ pub fn read_model(model_dir: &Path) -> SceneResult<(ColmapModel, SceneFormat)> {
 /// Views are sorted by image name. Images listed by the model but absent from `images_dir` are
 /// skipped with one warning in [`Scene::warnings`] (their observations are dropped from point
 /// tracks). At resolution `f > 1`, `images_<f>/` beside `images_dir` is used when it holds the
-/// image; cameras are down-scaled to match. Keypoints stay in full-resolution pixels.
+/// image; cameras are down-scaled to match, and so are the views' keypoints (same per-axis
+/// factors, pixel-corner origin), so `camera.project` of a point lands on its keypoints.
 pub fn read_colmap(model_dir: &Path, images_dir: &Path, options: &LoadOptions) -> SceneResult<Scene> {
     if !model_dir.is_dir() {
         return Err(SceneError::missing("COLMAP model folder", model_dir));
@@ -131,14 +134,18 @@ fn model_to_scene(
             images_dir,
         ));
     }
-    let cameras = cameras_by_id
-        .values()
+    let full_cameras: Vec<&Camera> = cameras_by_id.values().collect();
+    let cameras: Vec<Camera> = full_cameras
+        .iter()
         .enumerate()
         .map(|(i, camera)| {
             let sample = views.iter().find(|v| v.camera_index == i).map(|v| v.image_path.as_path());
             camera_at_resolution(camera, sample, factor)
         })
         .collect();
+    for view in &mut views {
+        scale_keypoints(&mut view.keypoints, full_cameras[view.camera_index], &cameras[view.camera_index]);
+    }
     let mut points = model.points;
     let mut warnings = Vec::new();
     warnings.extend(shared_stem_warning(&views));
@@ -150,6 +157,21 @@ fn model_to_scene(
         }
     }
     Ok(Scene { root: images_dir.to_path_buf(), format, cameras, views, points: Some(points), warnings })
+}
+
+/// Moves keypoints measured on `full`'s images onto `scaled`'s (the same camera at the loaded
+/// resolution): with the pixel-corner origin of `CONVENTIONS.md`, positions scale per axis by
+/// the image size ratio, exactly as the intrinsics do (a pixel centre `i + 0.5` lands on the
+/// centre of the pixel covering it at the new size).
+fn scale_keypoints(keypoints: &mut [Keypoint], full: &Camera, scaled: &Camera) {
+    if (full.width, full.height) == (scaled.width, scaled.height) || full.width == 0 || full.height == 0 {
+        return;
+    }
+    let sx = scaled.width as f64 / full.width as f64;
+    let sy = scaled.height as f64 / full.height as f64;
+    for k in keypoints {
+        k.xy = DVec2::new(k.xy.x * sx, k.xy.y * sy);
+    }
 }
 
 fn missing_images_warning(
@@ -193,8 +215,9 @@ pub fn scene_to_model(scene: &Scene) -> ColmapModel {
 }
 
 /// Writes `scene` as a COLMAP text model (`cameras.txt`, `images.txt`, `points3D.txt`) into
-/// `model_dir`, each file atomically. Write scenes loaded at resolution 1: keypoints are kept
-/// as they are while the cameras are those of the chosen resolution.
+/// `model_dir`, each file atomically. Cameras and keypoints are those of the resolution the
+/// scene was loaded at (a scene loaded at resolution 2 is written as a model of the
+/// half-size images).
 pub fn write_colmap_text(model_dir: &Path, scene: &Scene) -> SceneResult<()> {
     write_model_text(model_dir, &scene_to_model(scene))
 }

@@ -1,7 +1,7 @@
 //! SAM's JSON mask list (`amg.py --output-mode coco_rle`, also `uncompressed_rle` and
 //! `binary_mask`).
 
-use super::{check_same_size, SamMask};
+use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, warn_recomputed, SamMask};
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
 use crate::plane::Plane;
@@ -26,35 +26,49 @@ struct RawMask {
 
 /// Reads SAM's JSON list of masks. `segmentation` may be a COCO RLE with compressed string
 /// counts or uncompressed integer counts (`{"size": [h, w], "counts": ...}`), or a binary mask
-/// (list of rows of booleans). Missing optional fields get the defaults of
-/// [`SamMask::from_rle`]. Malformed masks (counts not summing to `h · w`, masks of different
-/// sizes) are errors naming the file and the mask index.
+/// (list of rows of booleans). `area` and `bbox` are recomputed from each mask (SAM's
+/// conventions: pixel count, [`Rle::bbox_xywh_sam`]); when the file's values disagree, one
+/// warning for the file says how many masks did. Other missing optional fields get the
+/// defaults of [`SamMask::from_rle`]. Malformed masks (declared size above
+/// [`crate::rle::MAX_MASK_PIXELS`], counts not summing to `h · w`, masks of different sizes)
+/// are errors naming the file and the mask index. Use [`read_sam_json_for_image`] when the
+/// image size is known.
 pub fn read_sam_json(path: &Path) -> SceneResult<Vec<SamMask>> {
+    read_json_sized(path, None)
+}
+
+/// [`read_sam_json`] for masks of a `width × height` image: a mask declaring another size is
+/// an error naming the file, the mask and both sizes, raised before the mask is decoded.
+pub fn read_sam_json_for_image(path: &Path, width: u32, height: u32) -> SceneResult<Vec<SamMask>> {
+    read_json_sized(path, Some((width, height)))
+}
+
+/// [`read_sam_json`] with an optional expected `(width, height)`.
+pub(super) fn read_json_sized(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io("cannot read", path, e))?;
     let raw: Vec<RawMask> = serde_json::from_str(&text)
         .map_err(|e| SceneError::invalid(FORMAT, path, format!("expected a JSON list of masks: {e}")))?;
+    let total = raw.len();
+    let mut disagreeing = 0;
     let masks = raw
         .into_iter()
         .enumerate()
         .map(|(i, r)| {
-            mask_from_raw(r).map_err(|e| SceneError::invalid(FORMAT, path, format!("mask {i}: {e}")))
+            let (mask, differs) = mask_from_raw(r, expected)
+                .map_err(|e| SceneError::invalid(FORMAT, path, format!("mask {i}: {e}")))?;
+            disagreeing += usize::from(differs);
+            Ok(mask)
         })
         .collect::<SceneResult<Vec<_>>>()?;
     check_same_size(&masks).map_err(|e| SceneError::invalid(FORMAT, path, e))?;
+    warn_recomputed(disagreeing, total, path);
     Ok(masks)
 }
 
-fn mask_from_raw(raw: RawMask) -> Result<SamMask, String> {
-    let mut mask = SamMask::from_rle(segmentation_from_value(&raw.segmentation)?);
-    if let Some(area) = raw.area {
-        if !(area >= 0.0 && area.fract() == 0.0) {
-            return Err(format!("area {area} is not a non-negative integer"));
-        }
-        mask.area = area as u64;
-    }
-    if let Some(bbox) = raw.bbox {
-        mask.bbox_xywh = bbox;
-    }
+/// One mask, and whether the file's `area` / `bbox` disagreed with it.
+fn mask_from_raw(raw: RawMask, expected: Option<(u32, u32)>) -> Result<(SamMask, bool), String> {
+    let mut mask = SamMask::from_rle(segmentation_from_value(&raw.segmentation, expected)?);
+    let differs = recompute_area_bbox(&mut mask, raw.area, raw.bbox);
     if let Some(v) = raw.predicted_iou {
         mask.predicted_iou = v;
     }
@@ -67,20 +81,24 @@ fn mask_from_raw(raw: RawMask) -> Result<SamMask, String> {
     if let Some(crop) = raw.crop_box {
         mask.crop_box_xywh = crop;
     }
-    Ok(mask)
+    Ok((mask, differs))
 }
 
-/// Parses a `segmentation` value: RLE (string or integer counts) or a boolean row list.
-fn segmentation_from_value(v: &Value) -> Result<Rle, String> {
+/// Parses a `segmentation` value: RLE (string or integer counts) or a boolean row list. The
+/// declared size is checked (against `expected` `(width, height)` when known, and against
+/// [`crate::rle::MAX_MASK_PIXELS`]) before the counts are read.
+fn segmentation_from_value(v: &Value, expected: Option<(u32, u32)>) -> Result<Rle, String> {
     match v {
         Value::Object(obj) => {
-            let size = obj
+            let [h, w] = obj
                 .get("size")
                 .and_then(Value::as_array)
                 .filter(|s| s.len() == 2)
                 .and_then(|s| Some([s[0].as_u64()?, s[1].as_u64()?]))
                 .ok_or("segmentation.size must be [height, width]")?;
-            let [h, w] = size.map(|x| u32::try_from(x).unwrap_or(u32::MAX));
+            check_declared_mask_size(h, w, expected)?;
+            let too_big = |_| format!("segmentation.size [{h}, {w}] does not fit in 32 bits");
+            let (h, w) = (u32::try_from(h).map_err(too_big)?, u32::try_from(w).map_err(too_big)?);
             match obj.get("counts") {
                 Some(Value::String(s)) => Rle::from_coco_string(h, w, s),
                 Some(Value::Array(items)) => {
@@ -96,7 +114,11 @@ fn segmentation_from_value(v: &Value) -> Result<Rle, String> {
                 _ => Err("segmentation.counts must be a string or a list of integers".to_string()),
             }
         }
-        Value::Array(rows) => binary_mask_from_rows(rows).map(|m| Rle::encode(&m)),
+        Value::Array(rows) => {
+            let width = rows.first().and_then(Value::as_array).map_or(0, Vec::len);
+            check_declared_mask_size(rows.len() as u64, width as u64, expected)?;
+            binary_mask_from_rows(rows).map(|m| Rle::encode(&m))
+        }
         _ => Err("segmentation must be an RLE {size, counts} or a binary mask".to_string()),
     }
 }

@@ -1,10 +1,11 @@
 //! SAM's PNG-folder output: `metadata.csv` (one row per mask) and `<id>.png` masks.
 
-use super::{check_same_size, SamMask};
+use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, warn_recomputed, SamMask};
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
 use crate::plane::Plane;
 use crate::rle::Rle;
+use image::ImageReader;
 use std::path::Path;
 
 const FORMAT: &str = "SAM metadata.csv";
@@ -30,8 +31,22 @@ const COLUMNS: [&str; 14] = [
 /// Reads a SAM PNG folder: `dir/metadata.csv` with header
 /// `id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,predicted_iou,
 /// stability_score,crop_box_x0,crop_box_y0,crop_box_w,crop_box_h` and, for each row, the mask
-/// `dir/<id>.png` (grey, non-zero = inside). Masks come in the order of the rows.
+/// `dir/<id>.png` (grey, non-zero = inside). Masks come in the order of the rows. `area` and
+/// the bbox columns are recomputed from the PNGs, as [`super::read_sam_json`] does (one
+/// warning per folder when they disagree). A PNG whose header declares more than
+/// [`crate::rle::MAX_MASK_PIXELS`] pixels is refused before it is decoded.
 pub fn read_sam_png_folder(dir: &Path) -> SceneResult<Vec<SamMask>> {
+    read_folder_sized(dir, None)
+}
+
+/// [`read_sam_png_folder`] for masks of a `width × height` image: a PNG of another size is an
+/// error naming it and both sizes, raised from its header before it is decoded.
+pub fn read_sam_png_folder_for_image(dir: &Path, width: u32, height: u32) -> SceneResult<Vec<SamMask>> {
+    read_folder_sized(dir, Some((width, height)))
+}
+
+/// [`read_sam_png_folder`] with an optional expected `(width, height)`.
+pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
     let csv_path = dir.join("metadata.csv");
     if !csv_path.is_file() {
         return Err(SceneError::missing("SAM metadata.csv", csv_path));
@@ -46,6 +61,7 @@ pub fn read_sam_png_folder(dir: &Path) -> SceneResult<Vec<SamMask>> {
         return Err(invalid(format!("the header has no 'id' column: '{header}'")));
     }
     let mut masks = Vec::new();
+    let mut disagreeing = 0;
     for (line_index, line) in lines {
         let line_no = line_index + 1;
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -64,13 +80,13 @@ pub fn read_sam_png_folder(dir: &Path) -> SceneResult<Vec<SamMask>> {
         };
         let id = fields[column[0].unwrap_or(0)];
         let png = dir.join(format!("{id}.png"));
-        let mut mask = SamMask::from_rle(Rle::encode(&read_binary_png(&png)?));
-        if let Some(area) = value(1)? {
-            mask.area = area.max(0.0) as u64;
-        }
-        if let (Some(x), Some(y), Some(w), Some(h)) = (value(2)?, value(3)?, value(4)?, value(5)?) {
-            mask.bbox_xywh = [x, y, w, h];
-        }
+        let mut mask = SamMask::from_rle(Rle::encode(&read_binary_png(&png, expected)?));
+        let area = value(1)?;
+        let bbox = match (value(2)?, value(3)?, value(4)?, value(5)?) {
+            (Some(x), Some(y), Some(w), Some(h)) => Some([x, y, w, h]),
+            _ => None,
+        };
+        disagreeing += usize::from(recompute_area_bbox(&mut mask, area, bbox));
         if let (Some(x), Some(y)) = (value(6)?, value(7)?) {
             if x.is_finite() && y.is_finite() {
                 mask.point_coords = vec![[x, y]];
@@ -88,17 +104,30 @@ pub fn read_sam_png_folder(dir: &Path) -> SceneResult<Vec<SamMask>> {
         masks.push(mask);
     }
     check_same_size(&masks).map_err(invalid)?;
+    warn_recomputed(disagreeing, masks.len(), &csv_path);
     Ok(masks)
 }
 
-/// Reads a mask PNG as booleans (non-zero grey = inside).
-fn read_binary_png(path: &Path) -> SceneResult<Plane<bool>> {
+/// Opens `path` as an image reader with its format guessed from the content.
+fn open_png(path: &Path) -> SceneResult<ImageReader<std::io::BufReader<std::fs::File>>> {
+    ImageReader::open(path)
+        .map_err(|e| SceneError::io("cannot open", path, e))?
+        .with_guessed_format()
+        .map_err(|e| SceneError::io("cannot read", path, e))
+}
+
+/// Reads a mask PNG as booleans (non-zero grey = inside). Its header's size is checked first
+/// (against `expected` `(width, height)` when known, and against
+/// [`crate::rle::MAX_MASK_PIXELS`]), so an oversized PNG is never decoded.
+fn read_binary_png(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Plane<bool>> {
     if !path.is_file() {
         return Err(SceneError::missing("SAM mask PNG listed in metadata.csv", path));
     }
-    let img = image::open(path)
-        .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?
-        .into_luma8();
+    let image_error = |source| SceneError::Image { path: path.to_path_buf(), source };
+    let (w, h) = open_png(path)?.into_dimensions().map_err(image_error)?;
+    check_declared_mask_size(h as u64, w as u64, expected)
+        .map_err(|e| SceneError::invalid("SAM mask PNG", path, e))?;
+    let img = open_png(path)?.decode().map_err(image_error)?.into_luma8();
     let (w, h) = img.dimensions();
     Ok(Plane {
         width: w as usize,
