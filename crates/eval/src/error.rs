@@ -106,6 +106,13 @@ pub enum EvalError {
         /// The file.
         path: PathBuf,
     },
+    /// An image given to a photometric metric (PSNR, SSIM) whose size is zero or does not match
+    /// its buffer.
+    #[error("invalid image for a photometric metric: {reason}")]
+    BadImage {
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 fn location(path: &Option<PathBuf>) -> String {

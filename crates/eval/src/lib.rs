@@ -9,6 +9,7 @@
 //! - [`accuracy3d`]: per-Gaussian label accuracy.
 //! - [`folders`]: scoring folders of `<stem>.png` label maps.
 //! - [`markdown`]: tables for reports.
+//! - [`photometric`]: PSNR and SSIM as 3DGS computes them, and the SSIM gradient for training.
 //!
 //! ```
 //! use splatseg_eval::{EvalConfig, Metrics, ViewCounts};
@@ -30,6 +31,7 @@ pub mod folders;
 pub mod hungarian;
 pub mod markdown;
 pub mod metrics;
+pub mod photometric;
 pub mod view;
 
 pub use accuracy3d::{label_accuracy_3d, label_accuracy_3d_files, read_gaussian_ids_npy};
@@ -38,4 +40,5 @@ pub use error::EvalError;
 pub use folders::{evaluate_folders, evaluate_prediction_sets, list_label_maps, PredictionSet};
 pub use markdown::{summary_table, EvalReport, NamedMetrics};
 pub use metrics::{InstanceScore, LabelAccuracy3d, Metrics, ViewScore};
+pub use photometric::{psnr, psnr_masked, ssim, ssim_map, ssim_with_grad};
 pub use view::ViewCounts;

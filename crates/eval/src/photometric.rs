@@ -1,0 +1,669 @@
+//! Photometric image quality: PSNR and SSIM as 3DGS (and GaussianGrouping, which reuses its code)
+//! compute them, plus the analytic gradient of SSIM for the training loss
+//! `L = 0.8·L1 + 0.2·(1 − SSIM)`.
+//!
+//! Images are interleaved, row-major `[H, W, C]` `f32` buffers with values in `[0, 1]`
+//! (`data[(y * width + x) * channels + c]`). All arithmetic is done in `f64`.
+//!
+//! SSIM follows 3DGS's `utils/loss_utils.py::ssim`: every channel is filtered on its own with an
+//! 11×11 Gaussian window (σ = 1.5, the outer product of a normalised 1-D kernel) with zero padding
+//! of 5 px and "same"-size output. The window is **not** renormalised near the borders, so border
+//! means are pulled towards 0. With `C1 = 0.01²`, `C2 = 0.03²` the SSIM map
+//! `(2μaμb + C1)(2σab + C2) / ((μa² + μb² + C1)(σa² + σb² + C2))` is averaged over every pixel and
+//! channel. scikit-image's `structural_similarity` (Gaussian weights, σ = 1.5) differs only at the
+//! border: it pads by reflection and averages the map without its 5-px border; inside that border
+//! both maps are the same function of the images.
+//!
+//! Work mapping: the filter is separable (a horizontal then a vertical 11-tap pass). Images are cut
+//! into blocks of [`BLOCK_ROWS`] output rows; rayon runs one task per block, each filtering the
+//! block's rows plus a 5-row halo for every channel. Every output value is a fixed sequence of
+//! operations and block sums are combined in block order, so results do not depend on the number
+//! of threads.
+
+use rayon::prelude::*;
+
+use crate::EvalError;
+
+/// Side of the SSIM window in pixels (3DGS: 11).
+pub const SSIM_WINDOW_PX: usize = 11;
+/// Standard deviation of the SSIM Gaussian window in pixels (3DGS: 1.5).
+pub const SSIM_SIGMA_PX: f64 = 1.5;
+/// SSIM stabiliser for the means, `(0.01 · data range)²` with a data range of 1.
+pub const SSIM_C1: f64 = 0.01 * 0.01;
+/// SSIM stabiliser for the variances, `(0.03 · data range)²` with a data range of 1.
+pub const SSIM_C2: f64 = 0.03 * 0.03;
+/// Output rows per parallel task.
+pub const BLOCK_ROWS: usize = 64;
+
+const RADIUS: usize = SSIM_WINDOW_PX / 2;
+
+/// The normalised 1-D Gaussian taps `exp(−(i − 5)² / (2σ²)) / Σ`, `i = 0..11`: [11].
+pub fn ssim_gaussian_taps() -> [f64; SSIM_WINDOW_PX] {
+    let mut taps = [0.0; SSIM_WINDOW_PX];
+    for (i, tap) in taps.iter_mut().enumerate() {
+        let d = i as f64 - RADIUS as f64;
+        *tap = (-(d * d) / (2.0 * SSIM_SIGMA_PX * SSIM_SIGMA_PX)).exp();
+    }
+    let sum: f64 = taps.iter().sum();
+    taps.iter_mut().for_each(|t| *t /= sum);
+    taps
+}
+
+/// Peak signal-to-noise ratio `10·log10(1 / MSE)` for images in `[0, 1]`, the MSE taken over every
+/// pixel and channel (in `f64`). Identical images give `f64::INFINITY`.
+///
+/// 3DGS's `metrics.py` computes this per image and reports the mean over test images.
+///
+/// `a`, `b`: `[H, W, C]`.
+pub fn psnr(a: &[f32], b: &[f32], width: usize, height: usize, channels: usize) -> Result<f64, EvalError> {
+    check_pair(a, b, width, height, channels)?;
+    let sum = ordered_sum(a.len(), |range| squared_error(&a[range.clone()], &b[range]));
+    Ok(psnr_from_mse(sum / a.len() as f64))
+}
+
+/// PSNR over the pixels where `mask` is true only: the MSE is the mean over those pixels and every
+/// channel. Identical masked pixels give `f64::INFINITY`; a mask selecting nothing is an error.
+///
+/// `a`, `b`: `[H, W, C]`; `mask`: `[H, W]`.
+pub fn psnr_masked(
+    a: &[f32],
+    b: &[f32],
+    mask: &[bool],
+    width: usize,
+    height: usize,
+    channels: usize,
+) -> Result<f64, EvalError> {
+    check_pair(a, b, width, height, channels)?;
+    if mask.len() != width * height {
+        return Err(bad_image(format!(
+            "mask has {} entries, expected {width}×{height} = {}",
+            mask.len(),
+            width * height
+        )));
+    }
+    let selected = mask.iter().filter(|&&m| m).count();
+    if selected == 0 {
+        return Err(bad_image("the PSNR mask selects no pixel".to_string()));
+    }
+    let sum = ordered_sum(mask.len(), |range| {
+        range
+            .filter(|&p| mask[p])
+            .map(|p| {
+                squared_error(&a[p * channels..(p + 1) * channels], &b[p * channels..(p + 1) * channels])
+            })
+            .sum()
+    });
+    Ok(psnr_from_mse(sum / (selected * channels) as f64))
+}
+
+/// Mean SSIM of `a` and `b` over every pixel and channel, exactly as 3DGS defines it (see the
+/// module documentation).
+///
+/// `a`, `b`: `[H, W, C]`.
+pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize, channels: usize) -> Result<f64, EvalError> {
+    let images = Pair::new(a, b, width, height, channels)?;
+    let taps = ssim_gaussian_taps();
+    let block_sums: Vec<f64> = images
+        .blocks()
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, (y0, y1)| {
+            let mut sum = 0.0;
+            for c in 0..channels {
+                let stats = images.local_stats(&taps, c, y0, y1, scratch);
+                sum += stats.chunks_exact(STATS * width).map(|row| ssim_row_sum(row, width)).sum::<f64>();
+            }
+            sum
+        })
+        .collect();
+    Ok(block_sums.iter().sum::<f64>() / images.count() as f64)
+}
+
+/// The SSIM map (before averaging) of `a` and `b`, as 3DGS's `ssim_map`.
+///
+/// `a`, `b`: `[H, W, C]`; returns `[H, W, C]`.
+pub fn ssim_map(
+    a: &[f32],
+    b: &[f32],
+    width: usize,
+    height: usize,
+    channels: usize,
+) -> Result<Vec<f64>, EvalError> {
+    let images = Pair::new(a, b, width, height, channels)?;
+    let taps = ssim_gaussian_taps();
+    let mut map = vec![0.0; images.count()];
+    map.par_chunks_mut(BLOCK_ROWS * width * channels).enumerate().for_each_init(
+        Scratch::default,
+        |scratch, (block, out)| {
+            let y0 = block * BLOCK_ROWS;
+            let y1 = (y0 + BLOCK_ROWS).min(height);
+            for c in 0..channels {
+                let stats = images.local_stats(&taps, c, y0, y1, scratch);
+                for (r, row) in stats.chunks_exact(STATS * width).enumerate() {
+                    let s = Stats::of_row(row, width);
+                    for x in 0..width {
+                        out[(r * width + x) * channels + c] = s.at(x).ssim();
+                    }
+                }
+            }
+        },
+    );
+    Ok(map)
+}
+
+/// Mean SSIM (as [`ssim`]) and its gradient with respect to the first image, `∂ SSIM / ∂a`.
+///
+/// With `μa = G∗a`, `Eaa = G∗a²`, `Eab = G∗(a·b)` the per-pixel derivatives of the map `S` are
+/// `∂S/∂μa = 2μb(A2 − A1)/(B1B2) − 2μa·S·(1/B1 − 1/B2)`, `∂S/∂Eaa = −S/B2`,
+/// `∂S/∂Eab = 2A1/(B1B2)`, and `∂ mean S/∂a = (1/n)·[G∗(∂S/∂μa) + 2a·G∗(∂S/∂Eaa) + b·G∗(∂S/∂Eab)]`
+/// (the zero-padded correlation with a symmetric window is its own adjoint).
+///
+/// `a`, `b`: `[H, W, C]`; the gradient: `[H, W, C]`.
+pub fn ssim_with_grad(
+    a: &[f32],
+    b: &[f32],
+    width: usize,
+    height: usize,
+    channels: usize,
+) -> Result<(f64, Vec<f32>), EvalError> {
+    let images = Pair::new(a, b, width, height, channels)?;
+    let taps = ssim_gaussian_taps();
+    // Phase 1: per block, the SSIM sum and the three derivative maps, laid out
+    // [channel][row][quantity][x] inside the block.
+    let partials: Vec<(f64, Vec<f64>)> = images
+        .blocks()
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, (y0, y1)| {
+            let mut sum = 0.0;
+            let mut derivs = vec![0.0; channels * (y1 - y0) * DERIVS * width];
+            for c in 0..channels {
+                let stats = images.local_stats(&taps, c, y0, y1, scratch);
+                let rows = stats.chunks_exact(STATS * width);
+                let outs = derivs[c * (y1 - y0) * DERIVS * width..].chunks_exact_mut(DERIVS * width);
+                for (row, out) in rows.zip(outs) {
+                    sum += ssim_row_derivatives(row, out, width);
+                }
+            }
+            (sum, derivs)
+        })
+        .collect();
+    let count = images.count() as f64;
+    let mean = partials.iter().map(|(s, _)| s).sum::<f64>() / count;
+
+    // Phase 2: filter the derivative maps again (halo rows come from neighbouring blocks).
+    let mut grad = vec![0.0f32; images.count()];
+    grad.par_chunks_mut(BLOCK_ROWS * width * channels).enumerate().for_each_init(
+        Scratch::default,
+        |scratch, (block, out)| {
+            let y0 = block * BLOCK_ROWS;
+            let y1 = (y0 + BLOCK_ROWS).min(height);
+            for c in 0..channels {
+                let fill = |y: usize, row: &mut [f64]| {
+                    let (b, r) = (y / BLOCK_ROWS, y % BLOCK_ROWS);
+                    let rows_in_block = (b * BLOCK_ROWS + BLOCK_ROWS).min(height) - b * BLOCK_ROWS;
+                    let start = ((c * rows_in_block + r) * DERIVS) * width;
+                    row.copy_from_slice(&partials[b].1[start..start + DERIVS * width]);
+                };
+                let filtered = blur_block::<DERIVS>(&taps, width, height, y0, y1, &fill, scratch);
+                for (r, row) in filtered.chunks_exact(DERIVS * width).enumerate() {
+                    let (d_mu, rest) = row.split_at(width);
+                    let (d_aa, d_ab) = rest.split_at(width);
+                    for x in 0..width {
+                        let i = (r * width + x) * channels + c;
+                        let p = ((y0 + r) * width + x) * channels + c;
+                        let (av, bv) = (f64::from(a[p]), f64::from(b[p]));
+                        out[i] = ((d_mu[x] + 2.0 * av * d_aa[x] + bv * d_ab[x]) / count) as f32;
+                    }
+                }
+            }
+        },
+    );
+    Ok((mean, grad))
+}
+
+/// Local statistics per pixel: μa, μb, E[a²], E[b²], E[ab].
+const STATS: usize = 5;
+/// Derivatives of the SSIM map per pixel: ∂S/∂μa, ∂S/∂E[a²], ∂S/∂E[ab].
+const DERIVS: usize = 3;
+
+/// Two validated images of the same shape.
+struct Pair<'a> {
+    a: &'a [f32],
+    b: &'a [f32],
+    width: usize,
+    height: usize,
+    channels: usize,
+}
+
+impl<'a> Pair<'a> {
+    fn new(
+        a: &'a [f32],
+        b: &'a [f32],
+        width: usize,
+        height: usize,
+        channels: usize,
+    ) -> Result<Self, EvalError> {
+        check_pair(a, b, width, height, channels)?;
+        Ok(Self { a, b, width, height, channels })
+    }
+
+    fn count(&self) -> usize {
+        self.width * self.height * self.channels
+    }
+
+    /// Row ranges `(y0, y1)` of the parallel blocks, top to bottom.
+    fn blocks(&self) -> Vec<(usize, usize)> {
+        (0..self.height).step_by(BLOCK_ROWS).map(|y0| (y0, (y0 + BLOCK_ROWS).min(self.height))).collect()
+    }
+
+    /// Filtered statistics of channel `c` for rows `y0..y1`: `[y1 − y0, STATS, W]`.
+    fn local_stats<'s>(
+        &self,
+        taps: &[f64; SSIM_WINDOW_PX],
+        c: usize,
+        y0: usize,
+        y1: usize,
+        scratch: &'s mut Scratch,
+    ) -> &'s [f64] {
+        let (w, ch) = (self.width, self.channels);
+        let fill = |y: usize, row: &mut [f64]| {
+            let (mu_a, rest) = row.split_at_mut(w);
+            let (mu_b, rest) = rest.split_at_mut(w);
+            let (e_aa, rest) = rest.split_at_mut(w);
+            let (e_bb, e_ab) = rest.split_at_mut(w);
+            let pixels = y * w * ch..(y + 1) * w * ch;
+            let a_row = self.a[pixels.clone()].iter().skip(c).step_by(ch);
+            let b_row = self.b[pixels].iter().skip(c).step_by(ch);
+            for (x, (&av, &bv)) in a_row.zip(b_row).enumerate() {
+                let (av, bv) = (f64::from(av), f64::from(bv));
+                mu_a[x] = av;
+                mu_b[x] = bv;
+                e_aa[x] = av * av;
+                e_bb[x] = bv * bv;
+                e_ab[x] = av * bv;
+            }
+        };
+        blur_block::<STATS>(taps, w, self.height, y0, y1, &fill, scratch)
+    }
+}
+
+/// Reusable buffers of one worker.
+#[derive(Default)]
+struct Scratch {
+    /// One input row per quantity, zero-padded by the radius on both sides: `[N, W + 10]`.
+    padded: Vec<f64>,
+    /// One unpadded input row: `[N, W]`.
+    row: Vec<f64>,
+    /// Horizontally filtered rows `y0 − 5 .. y1 + 5`: `[y1 − y0 + 10, N, W]`.
+    horizontal: Vec<f64>,
+    /// Output rows: `[y1 − y0, N, W]`.
+    out: Vec<f64>,
+}
+
+/// "Same"-size zero-padded Gaussian filtering of `N` quantities for output rows `y0..y1`.
+/// `fill(y, row)` writes input row `y` of every quantity into `row: [N, W]`. Returns
+/// `[y1 − y0, N, W]`.
+fn blur_block<'s, const N: usize>(
+    taps: &[f64; SSIM_WINDOW_PX],
+    width: usize,
+    height: usize,
+    y0: usize,
+    y1: usize,
+    fill: &dyn Fn(usize, &mut [f64]),
+    scratch: &'s mut Scratch,
+) -> &'s [f64] {
+    let padded_w = width + 2 * RADIUS;
+    let halo_rows = y1 - y0 + 2 * RADIUS;
+    scratch.padded.clear();
+    scratch.padded.resize(N * padded_w, 0.0);
+    scratch.row.resize(N * width, 0.0);
+    scratch.horizontal.resize(halo_rows * N * width, 0.0);
+    scratch.out.resize((y1 - y0) * N * width, 0.0);
+
+    for (hr, dst_rows) in scratch.horizontal.chunks_exact_mut(N * width).enumerate() {
+        // Input row y0 − RADIUS + hr; rows outside the image are zero padding.
+        let Some(y) = (y0 + hr).checked_sub(RADIUS).filter(|&y| y < height) else {
+            dst_rows.fill(0.0);
+            continue;
+        };
+        fill(y, &mut scratch.row);
+        for q in 0..N {
+            let src = &mut scratch.padded[q * padded_w..(q + 1) * padded_w];
+            src[RADIUS..RADIUS + width].copy_from_slice(&scratch.row[q * width..(q + 1) * width]);
+            correlate_into(taps, src, &mut dst_rows[q * width..(q + 1) * width]);
+        }
+    }
+
+    for (r, dst_rows) in scratch.out.chunks_exact_mut(N * width).enumerate() {
+        dst_rows.fill(0.0);
+        for (k, &tap) in taps.iter().enumerate() {
+            let src = &scratch.horizontal[(r + k) * N * width..(r + k + 1) * N * width];
+            for (d, &s) in dst_rows.iter_mut().zip(src) {
+                *d += tap * s;
+            }
+        }
+    }
+    &scratch.out
+}
+
+/// `dst[x] = Σ_k taps[k] · src[x + k]` for `x < dst.len()`; `src` holds `dst.len() + 10` values.
+fn correlate_into(taps: &[f64; SSIM_WINDOW_PX], src: &[f64], dst: &mut [f64]) {
+    dst.fill(0.0);
+    let n = dst.len();
+    for (k, &tap) in taps.iter().enumerate() {
+        for (d, &s) in dst.iter_mut().zip(&src[k..k + n]) {
+            *d += tap * s;
+        }
+    }
+}
+
+/// The five local statistics of one pixel and the SSIM terms built from them.
+#[derive(Clone, Copy)]
+struct Local {
+    mu_a: f64,
+    mu_b: f64,
+    e_aa: f64,
+    e_bb: f64,
+    e_ab: f64,
+}
+
+/// One row of filtered statistics split by quantity, each `[W]`.
+struct Stats<'r> {
+    mu_a: &'r [f64],
+    mu_b: &'r [f64],
+    e_aa: &'r [f64],
+    e_bb: &'r [f64],
+    e_ab: &'r [f64],
+}
+
+impl<'r> Stats<'r> {
+    /// `row: [STATS, W]`.
+    fn of_row(row: &'r [f64], width: usize) -> Self {
+        let (mu_a, rest) = row.split_at(width);
+        let (mu_b, rest) = rest.split_at(width);
+        let (e_aa, rest) = rest.split_at(width);
+        let (e_bb, e_ab) = rest.split_at(width);
+        Self { mu_a, mu_b, e_aa, e_bb, e_ab }
+    }
+
+    fn at(&self, x: usize) -> Local {
+        Local {
+            mu_a: self.mu_a[x],
+            mu_b: self.mu_b[x],
+            e_aa: self.e_aa[x],
+            e_bb: self.e_bb[x],
+            e_ab: self.e_ab[x],
+        }
+    }
+}
+
+/// The four factors of SSIM: `S = A1·A2 / (B1·B2)`.
+struct Terms {
+    a1: f64,
+    a2: f64,
+    b1: f64,
+    b2: f64,
+}
+
+impl Local {
+    fn terms(self) -> Terms {
+        let mu_ab = self.mu_a * self.mu_b;
+        let (mu_aa, mu_bb) = (self.mu_a * self.mu_a, self.mu_b * self.mu_b);
+        Terms {
+            a1: 2.0 * mu_ab + SSIM_C1,
+            a2: 2.0 * (self.e_ab - mu_ab) + SSIM_C2,
+            b1: mu_aa + mu_bb + SSIM_C1,
+            b2: (self.e_aa - mu_aa) + (self.e_bb - mu_bb) + SSIM_C2,
+        }
+    }
+
+    fn ssim(self) -> f64 {
+        let t = self.terms();
+        (t.a1 * t.a2) / (t.b1 * t.b2)
+    }
+}
+
+/// Sum of the SSIM map over one row of statistics `row: [STATS, W]`.
+fn ssim_row_sum(row: &[f64], width: usize) -> f64 {
+    let s = Stats::of_row(row, width);
+    (0..width).map(|x| s.at(x).ssim()).sum()
+}
+
+/// SSIM derivatives of one row: reads `row: [STATS, W]`, writes `out: [DERIVS, W]` (∂S/∂μa,
+/// ∂S/∂E[a²], ∂S/∂E[ab]) and returns the row's SSIM sum.
+fn ssim_row_derivatives(row: &[f64], out: &mut [f64], width: usize) -> f64 {
+    let s = Stats::of_row(row, width);
+    let (d_mu, rest) = out.split_at_mut(width);
+    let (d_aa, d_ab) = rest.split_at_mut(width);
+    let mut sum = 0.0;
+    for x in 0..width {
+        let local = s.at(x);
+        let t = local.terms();
+        let denom = t.b1 * t.b2;
+        let value = (t.a1 * t.a2) / denom;
+        sum += value;
+        d_mu[x] =
+            2.0 * local.mu_b * (t.a2 - t.a1) / denom - 2.0 * local.mu_a * value * (1.0 / t.b1 - 1.0 / t.b2);
+        d_aa[x] = -value / t.b2;
+        d_ab[x] = 2.0 * t.a1 / denom;
+    }
+    sum
+}
+
+fn psnr_from_mse(mse: f64) -> f64 {
+    if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        -10.0 * mse.log10()
+    }
+}
+
+fn squared_error(a: &[f32], b: &[f32]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| {
+            let d = f64::from(x) - f64::from(y);
+            d * d
+        })
+        .sum()
+}
+
+/// `Σ part(chunk)` over fixed chunks of `0..len`, computed in parallel and added in chunk order.
+fn ordered_sum(len: usize, part: impl Fn(std::ops::Range<usize>) -> f64 + Sync) -> f64 {
+    const CHUNK: usize = 1 << 16;
+    let parts: Vec<f64> = (0..len.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|i| part(i * CHUNK..((i + 1) * CHUNK).min(len)))
+        .collect();
+    parts.iter().sum()
+}
+
+fn bad_image(reason: String) -> EvalError {
+    EvalError::BadImage { reason }
+}
+
+/// Both buffers hold `height × width × channels` values and no size is zero.
+fn check_pair(a: &[f32], b: &[f32], width: usize, height: usize, channels: usize) -> Result<(), EvalError> {
+    if width == 0 || height == 0 || channels == 0 {
+        return Err(bad_image(format!("image size {width}×{height}×{channels} has a zero dimension")));
+    }
+    let expected = width
+        .checked_mul(height)
+        .and_then(|n| n.checked_mul(channels))
+        .ok_or_else(|| bad_image(format!("image size {width}×{height}×{channels} overflows")))?;
+    for (name, len) in [("first", a.len()), ("second", b.len())] {
+        if len != expected {
+            return Err(bad_image(format!(
+                "{name} image has {len} values, expected {height}×{width}×{channels} = {expected} ([H, W, C])"
+            )));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// Seeded random pair with some structure: `[H, W, C]` each.
+    fn pair(width: usize, height: usize, channels: usize, seed: u64) -> (Vec<f32>, Vec<f32>) {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let n = width * height * channels;
+        let a: Vec<f32> = (0..n)
+            .map(|i| {
+                let x = (i / channels) % width;
+                (0.5 + 0.3 * (x as f32 / 4.0).sin() + rng.gen_range(-0.15..0.15)).clamp(0.0, 1.0)
+            })
+            .collect();
+        let b: Vec<f32> =
+            a.iter().map(|&v| (0.8 * v + 0.1 + rng.gen_range(-0.1..0.1)).clamp(0.0, 1.0)).collect();
+        (a, b)
+    }
+
+    /// Direct 11×11 zero-padded SSIM map, channel by channel: `[H, W, C]`.
+    fn brute_force_map(a: &[f32], b: &[f32], w: usize, h: usize, ch: usize) -> Vec<f64> {
+        let g = ssim_gaussian_taps();
+        let mut map = vec![0.0; a.len()];
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..ch {
+                    let mut l = Local { mu_a: 0.0, mu_b: 0.0, e_aa: 0.0, e_bb: 0.0, e_ab: 0.0 };
+                    for (ky, gy) in g.iter().enumerate() {
+                        for (kx, gx) in g.iter().enumerate() {
+                            let (Some(yy), Some(xx)) =
+                                ((y + ky).checked_sub(RADIUS), (x + kx).checked_sub(RADIUS))
+                            else {
+                                continue;
+                            };
+                            if yy >= h || xx >= w {
+                                continue;
+                            }
+                            let i = (yy * w + xx) * ch + c;
+                            let (av, bv, wt) = (f64::from(a[i]), f64::from(b[i]), gy * gx);
+                            l.mu_a += wt * av;
+                            l.mu_b += wt * bv;
+                            l.e_aa += wt * av * av;
+                            l.e_bb += wt * bv * bv;
+                            l.e_ab += wt * av * bv;
+                        }
+                    }
+                    map[(y * w + x) * ch + c] = l.ssim();
+                }
+            }
+        }
+        map
+    }
+
+    #[test]
+    fn taps_are_a_normalised_symmetric_gaussian() {
+        let t = ssim_gaussian_taps();
+        assert!((t.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+        for i in 0..SSIM_WINDOW_PX {
+            assert_eq!(t[i], t[SSIM_WINDOW_PX - 1 - i]);
+        }
+        assert!((t[6] / t[5] - (-1.0 / (2.0 * 1.5 * 1.5f64)).exp()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn map_over_several_blocks_matches_direct_window() {
+        // 150 rows span three blocks, so halo rows come from neighbouring blocks; 7 columns is
+        // narrower than the window.
+        let (w, h, ch) = (7, 150, 2);
+        let (a, b) = pair(w, h, ch, 3);
+        let ours = ssim_map(&a, &b, w, h, ch).unwrap();
+        let direct = brute_force_map(&a, &b, w, h, ch);
+        for (i, (o, d)) in ours.iter().zip(&direct).enumerate() {
+            assert!((o - d).abs() < 1e-12, "pixel value {i}: {o} vs direct {d}");
+        }
+        let mean = direct.iter().sum::<f64>() / direct.len() as f64;
+        let value = ssim(&a, &b, w, h, ch).unwrap();
+        assert!((value - mean).abs() < 1e-12, "{value} vs {mean}");
+        let (value_g, _) = ssim_with_grad(&a, &b, w, h, ch).unwrap();
+        assert!((value_g - mean).abs() < 1e-12, "{value_g} vs {mean}");
+    }
+
+    #[test]
+    fn gradient_matches_central_differences() {
+        let (w, h, ch) = (13, 9, 2);
+        let (a, b) = pair(w, h, ch, 11);
+        let (_, grad) = ssim_with_grad(&a, &b, w, h, ch).unwrap();
+        let max_grad = grad.iter().fold(0.0f64, |m, &g| m.max(f64::from(g).abs()));
+        assert!(max_grad > 1e-4, "gradient is not trivially zero: {max_grad}");
+        let step = 1.0 / 256.0; // exact in f32, so the perturbed values are exact too
+        for i in 0..a.len() {
+            let (mut plus, mut minus) = (a.clone(), a.clone());
+            plus[i] += step;
+            minus[i] -= step;
+            let numeric = (ssim(&plus, &b, w, h, ch).unwrap() - ssim(&minus, &b, w, h, ch).unwrap())
+                / (f64::from(plus[i]) - f64::from(minus[i]));
+            let err = (numeric - f64::from(grad[i])).abs() / max_grad;
+            assert!(err < 1e-3, "index {i}: analytic {} vs numeric {numeric} (rel {err:.2e})", grad[i]);
+        }
+    }
+
+    #[test]
+    fn identical_images_are_a_maximum() {
+        let (w, h, ch) = (20, 17, 3);
+        let (a, _) = pair(w, h, ch, 5);
+        assert_eq!(psnr(&a, &a, w, h, ch).unwrap(), f64::INFINITY);
+        let (value, grad) = ssim_with_grad(&a, &a, w, h, ch).unwrap();
+        assert!((value - 1.0).abs() < 1e-12, "ssim of an image with itself: {value}");
+        assert!(grad.iter().all(|g| g.abs() < 1e-9), "gradient at the maximum must vanish");
+        assert!((ssim(&a, &a, w, h, ch).unwrap() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn psnr_of_a_constant_offset() {
+        let a = vec![0.25f32; 4 * 3 * 3];
+        let b = vec![0.75f32; 4 * 3 * 3];
+        // MSE 0.25 → 10·log10(4).
+        let p = psnr(&a, &b, 4, 3, 3).unwrap();
+        assert!((p - 10.0 * 4f64.log10()).abs() < 1e-12, "{p}");
+    }
+
+    #[test]
+    fn masked_psnr_ignores_unselected_pixels() {
+        // 2×1 RGB: pixel 0 differs by 0.5, pixel 1 by 0.1.
+        let a = vec![0.0f32, 0.0, 0.0, 0.5, 0.5, 0.5];
+        let b = vec![0.5f32, 0.5, 0.5, 0.5, 0.5, 0.6];
+        let only_first = psnr_masked(&a, &b, &[true, false], 2, 1, 3).unwrap();
+        assert!((only_first - 10.0 * 4f64.log10()).abs() < 1e-12);
+        let only_second = psnr_masked(&a, &b, &[false, true], 2, 1, 3).unwrap();
+        let mse = f64::from(0.6f32 - 0.5f32).powi(2) / 3.0;
+        assert!((only_second + 10.0 * mse.log10()).abs() < 1e-9, "{only_second}");
+        let all = psnr_masked(&a, &b, &[true, true], 2, 1, 3).unwrap();
+        assert_eq!(all, psnr(&a, &b, 2, 1, 3).unwrap());
+    }
+
+    #[test]
+    fn same_result_on_one_and_two_threads() {
+        let (w, h, ch) = (31, 140, 3);
+        let (a, b) = pair(w, h, ch, 8);
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| (ssim(&a, &b, w, h, ch).unwrap(), ssim_with_grad(&a, &b, w, h, ch).unwrap()))
+        };
+        let (one, two) = (run(1), run(2));
+        assert_eq!(one.0.to_bits(), two.0.to_bits());
+        assert_eq!(one.1 .0.to_bits(), two.1 .0.to_bits());
+        assert_eq!(one.1 .1, two.1 .1);
+    }
+
+    #[test]
+    fn bad_sizes_are_errors_not_panics() {
+        let a = vec![0.5f32; 12];
+        let short = vec![0.5f32; 11];
+        for (w, h, c) in [(0, 4, 3), (4, 0, 3), (4, 1, 0)] {
+            assert!(matches!(ssim(&a, &a, w, h, c), Err(EvalError::BadImage { .. })));
+            assert!(matches!(psnr(&a, &a, w, h, c), Err(EvalError::BadImage { .. })));
+        }
+        let err = ssim(&a, &short, 4, 1, 3).unwrap_err().to_string();
+        assert!(err.contains("second image has 11 values"), "{err}");
+        assert!(matches!(ssim_with_grad(&short, &a, 4, 1, 3), Err(EvalError::BadImage { .. })));
+        assert!(matches!(ssim_map(&a, &a, 2, 2, 2), Err(EvalError::BadImage { .. })));
+        assert!(matches!(psnr(&a, &a, usize::MAX, 2, 2), Err(EvalError::BadImage { .. })));
+        assert!(matches!(psnr_masked(&a, &a, &[true; 3], 4, 1, 3), Err(EvalError::BadImage { .. })));
+        let none = psnr_masked(&a, &a, &[false; 4], 4, 1, 3).unwrap_err().to_string();
+        assert!(none.contains("selects no pixel"), "{none}");
+    }
+}
