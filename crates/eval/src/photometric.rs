@@ -109,8 +109,7 @@ pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize, channels: usize) 
         .map_init(Scratch::default, |scratch, (y0, y1)| {
             let mut sum = 0.0;
             for c in 0..channels {
-                let stats = images.local_stats(&taps, c, y0, y1, scratch);
-                sum += stats.chunks_exact(STATS * width).map(|row| ssim_row_sum(row, width)).sum::<f64>();
+                images.stats_rows(&taps, c, y0, y1, scratch, &mut |_, row| sum += ssim_row_sum(row, width));
             }
             sum
         })
@@ -137,13 +136,12 @@ pub fn ssim_map(
             let y0 = block * BLOCK_ROWS;
             let y1 = (y0 + BLOCK_ROWS).min(height);
             for c in 0..channels {
-                let stats = images.local_stats(&taps, c, y0, y1, scratch);
-                for (r, row) in stats.chunks_exact(STATS * width).enumerate() {
+                images.stats_rows(&taps, c, y0, y1, scratch, &mut |y, row| {
                     let s = Stats::of_row(row, width);
                     for x in 0..width {
-                        out[(r * width + x) * channels + c] = s.at(x).ssim();
+                        out[((y - y0) * width + x) * channels + c] = s.at(x).ssim();
                     }
-                }
+                });
             }
         },
     );
@@ -176,12 +174,11 @@ pub fn ssim_with_grad(
             let mut sum = 0.0;
             let mut derivs = vec![0.0; channels * (y1 - y0) * DERIVS * width];
             for c in 0..channels {
-                let stats = images.local_stats(&taps, c, y0, y1, scratch);
-                let rows = stats.chunks_exact(STATS * width);
-                let outs = derivs[c * (y1 - y0) * DERIVS * width..].chunks_exact_mut(DERIVS * width);
-                for (row, out) in rows.zip(outs) {
+                let plane = &mut derivs[c * (y1 - y0) * DERIVS * width..(c + 1) * (y1 - y0) * DERIVS * width];
+                images.stats_rows(&taps, c, y0, y1, scratch, &mut |y, row| {
+                    let out = &mut plane[(y - y0) * DERIVS * width..(y - y0 + 1) * DERIVS * width];
                     sum += ssim_row_derivatives(row, out, width);
-                }
+                });
             }
             (sum, derivs)
         })
@@ -203,17 +200,17 @@ pub fn ssim_with_grad(
                     let start = ((c * rows_in_block + r) * DERIVS) * width;
                     row.copy_from_slice(&partials[b].1[start..start + DERIVS * width]);
                 };
-                let filtered = blur_block::<DERIVS>(&taps, width, height, y0, y1, &fill, scratch);
-                for (r, row) in filtered.chunks_exact(DERIVS * width).enumerate() {
+                let mut combine = |y: usize, row: &[f64]| {
                     let (d_mu, rest) = row.split_at(width);
                     let (d_aa, d_ab) = rest.split_at(width);
                     for x in 0..width {
-                        let i = (r * width + x) * channels + c;
-                        let p = ((y0 + r) * width + x) * channels + c;
+                        let i = ((y - y0) * width + x) * channels + c;
+                        let p = (y * width + x) * channels + c;
                         let (av, bv) = (f64::from(a[p]), f64::from(b[p]));
                         out[i] = ((d_mu[x] + 2.0 * av * d_aa[x] + bv * d_ab[x]) / count) as f32;
                     }
-                }
+                };
+                blur_rows::<DERIVS>(&taps, width, height, y0..y1, &fill, scratch, &mut combine);
             }
         },
     );
@@ -255,15 +252,17 @@ impl<'a> Pair<'a> {
         (0..self.height).step_by(BLOCK_ROWS).map(|y0| (y0, (y0 + BLOCK_ROWS).min(self.height))).collect()
     }
 
-    /// Filtered statistics of channel `c` for rows `y0..y1`: `[y1 − y0, STATS, W]`.
-    fn local_stats<'s>(
+    /// Filtered statistics of channel `c`, handed row by row (`y0..y1`, in order) to
+    /// `emit(y, row: [STATS, W])`.
+    fn stats_rows(
         &self,
         taps: &[f64; SSIM_WINDOW_PX],
         c: usize,
         y0: usize,
         y1: usize,
-        scratch: &'s mut Scratch,
-    ) -> &'s [f64] {
+        scratch: &mut Scratch,
+        emit: &mut dyn FnMut(usize, &[f64]),
+    ) {
         let (w, ch) = (self.width, self.channels);
         let fill = |y: usize, row: &mut [f64]| {
             let (mu_a, rest) = row.split_at_mut(w);
@@ -282,77 +281,98 @@ impl<'a> Pair<'a> {
                 e_ab[x] = av * bv;
             }
         };
-        blur_block::<STATS>(taps, w, self.height, y0, y1, &fill, scratch)
+        blur_rows::<STATS>(taps, w, self.height, y0..y1, &fill, scratch, emit);
     }
 }
 
 /// Reusable buffers of one worker.
 #[derive(Default)]
 struct Scratch {
-    /// One input row per quantity, zero-padded by the radius on both sides: `[N, W + 10]`.
-    padded: Vec<f64>,
-    /// One unpadded input row: `[N, W]`.
+    /// One input row, unpadded: `[N, W]`.
     row: Vec<f64>,
-    /// Horizontally filtered rows `y0 − 5 .. y1 + 5`: `[y1 − y0 + 10, N, W]`.
-    horizontal: Vec<f64>,
-    /// Output rows: `[y1 − y0, N, W]`.
+    /// One input row of one quantity, zero-padded by the radius on both sides: `[W + 10]`.
+    padded: Vec<f64>,
+    /// Ring of the last 11 horizontally filtered rows; input row `y` lives in slot
+    /// `(y + 5) % 11`: `[11, N, W]`.
+    ring: Vec<f64>,
+    /// The current output row: `[N, W]`.
     out: Vec<f64>,
 }
 
-/// "Same"-size zero-padded Gaussian filtering of `N` quantities for output rows `y0..y1`.
-/// `fill(y, row)` writes input row `y` of every quantity into `row: [N, W]`. Returns
-/// `[y1 − y0, N, W]`.
-fn blur_block<'s, const N: usize>(
+/// "Same"-size zero-padded Gaussian filtering of `N` quantities, streamed row by row: for every
+/// `y` in `rows` (in order) calls `emit(y, filtered: [N, W])`. `fill(y, row)` writes input row `y`
+/// of every quantity into `row: [N, W]`; each input row is read and filtered horizontally once.
+fn blur_rows<const N: usize>(
     taps: &[f64; SSIM_WINDOW_PX],
     width: usize,
     height: usize,
-    y0: usize,
-    y1: usize,
+    rows: std::ops::Range<usize>,
     fill: &dyn Fn(usize, &mut [f64]),
-    scratch: &'s mut Scratch,
-) -> &'s [f64] {
-    let padded_w = width + 2 * RADIUS;
-    let halo_rows = y1 - y0 + 2 * RADIUS;
+    scratch: &mut Scratch,
+    emit: &mut dyn FnMut(usize, &[f64]),
+) {
+    let row_len = N * width;
+    scratch.row.resize(row_len, 0.0);
     scratch.padded.clear();
-    scratch.padded.resize(N * padded_w, 0.0);
-    scratch.row.resize(N * width, 0.0);
-    scratch.horizontal.resize(halo_rows * N * width, 0.0);
-    scratch.out.resize((y1 - y0) * N * width, 0.0);
+    scratch.padded.resize(width + 2 * RADIUS, 0.0);
+    scratch.ring.resize(SSIM_WINDOW_PX * row_len, 0.0);
+    scratch.out.resize(row_len, 0.0);
 
-    for (hr, dst_rows) in scratch.horizontal.chunks_exact_mut(N * width).enumerate() {
-        // Input row y0 − RADIUS + hr; rows outside the image are zero padding.
-        let Some(y) = (y0 + hr).checked_sub(RADIUS).filter(|&y| y < height) else {
-            dst_rows.fill(0.0);
-            continue;
+    // `shifted` = input row + RADIUS, so rows above the image are representable.
+    let load = |shifted: usize, scratch: &mut Scratch| {
+        let slot = shifted % SSIM_WINDOW_PX;
+        let dst = &mut scratch.ring[slot * row_len..(slot + 1) * row_len];
+        let Some(y) = shifted.checked_sub(RADIUS).filter(|&y| y < height) else {
+            dst.fill(0.0);
+            return;
         };
         fill(y, &mut scratch.row);
-        for q in 0..N {
-            let src = &mut scratch.padded[q * padded_w..(q + 1) * padded_w];
-            src[RADIUS..RADIUS + width].copy_from_slice(&scratch.row[q * width..(q + 1) * width]);
-            correlate_into(taps, src, &mut dst_rows[q * width..(q + 1) * width]);
+        for (src, dst) in scratch.row.chunks_exact(width).zip(dst.chunks_exact_mut(width)) {
+            scratch.padded[RADIUS..RADIUS + width].copy_from_slice(src);
+            correlate_row(taps, &scratch.padded, dst);
         }
+    };
+    for shifted in rows.start..rows.start + 2 * RADIUS {
+        load(shifted, scratch);
     }
-
-    for (r, dst_rows) in scratch.out.chunks_exact_mut(N * width).enumerate() {
-        dst_rows.fill(0.0);
-        for (k, &tap) in taps.iter().enumerate() {
-            let src = &scratch.horizontal[(r + k) * N * width..(r + k + 1) * N * width];
-            for (d, &s) in dst_rows.iter_mut().zip(src) {
-                *d += tap * s;
-            }
-        }
+    for y in rows {
+        load(y + 2 * RADIUS, scratch);
+        let window: [&[f64]; SSIM_WINDOW_PX] =
+            std::array::from_fn(|k| &scratch.ring[((y + k) % SSIM_WINDOW_PX) * row_len..][..row_len]);
+        combine_rows(taps, &window, &mut scratch.out);
+        emit(y, &scratch.out);
     }
-    &scratch.out
 }
 
-/// `dst[x] = Σ_k taps[k] · src[x + k]` for `x < dst.len()`; `src` holds `dst.len() + 10` values.
-fn correlate_into(taps: &[f64; SSIM_WINDOW_PX], src: &[f64], dst: &mut [f64]) {
-    dst.fill(0.0);
+/// Horizontal pass: `dst[x] = Σ_k taps[k] · src[x + k]` with the symmetric taps paired;
+/// `src: [W + 10]`, `dst: [W]`.
+fn correlate_row(taps: &[f64; SSIM_WINDOW_PX], src: &[f64], dst: &mut [f64]) {
     let n = dst.len();
-    for (k, &tap) in taps.iter().enumerate() {
-        for (d, &s) in dst.iter_mut().zip(&src[k..k + n]) {
-            *d += tap * s;
-        }
+    let s: [&[f64]; SSIM_WINDOW_PX] = std::array::from_fn(|k| &src[k..k + n]);
+    symmetric_sum(taps, &s, dst);
+}
+
+/// Vertical pass: `out[i] = Σ_k taps[k] · rows[k][i]` with the symmetric taps paired; every
+/// row and `out` have the same length.
+fn combine_rows(taps: &[f64; SSIM_WINDOW_PX], rows: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
+    symmetric_sum(taps, rows, out);
+}
+
+/// `out[i] = taps[5]·t[5][i] + Σ_{k<5} taps[k]·(t[k][i] + t[10−k][i])` (the taps are symmetric);
+/// every term is at least as long as `out`. Named, equal-length slices let the loop vectorise.
+fn symmetric_sum(taps: &[f64; SSIM_WINDOW_PX], terms: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
+    let n = out.len();
+    let [t0, t1, t2, t3, t4, t5, t6, t7, t8, t9, t10] = *terms;
+    let (t0, t1, t2, t3, t4, t5) = (&t0[..n], &t1[..n], &t2[..n], &t3[..n], &t4[..n], &t5[..n]);
+    let (t6, t7, t8, t9, t10) = (&t6[..n], &t7[..n], &t8[..n], &t9[..n], &t10[..n]);
+    let [g0, g1, g2, g3, g4, g5, ..] = *taps;
+    for i in 0..n {
+        out[i] = g5 * t5[i]
+            + g4 * (t4[i] + t6[i])
+            + g3 * (t3[i] + t7[i])
+            + g2 * (t2[i] + t8[i])
+            + g1 * (t1[i] + t9[i])
+            + g0 * (t0[i] + t10[i]);
     }
 }
 
@@ -385,6 +405,7 @@ impl<'r> Stats<'r> {
         Self { mu_a, mu_b, e_aa, e_bb, e_ab }
     }
 
+    #[inline(always)]
     fn at(&self, x: usize) -> Local {
         Local {
             mu_a: self.mu_a[x],
@@ -405,6 +426,7 @@ struct Terms {
 }
 
 impl Local {
+    #[inline(always)]
     fn terms(self) -> Terms {
         let mu_ab = self.mu_a * self.mu_b;
         let (mu_aa, mu_bb) = (self.mu_a * self.mu_a, self.mu_b * self.mu_b);
@@ -416,6 +438,7 @@ impl Local {
         }
     }
 
+    #[inline(always)]
     fn ssim(self) -> f64 {
         let t = self.terms();
         (t.a1 * t.a2) / (t.b1 * t.b2)
@@ -425,7 +448,22 @@ impl Local {
 /// Sum of the SSIM map over one row of statistics `row: [STATS, W]`.
 fn ssim_row_sum(row: &[f64], width: usize) -> f64 {
     let s = Stats::of_row(row, width);
-    (0..width).map(|x| s.at(x).ssim()).sum()
+    lane_sum(width, |x| s.at(x).ssim())
+}
+
+/// `Σ_{x<n} f(x)` accumulated in 4 interleaved lanes (a fixed order the compiler can vectorise),
+/// combined as `(l0 + l1) + (l2 + l3)`, plus the tail.
+#[inline(always)]
+fn lane_sum(n: usize, mut f: impl FnMut(usize) -> f64) -> f64 {
+    let mut lanes = [0.0f64; 4];
+    let full = n - n % 4;
+    for x0 in (0..full).step_by(4) {
+        for (j, lane) in lanes.iter_mut().enumerate() {
+            *lane += f(x0 + j);
+        }
+    }
+    let tail: f64 = (full..n).map(f).sum();
+    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail
 }
 
 /// SSIM derivatives of one row: reads `row: [STATS, W]`, writes `out: [DERIVS, W]` (∂S/∂μa,
@@ -434,19 +472,19 @@ fn ssim_row_derivatives(row: &[f64], out: &mut [f64], width: usize) -> f64 {
     let s = Stats::of_row(row, width);
     let (d_mu, rest) = out.split_at_mut(width);
     let (d_aa, d_ab) = rest.split_at_mut(width);
-    let mut sum = 0.0;
-    for x in 0..width {
+    let (d_mu, d_aa, d_ab) = (&mut d_mu[..width], &mut d_aa[..width], &mut d_ab[..width]);
+    lane_sum(width, |x| {
         let local = s.at(x);
         let t = local.terms();
-        let denom = t.b1 * t.b2;
-        let value = (t.a1 * t.a2) / denom;
-        sum += value;
-        d_mu[x] =
-            2.0 * local.mu_b * (t.a2 - t.a1) / denom - 2.0 * local.mu_a * value * (1.0 / t.b1 - 1.0 / t.b2);
-        d_aa[x] = -value / t.b2;
-        d_ab[x] = 2.0 * t.a1 / denom;
-    }
-    sum
+        // The same expression as `Local::ssim`, so the value is bit-identical to `ssim`'s.
+        let value = (t.a1 * t.a2) / (t.b1 * t.b2);
+        let (inv_b1, inv_b2) = (1.0 / t.b1, 1.0 / t.b2);
+        let inv_denom = inv_b1 * inv_b2;
+        d_mu[x] = 2.0 * local.mu_b * (t.a2 - t.a1) * inv_denom - 2.0 * local.mu_a * value * (inv_b1 - inv_b2);
+        d_aa[x] = -value * inv_b2;
+        d_ab[x] = 2.0 * t.a1 * inv_denom;
+        value
+    })
 }
 
 fn psnr_from_mse(mse: f64) -> f64 {
@@ -647,6 +685,8 @@ mod tests {
         assert_eq!(one.0.to_bits(), two.0.to_bits());
         assert_eq!(one.1 .0.to_bits(), two.1 .0.to_bits());
         assert_eq!(one.1 .1, two.1 .1);
+        // `ssim_with_grad`'s value is exactly `ssim`'s.
+        assert_eq!(one.0.to_bits(), one.1 .0.to_bits());
     }
 
     #[test]
