@@ -106,13 +106,19 @@ pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize, channels: usize) 
     let block_sums: Vec<f64> = images
         .blocks()
         .into_par_iter()
-        .map_init(Scratch::default, |scratch, (y0, y1)| {
-            let mut sum = 0.0;
-            for c in 0..channels {
-                images.stats_rows(&taps, c, y0, y1, scratch, &mut |_, row| sum += ssim_row_sum(row, width));
-            }
-            sum
-        })
+        .map_init(
+            || RowFilter::<STATS>::new(width, height),
+            |stats, (y0, y1)| {
+                let mut sum = 0.0;
+                for c in 0..channels {
+                    stats.start(y0..y1);
+                    while let Some((_, row)) = stats.next_row(&taps, &mut |y, r| images.fill_stats(c, y, r)) {
+                        sum += ssim_row_sum(row, width);
+                    }
+                }
+                sum
+            },
+        )
         .collect();
     Ok(block_sums.iter().sum::<f64>() / images.count() as f64)
 }
@@ -131,29 +137,34 @@ pub fn ssim_map(
     let taps = ssim_gaussian_taps();
     let mut map = vec![0.0; images.count()];
     map.par_chunks_mut(BLOCK_ROWS * width * channels).enumerate().for_each_init(
-        Scratch::default,
-        |scratch, (block, out)| {
+        || RowFilter::<STATS>::new(width, height),
+        |stats, (block, out)| {
             let y0 = block * BLOCK_ROWS;
             let y1 = (y0 + BLOCK_ROWS).min(height);
             for c in 0..channels {
-                images.stats_rows(&taps, c, y0, y1, scratch, &mut |y, row| {
+                stats.start(y0..y1);
+                while let Some((y, row)) = stats.next_row(&taps, &mut |y, r| images.fill_stats(c, y, r)) {
                     let s = Stats::of_row(row, width);
                     for x in 0..width {
                         out[((y - y0) * width + x) * channels + c] = s.at(x).ssim();
                     }
-                });
+                }
             }
         },
     );
     Ok(map)
 }
 
-/// Mean SSIM (as [`ssim`]) and its gradient with respect to the first image, `∂ SSIM / ∂a`.
+/// Mean SSIM (bit-identical to [`ssim`]) and its gradient with respect to the first image,
+/// `∂ SSIM / ∂a`.
 ///
 /// With `μa = G∗a`, `Eaa = G∗a²`, `Eab = G∗(a·b)` the per-pixel derivatives of the map `S` are
 /// `∂S/∂μa = 2μb(A2 − A1)/(B1B2) − 2μa·S·(1/B1 − 1/B2)`, `∂S/∂Eaa = −S/B2`,
 /// `∂S/∂Eab = 2A1/(B1B2)`, and `∂ mean S/∂a = (1/n)·[G∗(∂S/∂μa) + 2a·G∗(∂S/∂Eaa) + b·G∗(∂S/∂Eab)]`
 /// (the zero-padded correlation with a symmetric window is its own adjoint).
+///
+/// Each block streams its derivative rows (plus a 5-row halo, recomputed by both neighbouring
+/// blocks) straight into the second filter, so no full-image intermediate is stored.
 ///
 /// `a`, `b`: `[H, W, C]`; the gradient: `[H, W, C]`.
 pub fn ssim_with_grad(
@@ -165,56 +176,48 @@ pub fn ssim_with_grad(
 ) -> Result<(f64, Vec<f32>), EvalError> {
     let images = Pair::new(a, b, width, height, channels)?;
     let taps = ssim_gaussian_taps();
-    // Phase 1: per block, the SSIM sum and the three derivative maps, laid out
-    // [channel][row][quantity][x] inside the block.
-    let partials: Vec<(f64, Vec<f64>)> = images
-        .blocks()
-        .into_par_iter()
-        .map_init(Scratch::default, |scratch, (y0, y1)| {
-            let mut sum = 0.0;
-            let mut derivs = vec![0.0; channels * (y1 - y0) * DERIVS * width];
-            for c in 0..channels {
-                let plane = &mut derivs[c * (y1 - y0) * DERIVS * width..(c + 1) * (y1 - y0) * DERIVS * width];
-                images.stats_rows(&taps, c, y0, y1, scratch, &mut |y, row| {
-                    let out = &mut plane[(y - y0) * DERIVS * width..(y - y0 + 1) * DERIVS * width];
-                    sum += ssim_row_derivatives(row, out, width);
-                });
-            }
-            (sum, derivs)
-        })
-        .collect();
     let count = images.count() as f64;
-    let mean = partials.iter().map(|(s, _)| s).sum::<f64>() / count;
-
-    // Phase 2: filter the derivative maps again (halo rows come from neighbouring blocks).
     let mut grad = vec![0.0f32; images.count()];
-    grad.par_chunks_mut(BLOCK_ROWS * width * channels).enumerate().for_each_init(
-        Scratch::default,
-        |scratch, (block, out)| {
-            let y0 = block * BLOCK_ROWS;
-            let y1 = (y0 + BLOCK_ROWS).min(height);
-            for c in 0..channels {
-                let fill = |y: usize, row: &mut [f64]| {
-                    let (b, r) = (y / BLOCK_ROWS, y % BLOCK_ROWS);
-                    let rows_in_block = (b * BLOCK_ROWS + BLOCK_ROWS).min(height) - b * BLOCK_ROWS;
-                    let start = ((c * rows_in_block + r) * DERIVS) * width;
-                    row.copy_from_slice(&partials[b].1[start..start + DERIVS * width]);
-                };
-                let mut combine = |y: usize, row: &[f64]| {
-                    let (d_mu, rest) = row.split_at(width);
-                    let (d_aa, d_ab) = rest.split_at(width);
-                    for x in 0..width {
-                        let i = ((y - y0) * width + x) * channels + c;
-                        let p = (y * width + x) * channels + c;
-                        let (av, bv) = (f64::from(a[p]), f64::from(b[p]));
-                        out[i] = ((d_mu[x] + 2.0 * av * d_aa[x] + bv * d_ab[x]) / count) as f32;
+    let block_sums: Vec<f64> = grad
+        .par_chunks_mut(BLOCK_ROWS * width * channels)
+        .enumerate()
+        .map_init(
+            || (RowFilter::<STATS>::new(width, height), RowFilter::<DERIVS>::new(width, height)),
+            |(stats, derivs), (block, out)| {
+                let y0 = block * BLOCK_ROWS;
+                let y1 = (y0 + BLOCK_ROWS).min(height);
+                let mut sum = 0.0;
+                for c in 0..channels {
+                    stats.start(y0.saturating_sub(RADIUS)..(y1 + RADIUS).min(height));
+                    derivs.start(y0..y1);
+                    // `derivs` asks for its input rows in order, exactly the rows `stats` yields.
+                    let mut fill_derivs = |y: usize, row: &mut [f64]| {
+                        let next = stats.next_row(&taps, &mut |yy, r| images.fill_stats(c, yy, r));
+                        let Some((sy, stats_row)) = next else {
+                            unreachable!("statistics stream ended before derivative row {y}");
+                        };
+                        debug_assert_eq!(sy, y);
+                        let row_sum = ssim_row_derivatives(stats_row, row, width);
+                        if (y0..y1).contains(&y) {
+                            sum += row_sum;
+                        }
+                    };
+                    while let Some((y, row)) = derivs.next_row(&taps, &mut fill_derivs) {
+                        let (d_mu, rest) = row.split_at(width);
+                        let (d_aa, d_ab) = rest.split_at(width);
+                        for x in 0..width {
+                            let p = (y * width + x) * channels + c;
+                            let (av, bv) = (f64::from(a[p]), f64::from(b[p]));
+                            out[p - y0 * width * channels] =
+                                ((d_mu[x] + 2.0 * av * d_aa[x] + bv * d_ab[x]) / count) as f32;
+                        }
                     }
-                };
-                blur_rows::<DERIVS>(&taps, width, height, y0..y1, &fill, scratch, &mut combine);
-            }
-        },
-    );
-    Ok((mean, grad))
+                }
+                sum
+            },
+        )
+        .collect();
+    Ok((block_sums.iter().sum::<f64>() / count, grad))
 }
 
 /// Local statistics per pixel: μa, μb, E[a²], E[b²], E[ab].
@@ -252,114 +255,121 @@ impl<'a> Pair<'a> {
         (0..self.height).step_by(BLOCK_ROWS).map(|y0| (y0, (y0 + BLOCK_ROWS).min(self.height))).collect()
     }
 
-    /// Filtered statistics of channel `c`, handed row by row (`y0..y1`, in order) to
-    /// `emit(y, row: [STATS, W])`.
-    fn stats_rows(
-        &self,
-        taps: &[f64; SSIM_WINDOW_PX],
-        c: usize,
-        y0: usize,
-        y1: usize,
-        scratch: &mut Scratch,
-        emit: &mut dyn FnMut(usize, &[f64]),
-    ) {
+    /// Writes the unfiltered statistics a, b, a², b², ab of row `y`, channel `c` into
+    /// `row: [STATS, W]`.
+    fn fill_stats(&self, c: usize, y: usize, row: &mut [f64]) {
         let (w, ch) = (self.width, self.channels);
-        let fill = |y: usize, row: &mut [f64]| {
-            let (mu_a, rest) = row.split_at_mut(w);
-            let (mu_b, rest) = rest.split_at_mut(w);
-            let (e_aa, rest) = rest.split_at_mut(w);
-            let (e_bb, e_ab) = rest.split_at_mut(w);
-            let pixels = y * w * ch..(y + 1) * w * ch;
-            let a_row = self.a[pixels.clone()].iter().skip(c).step_by(ch);
-            let b_row = self.b[pixels].iter().skip(c).step_by(ch);
-            for (x, (&av, &bv)) in a_row.zip(b_row).enumerate() {
-                let (av, bv) = (f64::from(av), f64::from(bv));
-                mu_a[x] = av;
-                mu_b[x] = bv;
-                e_aa[x] = av * av;
-                e_bb[x] = bv * bv;
-                e_ab[x] = av * bv;
-            }
-        };
-        blur_rows::<STATS>(taps, w, self.height, y0..y1, &fill, scratch, emit);
+        let (mu_a, rest) = row.split_at_mut(w);
+        let (mu_b, rest) = rest.split_at_mut(w);
+        let (e_aa, rest) = rest.split_at_mut(w);
+        let (e_bb, e_ab) = rest.split_at_mut(w);
+        let pixels = y * w * ch..(y + 1) * w * ch;
+        let a_row = self.a[pixels.clone()].iter().skip(c).step_by(ch);
+        let b_row = self.b[pixels].iter().skip(c).step_by(ch);
+        for (x, (&av, &bv)) in a_row.zip(b_row).enumerate() {
+            let (av, bv) = (f64::from(av), f64::from(bv));
+            mu_a[x] = av;
+            mu_b[x] = bv;
+            e_aa[x] = av * av;
+            e_bb[x] = bv * bv;
+            e_ab[x] = av * bv;
+        }
     }
 }
 
-/// Reusable buffers of one worker.
-#[derive(Default)]
-struct Scratch {
+/// "Same"-size zero-padded Gaussian filtering of `N` quantities, streamed: output rows come one
+/// at a time, top to bottom, and each input row is read and filtered horizontally once, into a
+/// ring of the last 11 rows.
+struct RowFilter<const N: usize> {
+    width: usize,
+    height: usize,
+    /// Next output row to produce, and the end of the requested range.
+    next: usize,
+    end: usize,
+    /// Next input row to load, shifted by the radius (input row + 5) so rows above the image exist.
+    next_shifted: usize,
     /// One input row, unpadded: `[N, W]`.
     row: Vec<f64>,
     /// One input row of one quantity, zero-padded by the radius on both sides: `[W + 10]`.
     padded: Vec<f64>,
-    /// Ring of the last 11 horizontally filtered rows; input row `y` lives in slot
-    /// `(y + 5) % 11`: `[11, N, W]`.
+    /// Horizontally filtered rows; input row `y` lives in slot `(y + 5) % 11`: `[11, N, W]`.
     ring: Vec<f64>,
     /// The current output row: `[N, W]`.
     out: Vec<f64>,
 }
 
-/// "Same"-size zero-padded Gaussian filtering of `N` quantities, streamed row by row: for every
-/// `y` in `rows` (in order) calls `emit(y, filtered: [N, W])`. `fill(y, row)` writes input row `y`
-/// of every quantity into `row: [N, W]`; each input row is read and filtered horizontally once.
-fn blur_rows<const N: usize>(
-    taps: &[f64; SSIM_WINDOW_PX],
-    width: usize,
-    height: usize,
-    rows: std::ops::Range<usize>,
-    fill: &dyn Fn(usize, &mut [f64]),
-    scratch: &mut Scratch,
-    emit: &mut dyn FnMut(usize, &[f64]),
-) {
-    let row_len = N * width;
-    scratch.row.resize(row_len, 0.0);
-    scratch.padded.clear();
-    scratch.padded.resize(width + 2 * RADIUS, 0.0);
-    scratch.ring.resize(SSIM_WINDOW_PX * row_len, 0.0);
-    scratch.out.resize(row_len, 0.0);
+impl<const N: usize> RowFilter<N> {
+    fn new(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            next: 0,
+            end: 0,
+            next_shifted: 0,
+            row: vec![0.0; N * width],
+            padded: vec![0.0; width + 2 * RADIUS],
+            ring: vec![0.0; SSIM_WINDOW_PX * N * width],
+            out: vec![0.0; N * width],
+        }
+    }
 
-    // `shifted` = input row + RADIUS, so rows above the image are representable.
-    let load = |shifted: usize, scratch: &mut Scratch| {
+    /// Restarts the stream at output rows `rows`.
+    fn start(&mut self, rows: std::ops::Range<usize>) {
+        self.next = rows.start;
+        self.end = rows.end;
+        self.next_shifted = rows.start;
+    }
+
+    /// The next output row `(y, filtered: [N, W])`, or `None` past the range. `fill(y, row)`
+    /// writes input row `y` of every quantity into `row: [N, W]`; it is called once per input
+    /// row inside the image, in increasing `y`.
+    fn next_row(
+        &mut self,
+        taps: &[f64; SSIM_WINDOW_PX],
+        fill: &mut dyn FnMut(usize, &mut [f64]),
+    ) -> Option<(usize, &[f64])> {
+        if self.next >= self.end {
+            return None;
+        }
+        let y = self.next;
+        while self.next_shifted <= y + 2 * RADIUS {
+            self.load(self.next_shifted, taps, fill);
+            self.next_shifted += 1;
+        }
+        let row_len = N * self.width;
+        let window: [&[f64]; SSIM_WINDOW_PX] =
+            std::array::from_fn(|k| &self.ring[((y + k) % SSIM_WINDOW_PX) * row_len..][..row_len]);
+        symmetric_sum(taps, &window, &mut self.out);
+        self.next += 1;
+        Some((y, &self.out))
+    }
+
+    /// Filters input row `shifted − 5` horizontally into its ring slot (zeros outside the image).
+    fn load(
+        &mut self,
+        shifted: usize,
+        taps: &[f64; SSIM_WINDOW_PX],
+        fill: &mut dyn FnMut(usize, &mut [f64]),
+    ) {
+        let (width, row_len) = (self.width, N * self.width);
         let slot = shifted % SSIM_WINDOW_PX;
-        let dst = &mut scratch.ring[slot * row_len..(slot + 1) * row_len];
-        let Some(y) = shifted.checked_sub(RADIUS).filter(|&y| y < height) else {
+        let dst = &mut self.ring[slot * row_len..(slot + 1) * row_len];
+        let Some(y) = shifted.checked_sub(RADIUS).filter(|&y| y < self.height) else {
             dst.fill(0.0);
             return;
         };
-        fill(y, &mut scratch.row);
-        for (src, dst) in scratch.row.chunks_exact(width).zip(dst.chunks_exact_mut(width)) {
-            scratch.padded[RADIUS..RADIUS + width].copy_from_slice(src);
-            correlate_row(taps, &scratch.padded, dst);
+        fill(y, &mut self.row);
+        for (src, dst) in self.row.chunks_exact(width).zip(dst.chunks_exact_mut(width)) {
+            self.padded[RADIUS..RADIUS + width].copy_from_slice(src);
+            let shifted_src: [&[f64]; SSIM_WINDOW_PX] = std::array::from_fn(|k| &self.padded[k..k + width]);
+            symmetric_sum(taps, &shifted_src, dst);
         }
-    };
-    for shifted in rows.start..rows.start + 2 * RADIUS {
-        load(shifted, scratch);
     }
-    for y in rows {
-        load(y + 2 * RADIUS, scratch);
-        let window: [&[f64]; SSIM_WINDOW_PX] =
-            std::array::from_fn(|k| &scratch.ring[((y + k) % SSIM_WINDOW_PX) * row_len..][..row_len]);
-        combine_rows(taps, &window, &mut scratch.out);
-        emit(y, &scratch.out);
-    }
-}
-
-/// Horizontal pass: `dst[x] = Σ_k taps[k] · src[x + k]` with the symmetric taps paired;
-/// `src: [W + 10]`, `dst: [W]`.
-fn correlate_row(taps: &[f64; SSIM_WINDOW_PX], src: &[f64], dst: &mut [f64]) {
-    let n = dst.len();
-    let s: [&[f64]; SSIM_WINDOW_PX] = std::array::from_fn(|k| &src[k..k + n]);
-    symmetric_sum(taps, &s, dst);
-}
-
-/// Vertical pass: `out[i] = Σ_k taps[k] · rows[k][i]` with the symmetric taps paired; every
-/// row and `out` have the same length.
-fn combine_rows(taps: &[f64; SSIM_WINDOW_PX], rows: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
-    symmetric_sum(taps, rows, out);
 }
 
 /// `out[i] = taps[5]·t[5][i] + Σ_{k<5} taps[k]·(t[k][i] + t[10−k][i])` (the taps are symmetric);
 /// every term is at least as long as `out`. Named, equal-length slices let the loop vectorise.
+/// Horizontally the terms are one row shifted by `k`; vertically, the 11 rows of the window.
 fn symmetric_sum(taps: &[f64; SSIM_WINDOW_PX], terms: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
     let n = out.len();
     let [t0, t1, t2, t3, t4, t5, t6, t7, t8, t9, t10] = *terms;
@@ -636,6 +646,30 @@ mod tests {
                 / (f64::from(plus[i]) - f64::from(minus[i]));
             let err = (numeric - f64::from(grad[i])).abs() / max_grad;
             assert!(err < 1e-3, "index {i}: analytic {} vs numeric {numeric} (rel {err:.2e})", grad[i]);
+        }
+    }
+
+    #[test]
+    fn gradient_across_block_boundaries_matches_central_differences() {
+        // 140 rows = three blocks; check the rows around each boundary, where the halo of
+        // derivative rows is recomputed by the neighbouring block.
+        let (w, h, ch) = (6, 140, 1);
+        let (a, b) = pair(w, h, ch, 21);
+        let (_, grad) = ssim_with_grad(&a, &b, w, h, ch).unwrap();
+        let max_grad = grad.iter().fold(0.0f64, |m, &g| m.max(f64::from(g).abs()));
+        let step = 1.0 / 256.0;
+        let rows = (0..3).chain(57..72).chain(121..136).chain(137..140);
+        for y in rows {
+            for x in [0, 2, 5] {
+                let i = (y * w + x) * ch;
+                let (mut plus, mut minus) = (a.clone(), a.clone());
+                plus[i] += step;
+                minus[i] -= step;
+                let numeric = (ssim(&plus, &b, w, h, ch).unwrap() - ssim(&minus, &b, w, h, ch).unwrap())
+                    / (f64::from(plus[i]) - f64::from(minus[i]));
+                let err = (numeric - f64::from(grad[i])).abs() / max_grad;
+                assert!(err < 1e-3, "row {y}, column {x}: analytic {} vs numeric {numeric}", grad[i]);
+            }
         }
     }
 
