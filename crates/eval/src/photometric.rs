@@ -263,11 +263,12 @@ impl<'a> Pair<'a> {
         let (mu_b, rest) = rest.split_at_mut(w);
         let (e_aa, rest) = rest.split_at_mut(w);
         let (e_bb, e_ab) = rest.split_at_mut(w);
-        let pixels = y * w * ch..(y + 1) * w * ch;
-        let a_row = self.a[pixels.clone()].iter().skip(c).step_by(ch);
-        let b_row = self.b[pixels].iter().skip(c).step_by(ch);
-        for (x, (&av, &bv)) in a_row.zip(b_row).enumerate() {
-            let (av, bv) = (f64::from(av), f64::from(bv));
+        let (mu_a, mu_b, e_aa, e_bb, e_ab) =
+            (&mut mu_a[..w], &mut mu_b[..w], &mut e_aa[..w], &mut e_bb[..w], &mut e_ab[..w]);
+        let a_row = &self.a[y * w * ch..(y + 1) * w * ch];
+        let b_row = &self.b[y * w * ch..(y + 1) * w * ch];
+        for x in 0..w {
+            let (av, bv) = (f64::from(a_row[x * ch + c]), f64::from(b_row[x * ch + c]));
             mu_a[x] = av;
             mu_b[x] = bv;
             e_aa[x] = av * av;
@@ -371,6 +372,24 @@ impl<const N: usize> RowFilter<N> {
 /// every term is at least as long as `out`. Named, equal-length slices let the loop vectorise.
 /// Horizontally the terms are one row shifted by `k`; vertically, the 11 rows of the window.
 fn symmetric_sum(taps: &[f64; SSIM_WINDOW_PX], terms: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has the feature `symmetric_sum_avx` is compiled for.
+        return unsafe { symmetric_sum_avx(taps, terms, out) };
+    }
+    symmetric_sum_any(taps, terms, out)
+}
+
+/// [`symmetric_sum_any`] compiled for AVX. No FMA: the same IEEE operations in the same order,
+/// so the results are bit-identical to the portable build (and across machines).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn symmetric_sum_avx(taps: &[f64; SSIM_WINDOW_PX], terms: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
+    symmetric_sum_any(taps, terms, out)
+}
+
+#[inline(always)]
+fn symmetric_sum_any(taps: &[f64; SSIM_WINDOW_PX], terms: &[&[f64]; SSIM_WINDOW_PX], out: &mut [f64]) {
     let n = out.len();
     let [t0, t1, t2, t3, t4, t5, t6, t7, t8, t9, t10] = *terms;
     let (t0, t1, t2, t3, t4, t5) = (&t0[..n], &t1[..n], &t2[..n], &t3[..n], &t4[..n], &t5[..n]);
@@ -457,6 +476,23 @@ impl Local {
 
 /// Sum of the SSIM map over one row of statistics `row: [STATS, W]`.
 fn ssim_row_sum(row: &[f64], width: usize) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has the feature `ssim_row_sum_avx` is compiled for.
+        return unsafe { ssim_row_sum_avx(row, width) };
+    }
+    ssim_row_sum_any(row, width)
+}
+
+/// [`ssim_row_sum_any`] compiled for AVX (no FMA: bit-identical results).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn ssim_row_sum_avx(row: &[f64], width: usize) -> f64 {
+    ssim_row_sum_any(row, width)
+}
+
+#[inline(always)]
+fn ssim_row_sum_any(row: &[f64], width: usize) -> f64 {
     let s = Stats::of_row(row, width);
     lane_sum(width, |x| s.at(x).ssim())
 }
@@ -479,6 +515,23 @@ fn lane_sum(n: usize, mut f: impl FnMut(usize) -> f64) -> f64 {
 /// SSIM derivatives of one row: reads `row: [STATS, W]`, writes `out: [DERIVS, W]` (∂S/∂μa,
 /// ∂S/∂E[a²], ∂S/∂E[ab]) and returns the row's SSIM sum.
 fn ssim_row_derivatives(row: &[f64], out: &mut [f64], width: usize) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has the feature `ssim_row_derivatives_avx` is compiled for.
+        return unsafe { ssim_row_derivatives_avx(row, out, width) };
+    }
+    ssim_row_derivatives_any(row, out, width)
+}
+
+/// [`ssim_row_derivatives_any`] compiled for AVX (no FMA: bit-identical results).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn ssim_row_derivatives_avx(row: &[f64], out: &mut [f64], width: usize) -> f64 {
+    ssim_row_derivatives_any(row, out, width)
+}
+
+#[inline(always)]
+fn ssim_row_derivatives_any(row: &[f64], out: &mut [f64], width: usize) -> f64 {
     let s = Stats::of_row(row, width);
     let (d_mu, rest) = out.split_at_mut(width);
     let (d_aa, d_ab) = rest.split_at_mut(width);
@@ -671,6 +724,41 @@ mod tests {
                 assert!(err < 1e-3, "row {y}, column {x}: analytic {} vs numeric {numeric}", grad[i]);
             }
         }
+    }
+
+    #[test]
+    fn dispatched_kernels_are_bit_identical_to_portable_ones() {
+        let (w, h, ch) = (37, 1, 5);
+        let (a, b) = pair(w, h, ch, 4);
+        let row: Vec<f64> =
+            a.iter().zip(&b).map(|(&x, &y)| f64::from(x) * 0.7 + f64::from(y) * 0.2).collect();
+        let taps = ssim_gaussian_taps();
+        let n = w * 3;
+        let terms: [&[f64]; SSIM_WINDOW_PX] = std::array::from_fn(|k| &row[k * 3..k * 3 + n]);
+        let (mut fast, mut portable) = (vec![0.0; n], vec![0.0; n]);
+        symmetric_sum(&taps, &terms, &mut fast);
+        symmetric_sum_any(&taps, &terms, &mut portable);
+        assert_eq!(fast, portable);
+        // A statistics row [STATS, W] with plausible values (variances ≥ 0).
+        let stats: Vec<f64> = (0..STATS * w)
+            .map(|i| {
+                let (q, x) = (i / w, i % w);
+                let m = 0.2 + 0.6 * f64::from(a[x]);
+                [
+                    m,
+                    m * 0.9 + 0.05,
+                    m * m + 0.01,
+                    (m * 0.9 + 0.05).powi(2) + 0.02,
+                    m * (m * 0.9 + 0.05) + 0.005,
+                ][q]
+            })
+            .collect();
+        assert_eq!(ssim_row_sum(&stats, w).to_bits(), ssim_row_sum_any(&stats, w).to_bits());
+        let (mut d_fast, mut d_portable) = (vec![0.0; DERIVS * w], vec![0.0; DERIVS * w]);
+        let s_fast = ssim_row_derivatives(&stats, &mut d_fast, w);
+        let s_portable = ssim_row_derivatives_any(&stats, &mut d_portable, w);
+        assert_eq!(s_fast.to_bits(), s_portable.to_bits());
+        assert_eq!(d_fast, d_portable);
     }
 
     #[test]
