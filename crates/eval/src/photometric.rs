@@ -3,7 +3,12 @@
 //! `L = 0.8·L1 + 0.2·(1 − SSIM)`.
 //!
 //! Images are interleaved, row-major `[H, W, C]` `f32` buffers with values in `[0, 1]`
-//! (`data[(y * width + x) * channels + c]`). All arithmetic is done in `f64`.
+//! (`data[(y * width + x) * channels + c]`). All arithmetic is done in `f64`. Sizes are checked
+//! ([`EvalError::BadImage`]); values are not (a NaN in gives a NaN out).
+//!
+//! - [`psnr`] over the whole image, and [`psnr_masked`] over the pixels of a `[H, W]` mask.
+//! - [`ssim`] (the mean), [`ssim_map`] (per pixel and channel), and [`ssim_with_grad`]: the mean
+//!   and `∂ SSIM / ∂a`. For the 3DGS loss, `∂L/∂a = 0.8·∂L1/∂a − 0.2·∂ SSIM/∂a`.
 //!
 //! SSIM follows 3DGS's `utils/loss_utils.py::ssim`: every channel is filtered on its own with an
 //! 11×11 Gaussian window (σ = 1.5, the outer product of a normalised 1-D kernel) with zero padding
@@ -14,11 +19,15 @@
 //! border: it pads by reflection and averages the map without its 5-px border; inside that border
 //! both maps are the same function of the images.
 //!
-//! Work mapping: the filter is separable (a horizontal then a vertical 11-tap pass). Images are cut
-//! into blocks of [`BLOCK_ROWS`] output rows; rayon runs one task per block, each filtering the
-//! block's rows plus a 5-row halo for every channel. Every output value is a fixed sequence of
-//! operations and block sums are combined in block order, so results do not depend on the number
-//! of threads.
+//! Work mapping: the filter is separable (a horizontal then a vertical 11-tap pass, the symmetric
+//! taps paired). Images are cut into blocks of 64 output rows; rayon runs one task per block, which
+//! streams every channel row by row through a ring of the last 11 horizontally filtered rows
+//! (reading a 5-row halo above and below). The gradient pipes the block's SSIM derivative rows
+//! (with their own halo, recomputed) into a second filter, so nothing image-sized is stored but
+//! the result. Every output value is a fixed sequence of operations, per-row sums use 4 fixed
+//! lanes and block sums are combined in block order, so results do not depend on the number of
+//! threads. The row kernels run as AVX code when the CPU has it, without FMA: bit-identical to the
+//! portable code.
 
 use rayon::prelude::*;
 
@@ -33,11 +42,11 @@ pub const SSIM_C1: f64 = 0.01 * 0.01;
 /// SSIM stabiliser for the variances, `(0.03 · data range)²` with a data range of 1.
 pub const SSIM_C2: f64 = 0.03 * 0.03;
 /// Output rows per parallel task.
-pub const BLOCK_ROWS: usize = 64;
+const BLOCK_ROWS: usize = 64;
 
 const RADIUS: usize = SSIM_WINDOW_PX / 2;
 
-/// The normalised 1-D Gaussian taps `exp(−(i − 5)² / (2σ²)) / Σ`, `i = 0..11`: [11].
+/// The normalised 1-D Gaussian taps `exp(−(i − 5)² / (2σ²)) / Σ`, `i = 0..11`; returns `[11]`.
 pub fn ssim_gaussian_taps() -> [f64; SSIM_WINDOW_PX] {
     let mut taps = [0.0; SSIM_WINDOW_PX];
     for (i, tap) in taps.iter_mut().enumerate() {
