@@ -1,0 +1,23 @@
+//! `train` stage: 3DGS optimisation on splatseg's CPU rasteriser and the paper's joint optimisation
+//! of per-Gaussian object features (§4.4 and the supplement's "Optimization Details").
+//!
+//! - [`config`]: [`TrainConfig`], the `[train]` TOML section, defaults = the paper's (3DGS's where unstated).
+//! - [`optimizer`]: Adam over the Gaussians' parameter groups, with densification's row operations.
+//! - [`densify`]: adaptive density control (clone / split / prune, opacity reset).
+//! - [`knn`]: exact k nearest neighbours on a grid (the regulariser's `N₅`).
+//! - [`joint`]: object codes, `L_semantic`, `L_3D-reg`, reading ids back from the feature field.
+//! - [`loss`]: `L_render = (1 − λ)·L1 + λ·(1 − SSIM)` and its image gradient.
+//! - [`trainer`]: the loop ([`train`]), held-out PSNR/SSIM ([`evaluate_views`]).
+
+pub mod config;
+pub mod densify;
+pub mod error;
+pub mod joint;
+pub mod knn;
+pub mod loss;
+pub mod optimizer;
+pub mod trainer;
+
+pub use config::{DensifyConfig, JointConfig, LearningRates, TrainConfig};
+pub use error::{TrainError, TrainResult};
+pub use trainer::{evaluate_views, train, TrainView, Trained, TrainingProgress, ViewQuality};
