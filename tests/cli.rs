@@ -86,6 +86,8 @@ fn config_prints_the_papers_defaults_as_toml() {
     assert!(text.contains("tau_merge = 0.85\n"), "{text}");
     assert!(text.contains("tau_depth = 0.15\n"), "{text}");
     assert!(text.contains("[matching]") && text.contains("[lift]"), "{text}");
+    assert!(text.contains("[train]") && text.contains("iterations = 100000\n"), "{text}");
+    assert!(text.contains("lambda_semantic = 0.1\n") && text.contains("lambda_reg = 0.01\n"), "{text}");
 }
 
 #[test]
@@ -121,4 +123,70 @@ fn render_takes_the_background_as_r_g_b_and_rejects_other_forms() {
             stderr(&failed)
         );
     }
+}
+
+#[test]
+fn train_runs_end_to_end_and_scores_held_out_views() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    let out_dir = tmp.path().join("trained");
+    let out =
+        splatseg(&["synth", "--out", scene.to_str().expect("utf-8"), "--views", "9", "--size", "64x48"]);
+    assert!(out.status.success(), "synth failed: {}", stderr(&out));
+    let ply = scene.join("gaussians.ply");
+    let out = splatseg(&[
+        "train",
+        scene.to_str().expect("utf-8"),
+        "--gaussians",
+        ply.to_str().expect("utf-8"),
+        "--out",
+        out_dir.to_str().expect("utf-8"),
+        "--iterations",
+        "30",
+    ]);
+    assert!(out.status.success(), "train failed: {}", stderr(&out));
+    let quality: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("quality.json")).expect("quality.json"))
+            .expect("valid JSON");
+    // views 0 and 8 are held out (every 8th), the other 7 train
+    assert_eq!(quality["test_after"]["views"], 2);
+    assert_eq!(quality["train_after"]["views"], 7);
+    assert!(quality["test_after"]["psnr"].as_f64().expect("psnr") > 10.0);
+    assert!(out_dir.join("gaussians.ply").is_file() && out_dir.join("renders/view_000.png").is_file());
+    // no object ids in the synthetic PLY: no joint stage, no features
+    assert!(quality["labelled"].is_null() && !out_dir.join("object_features.npy").exists());
+}
+
+#[test]
+fn train_with_a_missing_ply_or_a_bad_setting_fails_clearly() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let missing = tmp.path().join("nope_gaussians.ply");
+    let out_dir = tmp.path().join("out");
+    let args = |ply: &Path| {
+        vec![
+            "train".to_string(),
+            scene.display().to_string(),
+            "--gaussians".into(),
+            ply.display().to_string(),
+            "--out".into(),
+            out_dir.display().to_string(),
+        ]
+    };
+    let out = Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args(&missing)).output().expect("runs");
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("nope_gaussians.ply") && !stderr(&out).contains("panicked"),
+        "{}",
+        stderr(&out)
+    );
+    let config = tmp.path().join("bad.toml");
+    std::fs::write(&config, "[train]\nlambda_dssim = 3.0\n").expect("write");
+    let mut with_config = args(&scene.join("gaussians.ply"));
+    with_config.extend(["--config".to_string(), config.display().to_string()]);
+    let out = Command::new(env!("CARGO_BIN_EXE_splatseg")).args(with_config).output().expect("runs");
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("lambda_dssim"), "{}", stderr(&out));
+    assert!(!out_dir.join("gaussians.ply").exists(), "nothing written on a bad setting");
 }

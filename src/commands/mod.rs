@@ -16,6 +16,7 @@ pub mod remove;
 pub mod render;
 pub mod run;
 pub mod synth;
+pub mod train;
 
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
 ///
@@ -61,6 +62,8 @@ pub enum Command {
     Run(run::Args),
     /// Write a synthetic multi-object scene with ground truth, simulated SAM masks and cues.
     Synth(synth::Args),
+    /// Train the Gaussians on the images (3DGS on the CPU) and, with lifted ids, the joint optimisation.
+    Train(train::Args),
 }
 
 /// Runs the chosen subcommand.
@@ -80,6 +83,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(args),
         Command::Run(args) => run::run(args),
         Command::Synth(args) => synth::run(args),
+        Command::Train(args) => train::run(args),
     }
 }
 

@@ -18,6 +18,7 @@ mod merge_stage;
 mod outputs;
 #[cfg(test)]
 mod tests;
+pub mod train_stage;
 
 use anyhow::{bail, Context};
 use cache::{read_json, write_json, KeyHasher};
@@ -39,7 +40,7 @@ use splatseg_scene::Plane;
 use std::path::{Path, PathBuf};
 
 /// Every stage's settings; the `--config` TOML file has one table per stage
-/// (`[regions]`, `[merge]`, `[matching]`, `[lift]`, `[eval]`), each optional.
+/// (`[regions]`, `[merge]`, `[matching]`, `[lift]`, `[eval]`, `[train]`), each optional.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PipelineConfig {
@@ -53,6 +54,8 @@ pub struct PipelineConfig {
     pub lift: LiftConfig,
     /// Metrics.
     pub eval: EvalConfig,
+    /// Training and the joint optimisation (`splatseg train`).
+    pub train: splatseg_train::TrainConfig,
 }
 
 impl PipelineConfig {

@@ -86,7 +86,8 @@ fn joint_optimisation_fills_unreliable_ids_and_fixes_wrong_votes() {
     let mut config = TrainConfig { iterations: 600, ..TrainConfig::default() };
     config.densify.until = 100; // geometry alone for 100 iterations, then the joint stage
     let last = std::sync::Mutex::new(None);
-    let trained = train(start, &train_views, &config, &|p| *last.lock().expect("lock") = Some(*p)).expect("train");
+    let trained =
+        train(start, &train_views, &config, &|p| *last.lock().expect("lock") = Some(*p)).expect("train");
     let last = last.into_inner().expect("lock").expect("progress was reported");
     // no densification ran (it starts at 500 and stopped at 100), so rows still match the truth
     assert_eq!(trained.gaussians.len(), s.gaussian_ids.len());

@@ -218,7 +218,7 @@ impl MbConv {
         let y = gelu_erf(&self.conv1.forward(x)?)?;
         let y = gelu_erf(&self.conv2.forward(&y)?)?;
         let y = self.conv3.forward(&y)?;
-        Ok(gelu_erf(&(y + x)?)?)
+        gelu_erf(&(y + x)?)
     }
 }
 

@@ -1,0 +1,224 @@
+//! The train stage as `splatseg train` and `demo` run it: load the scene's images, hold out every
+//! `test_every`-th view, train, score PSNR / SSIM before and after, write the trained PLY.
+
+use anyhow::Context;
+use serde::Serialize;
+use splatseg_render::export::write_rgb_png;
+use splatseg_render::{render, RenderCamera, RenderRequest};
+use splatseg_scene::images::load_image_rgb;
+use splatseg_scene::load::LoadOptions;
+use splatseg_scene::npy::write_npy_f32;
+use splatseg_scene::ply::{read_ply, write_ply};
+use splatseg_scene::{load_scene, Gaussians};
+use splatseg_train::{evaluate_views, train, TrainConfig, TrainView, ViewQuality};
+use std::path::{Path, PathBuf};
+
+use super::cache::write_json;
+use super::progress;
+
+/// What to train.
+#[derive(Clone, Debug)]
+pub struct TrainRun {
+    /// Scene folder (COLMAP or transforms.json).
+    pub scene: PathBuf,
+    /// Starting Gaussians (a 3DGS PLY; with `object_id` for the joint stage).
+    pub gaussians: PathBuf,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Settings (`[train]`).
+    pub config: TrainConfig,
+    /// Image down-scaling factor (3DGS's `--resolution`).
+    pub resolution: u32,
+}
+
+/// Mean image quality over a set of views.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct MeanQuality {
+    /// Views averaged.
+    pub views: usize,
+    /// Mean PSNR, dB.
+    pub psnr: f64,
+    /// Mean SSIM.
+    pub ssim: f64,
+}
+
+/// What a training run did (also written as `quality.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct TrainSummary {
+    /// Iterations run.
+    pub iterations: usize,
+    /// Gaussians before and after.
+    pub gaussians: (usize, usize),
+    /// Held-out views before and after training (empty when nothing is held out).
+    pub test_before: MeanQuality,
+    /// After.
+    pub test_after: MeanQuality,
+    /// Training views after training.
+    pub train_after: MeanQuality,
+    /// Per held-out view, after training.
+    pub test_views: Vec<ViewQuality>,
+    /// Share of Gaussians with an object id (≥ 0) before and after the joint stage, when it ran.
+    pub labelled: Option<(f64, f64)>,
+    /// Output folder.
+    #[serde(skip)]
+    pub out: PathBuf,
+}
+
+fn mean(q: &[ViewQuality]) -> MeanQuality {
+    let n = q.len().max(1) as f64;
+    MeanQuality {
+        views: q.len(),
+        psnr: q.iter().map(|v| v.psnr).sum::<f64>() / n,
+        ssim: q.iter().map(|v| v.ssim).sum::<f64>() / n,
+    }
+}
+
+fn labelled_share(g: &Gaussians) -> Option<f64> {
+    g.object_ids
+        .as_ref()
+        .map(|ids| ids.iter().filter(|&&id| id >= 0).count() as f64 / ids.len().max(1) as f64)
+}
+
+/// Loads every view's image and camera, in scene order.
+fn load_views(scene_dir: &Path, options: &LoadOptions) -> anyhow::Result<Vec<TrainView>> {
+    let scene = load_scene(scene_dir, options)
+        .with_context(|| format!("cannot load scene {}", scene_dir.display()))?;
+    for warning in &scene.warnings {
+        tracing::warn!("{warning}");
+    }
+    scene
+        .views
+        .iter()
+        .map(|view| {
+            let image = load_image_rgb(&scene, view, options)?;
+            let camera = RenderCamera::from_scene(scene.camera(view), &view.world_from_cam);
+            if (image.width(), image.height()) != (camera.width, camera.height) {
+                anyhow::bail!(
+                    "image of view {} is {}×{} but its camera is {}×{}",
+                    view.name,
+                    image.width(),
+                    image.height(),
+                    camera.width,
+                    camera.height
+                );
+            }
+            let pixels = image.as_raw().iter().map(|&c| f32::from(c) / 255.0).collect();
+            Ok(TrainView { name: view.stem.clone(), camera, image: pixels })
+        })
+        .collect()
+}
+
+/// Runs the train stage and writes `gaussians.ply`, `quality.json`, `renders/` (held-out views) and,
+/// after a joint stage, `object_features.npy` (`[N, D]`).
+pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
+    run.config.validate()?;
+    let options = LoadOptions {
+        resolution: run.resolution,
+        background: run.config.background,
+        ..LoadOptions::default()
+    };
+    let views = load_views(&run.scene, &options)?;
+    let gaussians = read_ply(&run.gaussians)?;
+    // 3DGS's `--eval` split: views 0, every, 2·every, … are held out (none when there is only one view)
+    let every = run.config.test_every;
+    let hold_out = every > 0 && views.len() > 1;
+    let (mut test, mut train_views) = (Vec::new(), Vec::new());
+    for (i, view) in views.into_iter().enumerate() {
+        if hold_out && i % every == 0 {
+            test.push(view);
+        } else {
+            train_views.push(view);
+        }
+    }
+    tracing::info!(
+        "training on {} views, {} held out, {} Gaussians, {} iterations",
+        train_views.len(),
+        test.len(),
+        gaussians.len(),
+        run.config.iterations
+    );
+    let background = run.config.background;
+    let test_before = mean(&evaluate_views(&gaussians, &test, background)?);
+    let labelled_before = labelled_share(&gaussians);
+    let start_count = gaussians.len();
+
+    let bar = progress(run.config.iterations, "training");
+    let trained = train(gaussians, &train_views, &run.config, &|p| {
+        bar.inc(1);
+        if p.iteration % 50 == 0 {
+            bar.set_message(format!("loss {:.4}, {} Gaussians", p.render_loss, p.gaussians));
+        }
+    })?;
+    bar.finish_and_clear();
+
+    let test_views = evaluate_views(&trained.gaussians, &test, background)?;
+    let train_after = mean(&evaluate_views(&trained.gaussians, &train_views, background)?);
+    std::fs::create_dir_all(run.out.join("renders"))
+        .with_context(|| format!("cannot create {}", run.out.display()))?;
+    write_ply(&run.out.join("gaussians.ply"), &trained.gaussians)?;
+    if trained.feature_dim > 0 {
+        let n = trained.gaussians.len();
+        write_npy_f32(
+            &run.out.join("object_features.npy"),
+            &[n, trained.feature_dim],
+            &trained.object_features,
+        )?;
+    }
+    for view in &test {
+        let request = RenderRequest { background, ..RenderRequest::default() };
+        let out = render(&trained.gaussians, &view.camera, &request)?;
+        if let Some(rgb) = out.rgb {
+            write_rgb_png(
+                &run.out.join("renders").join(format!("{}.png", view.name)),
+                &rgb,
+                out.width,
+                out.height,
+            )?;
+        }
+    }
+    let labelled = match (labelled_before, trained.feature_dim > 0) {
+        (Some(before), true) => labelled_share(&trained.gaussians).map(|after| (before, after)),
+        _ => None,
+    };
+    let summary = TrainSummary {
+        iterations: run.config.iterations,
+        gaussians: (start_count, trained.gaussians.len()),
+        test_before,
+        test_after: mean(&test_views),
+        train_after,
+        test_views,
+        labelled,
+        out: run.out.clone(),
+    };
+    write_json(&run.out.join("quality.json"), &summary)?;
+    Ok(summary)
+}
+
+impl TrainSummary {
+    /// A short Markdown table: held-out PSNR / SSIM before and after, train PSNR, Gaussians, labelled share.
+    pub fn table(&self) -> String {
+        let mut s = String::from("| | PSNR (dB) | SSIM |\n| --- | ---: | ---: |\n");
+        if self.test_after.views > 0 {
+            s += &format!(
+                "| held-out views, before ({}) | {:.2} | {:.3} |\n| held-out views, after | {:.2} | {:.3} |\n",
+                self.test_before.views, self.test_before.psnr, self.test_before.ssim, self.test_after.psnr, self.test_after.ssim
+            );
+        }
+        s += &format!(
+            "| training views, after ({}) | {:.2} | {:.3} |\n",
+            self.train_after.views, self.train_after.psnr, self.train_after.ssim
+        );
+        s += &format!(
+            "\n{} iterations; Gaussians {} → {}",
+            self.iterations, self.gaussians.0, self.gaussians.1
+        );
+        if let Some((before, after)) = self.labelled {
+            s += &format!(
+                "; Gaussians with an object id {:.1} % → {:.1} % (joint stage)",
+                100.0 * before,
+                100.0 * after
+            );
+        }
+        s
+    }
+}
