@@ -105,3 +105,25 @@ fn joint_optimisation_fills_unreliable_ids_and_fixes_wrong_votes() {
     assert!(after > before + 0.2 && after > 0.92, "accuracy {before:.3} → {after:.3}");
     assert!(unlabelled_after < 0.02, "{unlabelled_after:.3} still unlabelled");
 }
+
+#[test]
+fn training_is_deterministic_with_densification_and_the_joint_stage() {
+    let s = scene(2);
+    let train_views: Vec<TrainView> = views(&s).into_iter().take(4).collect();
+    let mut start = s.gaussians.clone();
+    start.object_ids = Some(s.gaussian_ids.iter().map(|&id| id as i32).collect());
+    let mut config = TrainConfig { iterations: 60, ..TrainConfig::default() };
+    // densify at 20 and 40 (with a low threshold so it happens), joint stage from 40
+    config.densify.from = 10;
+    config.densify.interval = 20;
+    config.densify.until = 41;
+    config.densify.grad_threshold = 1e-5;
+    let run = || train(start.clone(), &train_views, &config, &|_| {}).expect("train");
+    let (a, b) = (run(), run());
+    assert!(a.densify_reports.iter().any(|(_, r)| r.cloned + r.split > 0), "{:?}", a.densify_reports);
+    assert_ne!(a.gaussians.len(), start.len());
+    assert_eq!(a.gaussians, b.gaussians);
+    assert_eq!(a.object_features, b.object_features);
+    assert_eq!(a.densify_reports, b.densify_reports);
+    assert_eq!(a.object_features.len(), a.gaussians.len() * 16, "features follow densification");
+}
