@@ -2,7 +2,8 @@
 //! ("merged"), cached per view in `OUT/cache/merge/`.
 
 use super::cache::{read_json, write_json, KeyHasher};
-use anyhow::{anyhow, Context};
+use crate::commands::merge::read_view_mask_inputs;
+use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions};
 use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, RegionSummary};
@@ -88,22 +89,12 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
     })
 }
 
-/// The SAM masks of `view` as merge inputs (checked against the image size).
+/// The SAM masks of `view` as merge inputs (none when it has no masks), each checked against
+/// the `width × height` image before it is decoded and turned into row runs straight from its
+/// COCO counts (see [`crate::commands::merge::read_view_mask_inputs`]).
 fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> anyhow::Result<Vec<MaskInput>> {
-    let masks = splatseg_scene::sam::read_view_masks(ctx.masks_dir, &view.stem)?.unwrap_or_default();
-    let path = ctx.masks_dir.join(format!("{}.json", view.stem));
-    splatseg_scene::sam::check_mask_sizes(&masks, width, height, &path)?;
-    masks
-        .iter()
-        .enumerate()
-        .map(|(i, m)| {
-            let plane = m
-                .segmentation
-                .decode()
-                .map_err(|e| anyhow!("mask {i} of view `{}`: {e}: {}", view.stem, path.display()))?;
-            Ok(MaskInput::from_plane(&plane, m.predicted_iou as f32, m.stability_score as f32))
-        })
-        .collect()
+    let masks = read_view_mask_inputs(ctx.masks_dir, &view.stem, width as usize, height as usize)?;
+    Ok(masks.unwrap_or_default())
 }
 
 /// Merges one view (or reads it from the cache).
@@ -145,4 +136,85 @@ pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> anyhow::
         &CacheEntry { key, regions: merged.regions.clone() },
     )?;
     Ok(merged)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::commands::merge::{mask_inputs, read_view_mask_inputs};
+    use splatseg_cues::{regions_from_sam_masks, MaskInput, RegionOptions};
+    use splatseg_scene::sam::{write_sam_json, write_sam_png_folder, SamMask};
+    use splatseg_synth::SynthConfig;
+
+    /// The former path: every mask decoded to a full `[H, W]` boolean image, then scanned.
+    fn decoded_inputs(masks: &[SamMask]) -> Vec<MaskInput> {
+        masks
+            .iter()
+            .map(|m| {
+                let plane = m.segmentation.decode().expect("valid synthetic mask");
+                MaskInput::from_plane(&plane, m.predicted_iou as f32, m.stability_score as f32)
+            })
+            .collect()
+    }
+
+    fn scene() -> splatseg_synth::SynthScene {
+        let config = SynthConfig { seed: 5, views: 3, width: 160, height: 120, ..SynthConfig::default() };
+        splatseg_synth::generate(&config).expect("synthetic scene")
+    }
+
+    /// Runs built from the COCO counts equal those of the decoded masks, mask by mask, so the
+    /// regions (and everything merged from them) are unchanged; also through both file forms.
+    #[test]
+    fn mask_inputs_from_counts_equal_the_decoded_masks_on_synthetic_views() {
+        let scene = scene();
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let mut masks_seen = 0;
+        for (v, view) in scene.views.iter().enumerate() {
+            let (w, h) = (160, 120);
+            let before = decoded_inputs(&view.sam_masks);
+            let after = mask_inputs(&view.sam_masks, w, h).expect("valid masks");
+            assert_eq!(after.len(), view.sam_masks.len());
+            for (i, (a, b)) in after.iter().zip(&before).enumerate() {
+                assert_eq!(a, b, "mask {i} of {}", view.stem);
+            }
+            masks_seen += after.len();
+            let options = RegionOptions::default();
+            let regions_before = regions_from_sam_masks(&before, w, h, &options).expect("regions");
+            let regions_after = regions_from_sam_masks(&after, w, h, &options).expect("regions");
+            assert!(regions_before.count() > 1, "{}: a real partition", view.stem);
+            assert_eq!(regions_after.labels.data, regions_before.labels.data, "{}", view.stem);
+            // Read back from SAM JSON (even views) or a SAM PNG folder (odd views).
+            if v % 2 == 0 {
+                write_sam_json(&tmp.path().join(format!("{}.json", view.stem)), &view.sam_masks)
+                    .expect("json");
+            } else {
+                write_sam_png_folder(&tmp.path().join(&view.stem), &view.sam_masks).expect("png folder");
+            }
+            let read = read_view_mask_inputs(tmp.path(), &view.stem, w, h).expect("readable");
+            assert_eq!(read.as_deref(), Some(&before[..]), "{} read from its files", view.stem);
+        }
+        assert!(masks_seen >= 20, "only {masks_seen} masks: the comparison would prove little");
+        assert_eq!(read_view_mask_inputs(tmp.path(), "no_such_view", 160, 120).expect("no error"), None);
+    }
+
+    /// A mask PNG of another size than the image is refused with an error naming that PNG (not
+    /// `<stem>.json`); a JSON mask of another size names the JSON file.
+    #[test]
+    fn a_wrong_size_mask_names_its_own_file() {
+        let scene = scene();
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let view = &scene.views[0];
+        let folder = tmp.path().join(&view.stem);
+        write_sam_png_folder(&folder, &view.sam_masks).expect("png folder");
+        let bad = folder.join("2.png");
+        image::GrayImage::new(80, 60).save(&bad).expect("small png");
+        let err = format!("{:#}", read_view_mask_inputs(tmp.path(), &view.stem, 160, 120).unwrap_err());
+        assert!(err.contains(&bad.display().to_string()), "{err}");
+        assert!(err.contains("80") && err.contains("160"), "both sizes: {err}");
+        assert!(!err.contains(".json"), "{err}");
+
+        let json = tmp.path().join("other.json");
+        write_sam_json(&json, &view.sam_masks).expect("json");
+        let err = format!("{:#}", read_view_mask_inputs(tmp.path(), "other", 160, 121).unwrap_err());
+        assert!(err.contains(&json.display().to_string()), "{err}");
+    }
 }
