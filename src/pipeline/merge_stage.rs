@@ -2,7 +2,7 @@
 //! ("merged"), cached per view in `OUT/cache/merge/`.
 
 use super::cache::{read_json, write_json, KeyHasher};
-use crate::commands::merge::read_view_mask_inputs;
+use super::read_view_mask_inputs;
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions};
@@ -91,7 +91,7 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
 
 /// The SAM masks of `view` as merge inputs (none when it has no masks), each checked against
 /// the `width × height` image before it is decoded and turned into row runs straight from its
-/// COCO counts (see [`crate::commands::merge::read_view_mask_inputs`]).
+/// COCO counts (see [`super::read_view_mask_inputs`]).
 fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> anyhow::Result<Vec<MaskInput>> {
     let masks = read_view_mask_inputs(ctx.masks_dir, &view.stem, width as usize, height as usize)?;
     Ok(masks.unwrap_or_default())
@@ -140,7 +140,8 @@ pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> anyhow::
 
 #[cfg(test)]
 mod tests {
-    use crate::commands::merge::{mask_inputs, read_view_mask_inputs};
+    use crate::pipeline::mask_input::mask_inputs;
+    use crate::pipeline::read_view_mask_inputs;
     use splatseg_cues::{regions_from_sam_masks, MaskInput, RegionOptions};
     use splatseg_scene::sam::{write_sam_json, write_sam_png_folder, SamMask};
     use splatseg_synth::SynthConfig;

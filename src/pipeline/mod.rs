@@ -14,6 +14,7 @@ mod cache;
 mod eval_stage;
 mod inputs;
 mod lift_stage;
+mod mask_input;
 mod merge_stage;
 mod outputs;
 #[cfg(test)]
@@ -24,6 +25,7 @@ use anyhow::{bail, Context};
 use cache::{read_json, write_json, KeyHasher};
 use eval_stage::{evaluate, offset_local_maps, StageMaps};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
+pub use mask_input::read_view_mask_inputs;
 use merge_stage::{merge_one, MergeContext, MergedView, ViewDepth};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

@@ -144,7 +144,7 @@ fn masks_of_the_wrong_size_are_an_error() {
     .expect("write");
     let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
     let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
-    assert!(err.contains("50×40") && err.contains("view_001.json"), "{err}");
+    assert!(err.contains("[40, 50]") && err.contains("view_001.json"), "{err}");
 }
 
 #[test]
