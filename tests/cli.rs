@@ -155,6 +155,26 @@ fn train_runs_end_to_end_and_scores_held_out_views() {
     assert!(out_dir.join("gaussians.ply").is_file() && out_dir.join("renders/view_000.png").is_file());
     // no object ids in the synthetic PLY: no joint stage, no features
     assert!(quality["labelled"].is_null() && !out_dir.join("object_features.npy").exists());
+
+    // without --gaussians: one Gaussian per sparse point of the COLMAP model, as 3DGS starts
+    let scratch = tmp.path().join("from_points");
+    let out = splatseg(&[
+        "train",
+        scene.to_str().expect("utf-8"),
+        "--out",
+        scratch.to_str().expect("utf-8"),
+        "--iterations",
+        "5",
+    ]);
+    assert!(out.status.success(), "train from points failed: {}", stderr(&out));
+    let quality: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(scratch.join("quality.json")).expect("quality.json"))
+            .expect("valid JSON");
+    let points = std::fs::read_to_string(scene.join("sparse/0/points3D.txt"))
+        .map(|t| t.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()).count())
+        .expect("synth writes a text COLMAP model");
+    let start = quality["gaussians"][0].as_u64().expect("count") as usize;
+    assert!(points > 0 && start == points, "{start} Gaussians from {points} points");
 }
 
 #[test]

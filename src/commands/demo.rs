@@ -102,7 +102,8 @@ fn train_after_pipeline(
     );
     let summary = run_training(&TrainRun {
         scene: scene_dir.to_path_buf(),
-        gaussians: lifted_ply.clone(),
+        gaussians: Some(lifted_ply.clone()),
+        init: Default::default(),
         out: train_out.clone(),
         config,
         resolution: 1,

@@ -1,6 +1,6 @@
 //! `splatseg train`: 3DGS training on the CPU, and the paper's joint optimisation of object features.
 
-use crate::pipeline::train_stage::{run_training, TrainRun};
+use crate::pipeline::train_stage::{run_training, InitOptions, TrainRun};
 use crate::pipeline::PipelineConfig;
 use clap::Args as ClapArgs;
 use std::path::PathBuf;
@@ -24,14 +24,27 @@ use std::path::PathBuf;
 /// Writes OUT/gaussians.ply (opens in standard 3DGS viewers; `object_id` relabelled after a joint
 /// stage), OUT/quality.json, OUT/renders/<view>.png (held-out views) and OUT/object_features.npy.
 ///
-/// Example: splatseg train out/demo/scene --gaussians out/demo/run/gaussians.ply --out out/train --iterations 2000
+/// Examples:
+///   splatseg train out/demo/scene --gaussians out/demo/run/gaussians.ply --out out/train --iterations 2000
+///   splatseg train nerf_synthetic/lego --out lego_trained --resolution 4 --iterations 5000   # from scratch
 #[derive(Debug, ClapArgs)]
 pub struct Args {
     /// Scene folder (COLMAP `sparse/0` + `images/`, or `transforms.json`).
     pub scene: PathBuf,
-    /// Starting Gaussians: a 3DGS PLY (with `object_id` for the joint stage).
+    /// Starting Gaussians: a 3DGS PLY (with `object_id` for the joint stage). Without it, training
+    /// starts as 3DGS does: one Gaussian per COLMAP sparse point, or, for scenes without points
+    /// (Blender / transforms.json), random points in a cube (see --init-points, --init-cube).
     #[arg(long)]
-    pub gaussians: PathBuf,
+    pub gaussians: Option<PathBuf>,
+    /// Random starting points when there is neither a PLY nor sparse points (3DGS: 100000).
+    #[arg(long, default_value_t = 100_000)]
+    pub init_points: usize,
+    /// Half side of the random cube around the origin (3DGS's NeRF-synthetic value: 1.3).
+    #[arg(long, default_value_t = 1.3)]
+    pub init_cube: f32,
+    /// SH degree of Gaussians created here (3DGS: 3).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(0..=3))]
+    pub sh_degree: u8,
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
@@ -70,6 +83,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let summary = run_training(&TrainRun {
         scene: args.scene,
         gaussians: args.gaussians,
+        init: InitOptions {
+            random_points: args.init_points,
+            cube_half_side: args.init_cube,
+            sh_degree: args.sh_degree,
+        },
         out: args.out,
         config,
         resolution: args.resolution,

@@ -10,8 +10,11 @@ use splatseg_scene::load::LoadOptions;
 use splatseg_scene::npy::write_npy_f32;
 use splatseg_scene::ply::{read_ply, write_ply};
 use splatseg_scene::{load_scene, Gaussians};
-use splatseg_train::{evaluate_views, train, TrainConfig, TrainView, ViewQuality};
-use std::path::{Path, PathBuf};
+use splatseg_train::{
+    evaluate_views, gaussians_from_points, random_gaussians_in_cube, train, TrainConfig, TrainView,
+    ViewQuality,
+};
+use std::path::PathBuf;
 
 use super::cache::write_json;
 use super::progress;
@@ -21,14 +24,36 @@ use super::progress;
 pub struct TrainRun {
     /// Scene folder (COLMAP or transforms.json).
     pub scene: PathBuf,
-    /// Starting Gaussians (a 3DGS PLY; with `object_id` for the joint stage).
-    pub gaussians: PathBuf,
+    /// Starting Gaussians (a 3DGS PLY; with `object_id` for the joint stage); `None` = initialise as
+    /// 3DGS does (see [`InitOptions`]).
+    pub gaussians: Option<PathBuf>,
+    /// How to initialise without a PLY.
+    pub init: InitOptions,
     /// Output folder.
     pub out: PathBuf,
     /// Settings (`[train]`).
     pub config: TrainConfig,
     /// Image down-scaling factor (3DGS's `--resolution`).
     pub resolution: u32,
+}
+
+/// 3DGS's initialisation when no PLY is given: one Gaussian per sparse point when the scene has them
+/// (COLMAP), otherwise `random_points` uniform in a cube of half side `cube_half_side` around the origin
+/// (3DGS's NeRF-synthetic start: 100k points, 1.3).
+#[derive(Clone, Debug)]
+pub struct InitOptions {
+    /// Points of the random cube.
+    pub random_points: usize,
+    /// Half side of the cube (world units).
+    pub cube_half_side: f32,
+    /// SH degree of the new Gaussians (3DGS: 3).
+    pub sh_degree: u8,
+}
+
+impl Default for InitOptions {
+    fn default() -> Self {
+        Self { random_points: 100_000, cube_half_side: 1.3, sh_degree: 3 }
+    }
 }
 
 /// Mean image quality over a set of views.
@@ -79,14 +104,15 @@ fn labelled_share(g: &Gaussians) -> Option<f64> {
         .map(|ids| ids.iter().filter(|&&id| id >= 0).count() as f64 / ids.len().max(1) as f64)
 }
 
-/// Loads every view's image and camera, in scene order.
-fn load_views(scene_dir: &Path, options: &LoadOptions) -> anyhow::Result<Vec<TrainView>> {
+/// Loads every view's image and camera, in scene order, and the starting Gaussians.
+fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<(Vec<TrainView>, Gaussians)> {
+    let scene_dir = &run.scene;
     let scene = load_scene(scene_dir, options)
         .with_context(|| format!("cannot load scene {}", scene_dir.display()))?;
     for warning in &scene.warnings {
         tracing::warn!("{warning}");
     }
-    scene
+    let views = scene
         .views
         .iter()
         .map(|view| {
@@ -105,7 +131,32 @@ fn load_views(scene_dir: &Path, options: &LoadOptions) -> anyhow::Result<Vec<Tra
             let pixels = image.as_raw().iter().map(|&c| f32::from(c) / 255.0).collect();
             Ok(TrainView { name: view.stem.clone(), camera, image: pixels })
         })
-        .collect()
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let init = &run.init;
+    let gaussians = match (&run.gaussians, &scene.points) {
+        (Some(path), _) => read_ply(path)?,
+        (None, Some(points)) if !points.is_empty() => {
+            tracing::info!("initialising one Gaussian per sparse point ({})", points.len());
+            let xyz: Vec<[f32; 3]> = points.iter().map(|p| p.xyz.to_array().map(|v| v as f32)).collect();
+            let rgb: Vec<[u8; 3]> = points.iter().map(|p| p.rgb).collect();
+            gaussians_from_points(&xyz, &rgb, init.sh_degree)
+        }
+        (None, _) => {
+            tracing::info!(
+                "no PLY and no sparse points: {} random Gaussians in [−{h}, {h}]³ (3DGS's NeRF-synthetic start)",
+                init.random_points,
+                h = init.cube_half_side
+            );
+            random_gaussians_in_cube(
+                init.random_points,
+                [0.0; 3],
+                init.cube_half_side,
+                init.sh_degree,
+                run.config.seed,
+            )
+        }
+    };
+    Ok((views, gaussians))
 }
 
 /// Runs the train stage and writes `gaussians.ply`, `quality.json`, `renders/` (held-out views) and,
@@ -117,8 +168,7 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
         background: run.config.background,
         ..LoadOptions::default()
     };
-    let views = load_views(&run.scene, &options)?;
-    let gaussians = read_ply(&run.gaussians)?;
+    let (views, gaussians) = load_inputs(run, &options)?;
     // 3DGS's `--eval` split: views 0, every, 2·every, … are held out (none when there is only one view)
     let every = run.config.test_every;
     let hold_out = every > 0 && views.len() > 1;

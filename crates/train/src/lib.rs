@@ -4,7 +4,8 @@
 //! - [`config`]: [`TrainConfig`], the `[train]` TOML section, defaults = the paper's (3DGS's where unstated).
 //! - [`optimizer`]: Adam over the Gaussians' parameter groups, with densification's row operations.
 //! - [`densify`]: adaptive density control (clone / split / prune, opacity reset).
-//! - [`knn`]: exact k nearest neighbours on a grid (the regulariser's `N₅`).
+//! - [`init`]: starting Gaussians from a point cloud or a random cube (3DGS's initialisations).
+//! - [`knn`]: exact k nearest neighbours with a k-d tree (the regulariser's `N₅`, the initial scales).
 //! - [`joint`]: object codes, `L_semantic`, `L_3D-reg`, reading ids back from the feature field.
 //! - [`loss`]: `L_render = (1 − λ)·L1 + λ·(1 − SSIM)` and its image gradient.
 //! - [`trainer`]: the loop ([`train`]), held-out PSNR/SSIM ([`evaluate_views`]).
@@ -12,6 +13,7 @@
 pub mod config;
 pub mod densify;
 pub mod error;
+pub mod init;
 pub mod joint;
 pub mod knn;
 pub mod loss;
@@ -20,4 +22,5 @@ pub mod trainer;
 
 pub use config::{DensifyConfig, JointConfig, LearningRates, TrainConfig};
 pub use error::{TrainError, TrainResult};
+pub use init::{gaussians_from_points, random_gaussians_in_cube};
 pub use trainer::{evaluate_views, train, TrainView, Trained, TrainingProgress, ViewQuality};
