@@ -116,10 +116,27 @@ fn train_after_pipeline(
     let gt_ids = scene_dir.join("gt").join("gaussian_ids.npy");
     let before = splatseg_eval::label_accuracy_3d_files(&gt_ids, &lifted_ply)?;
     let after = splatseg_eval::label_accuracy_3d_files(&gt_ids, &train_out.join("gaussians.ply"))?;
+    // the label maps rendered from the relabelled Gaussians, scored like the pipeline's
+    let gt_maps = scene_dir.join("gt").join("instance");
+    let eval_config = splatseg_eval::EvalConfig::default();
+    let mut lifted = splatseg_eval::evaluate_folders(&gt_maps, &run_out.join("masks"), &eval_config)?;
+    lifted.label_accuracy_3d = Some(before);
+    let mut joint = splatseg_eval::evaluate_folders(&gt_maps, &train_out.join("masks"), &eval_config)?;
+    joint.label_accuracy_3d = Some(after);
     println!(
-        "3D label accuracy: lifted {:.3} → after the joint optimisation {:.3} ({} → {} Gaussians without an id)",
-        before.accuracy, after.accuracy, before.unlabelled_predictions, after.unlabelled_predictions
+        "\n{}",
+        splatseg_eval::summary_table(&[
+            ("lifted (run)", &lifted),
+            ("joint (rendered from the trained Gaussians)", &joint)
+        ])
     );
-    println!("outputs: {} (gaussians.ply, quality.json, renders/)", train_out.display());
+    let unlabelled =
+        |m: &splatseg_eval::Metrics| m.label_accuracy_3d.as_ref().map_or(0, |a| a.unlabelled_predictions);
+    println!(
+        "(joint = label maps rendered from the trained Gaussians' new ids, not snapped; {} → {} Gaussians without an id)",
+        unlabelled(&lifted),
+        unlabelled(&joint)
+    );
+    println!("outputs: {} (gaussians.ply, quality.json, renders/, masks/, overlays/)", train_out.display());
     Ok(())
 }

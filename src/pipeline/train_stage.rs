@@ -2,19 +2,25 @@
 //! `test_every`-th view, train, score PSNR / SSIM before and after, write the trained PLY.
 
 use anyhow::Context;
+use image::RgbImage;
+use rayon::prelude::*;
 use serde::Serialize;
+use splatseg_lift::render_labels::ABSTAIN;
+use splatseg_lift::{render_label_map, LiftConfig, PreparedGaussians, RenderVotes};
 use splatseg_render::export::write_rgb_png;
 use splatseg_render::{render, RenderCamera, RenderRequest};
 use splatseg_scene::images::load_image_rgb;
+use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::npy::write_npy_f32;
 use splatseg_scene::ply::{read_ply, write_ply};
 use splatseg_scene::{load_scene, Gaussians};
+use splatseg_scene::{Camera, Pose};
 use splatseg_train::{
     evaluate_views, gaussians_from_points, random_gaussians_in_cube, train, TrainConfig, TrainView,
     ViewQuality,
 };
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::cache::write_json;
 use super::progress;
@@ -104,19 +110,37 @@ fn labelled_share(g: &Gaussians) -> Option<f64> {
         .map(|ids| ids.iter().filter(|&&id| id >= 0).count() as f64 / ids.len().max(1) as f64)
 }
 
+/// Everything [`run_training`] reads.
+struct Inputs {
+    /// Every view, in scene order.
+    views: Vec<TrainView>,
+    /// `[n_views]` scene camera and pose of each view (for label maps).
+    posed: Vec<(Camera, Pose)>,
+    /// `[n_views]` the images as loaded (for overlays).
+    images: Vec<RgbImage>,
+    /// The starting Gaussians.
+    gaussians: Gaussians,
+}
+
 /// Loads every view's image and camera, in scene order, and the starting Gaussians.
-fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<(Vec<TrainView>, Gaussians)> {
+fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> {
     let scene_dir = &run.scene;
     let scene = load_scene(scene_dir, options)
         .with_context(|| format!("cannot load scene {}", scene_dir.display()))?;
     for warning in &scene.warnings {
         tracing::warn!("{warning}");
     }
+    let images = scene
+        .views
+        .iter()
+        .map(|view| load_image_rgb(&scene, view, options))
+        .collect::<Result<Vec<_>, _>>()?;
+    let posed = scene.views.iter().map(|view| (scene.camera(view).clone(), view.world_from_cam)).collect();
     let views = scene
         .views
         .iter()
-        .map(|view| {
-            let image = load_image_rgb(&scene, view, options)?;
+        .zip(&images)
+        .map(|(view, image)| {
             let camera = RenderCamera::from_scene(scene.camera(view), &view.world_from_cam);
             if (image.width(), image.height()) != (camera.width, camera.height) {
                 anyhow::bail!(
@@ -156,11 +180,38 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<(Vec<Tra
             )
         }
     };
-    Ok((views, gaussians))
+    Ok(Inputs { views, posed, images, gaussians })
+}
+
+/// Renders every view's label map from the Gaussians' `object_id`s (ids ≥ 1 are objects, 0 and −1
+/// vote for nothing) with lifting's label compositor, and writes `masks/<stem>.png` and
+/// `overlays/<stem>.png` under `out`.
+fn write_object_maps(out: &Path, gaussians: &Gaussians, inputs: &Inputs) -> anyhow::Result<()> {
+    let Some(ids) = gaussians.object_ids.as_deref() else { return Ok(()) };
+    let prepared = PreparedGaussians::new(gaussians)?;
+    let votes =
+        RenderVotes::uniform(ids.iter().map(|&id| if id > 0 { id as u32 } else { ABSTAIN }).collect());
+    let config = LiftConfig::default();
+    for dir in ["masks", "overlays"] {
+        std::fs::create_dir_all(out.join(dir))
+            .with_context(|| format!("cannot create {}", out.join(dir).display()))?;
+    }
+    inputs.views.par_iter().zip(&inputs.posed).zip(&inputs.images).try_for_each(
+        |((view, (camera, pose)), image)| {
+            let map = render_label_map(&prepared, &votes, camera, pose, &config);
+            write_label_png(&out.join("masks").join(format!("{}.png", view.name)), &map)?;
+            write_png_rgb(
+                &out.join("overlays").join(format!("{}.png", view.name)),
+                &overlay(image, &map, 0.5),
+            )?;
+            anyhow::Ok(())
+        },
+    )
 }
 
 /// Runs the train stage and writes `gaussians.ply`, `quality.json`, `renders/` (held-out views) and,
-/// after a joint stage, `object_features.npy` (`[N, D]`).
+/// after a joint stage, `object_features.npy` (`[N, D]`) and every view's label map rendered from the
+/// relabelled Gaussians (`masks/`, `overlays/`).
 pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
     run.config.validate()?;
     let options = LoadOptions {
@@ -168,7 +219,9 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
         background: run.config.background,
         ..LoadOptions::default()
     };
-    let (views, gaussians) = load_inputs(run, &options)?;
+    let inputs = load_inputs(run, &options)?;
+    let views = inputs.views.clone();
+    let gaussians = inputs.gaussians.clone();
     // 3DGS's `--eval` split: views 0, every, 2·every, … are held out (none when there is only one view)
     let every = run.config.test_every;
     let hold_out = every > 0 && views.len() > 1;
@@ -225,6 +278,9 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
                 out.height,
             )?;
         }
+    }
+    if trained.feature_dim > 0 {
+        write_object_maps(&run.out, &trained.gaussians, &inputs)?;
     }
     let labelled = match (labelled_before, trained.feature_dim > 0) {
         (Some(before), true) => labelled_share(&trained.gaussians).map(|after| (before, after)),
