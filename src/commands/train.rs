@@ -63,6 +63,10 @@ pub struct Args {
     /// Photometric training only, even if the PLY has object ids.
     #[arg(long)]
     pub no_joint: bool,
+    /// Composite RGBA images on white and render on white (3DGS's `--white_background`); the default
+    /// background is the config's (black).
+    #[arg(long, short = 'w')]
+    pub white_background: bool,
 }
 
 /// Runs `splatseg train`.
@@ -79,6 +83,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.no_joint {
         config.joint.enabled = false;
+    }
+    if args.white_background {
+        config.background = [1.0; 3];
     }
     let summary = run_training(&TrainRun {
         scene: args.scene,
