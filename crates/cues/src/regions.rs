@@ -60,8 +60,13 @@ impl MaskInput {
     }
 
     /// From COCO RLE counts (column-major runs starting with zeros, as pycocotools writes them)
-    /// of a `width × height` mask. `scratch` is a reusable all-`false` buffer of `width·height`
-    /// (left all-`false` on return). Errors if the counts do not sum to `width·height`.
+    /// of a `width × height` mask. Errors if the counts do not sum to `width·height`.
+    ///
+    /// The cost follows the counts and the runs produced, not the image size (no per-pixel
+    /// work; a sweep over the columns, see `row_runs_from_column_runs`). `scratch` is no longer
+    /// used and is left exactly
+    /// as passed (an all-`false` buffer stays all-`false`); it is kept so callers that reuse one
+    /// across masks need not change.
     pub fn from_coco_counts(
         counts: &[u32],
         width: usize,
@@ -69,45 +74,12 @@ impl MaskInput {
         scratch: &mut Vec<bool>,
         quality: (f32, f32),
     ) -> Result<Self, String> {
+        let _ = scratch; // Unused: see above.
         let total: u64 = counts.iter().map(|&c| c as u64).sum();
         if total != (width * height) as u64 {
             return Err(format!("RLE counts sum to {total}, expected {width}×{height} = {}", width * height));
         }
-        scratch.clear();
-        scratch.resize(width * height, false);
-        let (mut pos, mut value) = (0usize, false);
-        let (mut y_min, mut y_max) = (usize::MAX, 0usize);
-        for &c in counts {
-            if value {
-                for idx in pos..pos + c as usize {
-                    let (x, y) = (idx / height, idx % height);
-                    scratch[y * width + x] = true;
-                    y_min = y_min.min(y);
-                    y_max = y_max.max(y);
-                }
-            }
-            pos += c as usize;
-            value = !value;
-        }
-        let mut runs = Vec::new();
-        if y_min <= y_max {
-            for y in y_min..=y_max {
-                let row = &mut scratch[y * width..(y + 1) * width];
-                let mut x = 0;
-                while x < width {
-                    if row[x] {
-                        let start = x;
-                        while x < width && row[x] {
-                            row[x] = false;
-                            x += 1;
-                        }
-                        runs.push(((y * width + start) as u32, (x - start) as u32));
-                    } else {
-                        x += 1;
-                    }
-                }
-            }
-        }
+        let runs = row_runs_from_column_runs(counts, width, height);
         Ok(MaskInput { runs, predicted_iou: quality.0, stability_score: quality.1 })
     }
 
@@ -124,6 +96,154 @@ impl MaskInput {
 
     fn pixels(&self) -> impl Iterator<Item = usize> + '_ {
         self.runs.iter().flat_map(|&(s, n)| s as usize..(s + n) as usize)
+    }
+}
+
+/// Row-major runs (`(y · width + x, len)`, sorted) of the mask whose column-major COCO
+/// `counts` (already checked to sum to `width · height`) are given.
+///
+/// Sweep over the columns: each column's coverage is a sorted list of disjoint `y` intervals
+/// (stored as their boundaries `a0, b0, a1, b1, …`). Between consecutive column states only
+/// the rows in the symmetric difference change, and each such change is the start or the end
+/// of a row run; it is recorded as an event `(y, x)`. A ones run spanning whole columns is one
+/// state for all of them. Sorting the events by `(y, x)` pairs each run's start with its end.
+/// Cost: `O(counts + E log E)` with `E` = 2 × the number of row runs.
+fn row_runs_from_column_runs(counts: &[u32], width: usize, height: usize) -> Vec<(u32, u32)> {
+    let mut sweep = ColumnSweep::default();
+    for piece in column_pieces(counts, height) {
+        sweep.add(piece);
+    }
+    sweep.finish();
+    let mut events = sweep.events;
+    events.sort_unstable();
+    events
+        .chunks_exact(2)
+        .map(|pair| {
+            let (y, x_start, x_end) = (pair[0] >> 32, pair[0] as u32, pair[1] as u32);
+            debug_assert_eq!(y, pair[1] >> 32, "row run start and end on the same row");
+            ((y as usize * width + x_start as usize) as u32, x_end - x_start)
+        })
+        .collect()
+}
+
+/// Columns `x_start..x_end` all covered on rows `y_start..y_end`.
+#[derive(Clone, Copy, Debug)]
+struct ColumnPiece {
+    x_start: u32,
+    x_end: u32,
+    y_start: u32,
+    y_end: u32,
+}
+
+/// The ones runs of column-major `counts` (height `height`) as [`ColumnPiece`]s ordered by
+/// column, then row. Adjacent ones runs (a zero-length zeros run between them) are joined, so
+/// pieces in one column never touch; a run over whole columns is one piece.
+fn column_pieces(counts: &[u32], height: usize) -> impl Iterator<Item = ColumnPiece> + '_ {
+    let mut pos = 0u64;
+    let mut runs = Vec::new();
+    for (i, &c) in counts.iter().enumerate() {
+        let end = pos + c as u64;
+        if i % 2 == 1 && c > 0 {
+            match runs.last_mut() {
+                Some((_, last_end)) if *last_end == pos => *last_end = end,
+                _ => runs.push((pos, end)),
+            }
+        }
+        pos = end;
+    }
+    let h = height as u64;
+    runs.into_iter().flat_map(move |(start, end)| {
+        let (x0, y0) = ((start / h) as u32, (start % h) as u32);
+        let (x1, y1) = (((end - 1) / h) as u32, ((end - 1) % h) as u32 + 1);
+        let piece = |x_start, x_end, y_start, y_end| ColumnPiece { x_start, x_end, y_start, y_end };
+        let (first, middle, last) = if x0 == x1 {
+            (Some(piece(x0, x0 + 1, y0, y1)), None, None)
+        } else {
+            let middle = (x1 > x0 + 1).then(|| piece(x0 + 1, x1, 0, h as u32));
+            (Some(piece(x0, x0 + 1, y0, h as u32)), middle, Some(piece(x1, x1 + 1, 0, y1)))
+        };
+        first.into_iter().chain(middle).chain(last)
+    })
+}
+
+/// State of the column sweep in [`row_runs_from_column_runs`].
+#[derive(Default)]
+struct ColumnSweep {
+    /// Boundaries of the covered `y` intervals of columns `state_start..state_end`.
+    state: Vec<u32>,
+    state_start: u32,
+    state_end: u32,
+    /// Boundaries of the state before `state` (reused buffer).
+    previous: Vec<u32>,
+    /// `y << 32 | x`: row `y` starts or ends a run at column `x`.
+    events: Vec<u64>,
+}
+
+impl ColumnSweep {
+    fn add(&mut self, piece: ColumnPiece) {
+        let same_column = piece.x_start == self.state_start && self.state_end == piece.x_start + 1;
+        if !same_column || self.state.is_empty() {
+            self.close_state();
+            if piece.x_start > self.state_end {
+                // Empty columns in between: every row covered so far ends.
+                self.toggle_against(&[], self.state_end);
+                self.previous.clear();
+            }
+            self.state_start = piece.x_start;
+        }
+        self.state.extend([piece.y_start, piece.y_end]);
+        self.state_end = piece.x_end;
+    }
+
+    /// Emits the events of entering `state` at `state_start`; `state` becomes `previous`.
+    fn close_state(&mut self) {
+        if self.state.is_empty() {
+            return;
+        }
+        let state = std::mem::take(&mut self.state);
+        self.toggle_against(&state, self.state_start);
+        self.previous = state;
+    }
+
+    /// Events at column `x` for the rows where `previous` and `next` differ: both are sorted
+    /// boundary lists, and a boundary in both cancels.
+    fn toggle_against(&mut self, next: &[u32], x: u32) {
+        let (a, b) = (&self.previous, next);
+        let (mut i, mut j) = (0, 0);
+        let mut open: Option<u32> = None;
+        while i < a.len() || j < b.len() {
+            let y = match (a.get(i), b.get(j)) {
+                (Some(&p), Some(&q)) if p == q => {
+                    (i, j) = (i + 1, j + 1);
+                    continue;
+                }
+                (Some(&p), Some(&q)) if p < q => {
+                    i += 1;
+                    p
+                }
+                (Some(&p), None) => {
+                    i += 1;
+                    p
+                }
+                (_, Some(&q)) => {
+                    j += 1;
+                    q
+                }
+                (None, None) => unreachable!("loop condition"),
+            };
+            match open.take() {
+                None => open = Some(y),
+                Some(y_start) => self.events.extend((y_start..y).map(|row| (row as u64) << 32 | x as u64)),
+            }
+        }
+    }
+
+    /// Closes every run still open after the last column.
+    fn finish(&mut self) {
+        self.close_state();
+        let end = self.state_end;
+        self.toggle_against(&[], end);
+        self.previous.clear();
     }
 }
 
@@ -343,6 +463,9 @@ fn resolve_uncovered(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use splatseg_scene::rle::Rle;
 
     fn rect(w: usize, h: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> Plane<bool> {
         Plane::from_vec(
@@ -409,5 +532,153 @@ mod tests {
         assert_eq!(m.runs, vec![(1, 1), (3, 1)]);
         assert!(scratch.iter().all(|&b| !b));
         assert!(MaskInput::from_coco_counts(&[1, 2], 3, 2, &mut scratch, (0.0, 0.0)).is_err());
+    }
+
+    /// A random mask of one of the shapes the property test covers.
+    fn random_mask(rng: &mut ChaCha8Rng, w: usize, h: usize) -> Plane<bool> {
+        let shape = rng.gen_range(0..9);
+        let mut m = Plane::from_vec(w, h, vec![false; w * h]).unwrap();
+        let set = |m: &mut Plane<bool>, x: i64, y: i64| {
+            if (0..w as i64).contains(&x) && (0..h as i64).contains(&y) {
+                *m.get_mut(x as usize, y as usize) = true;
+            }
+        };
+        match shape {
+            // Empty.
+            0 => {}
+            // Full image.
+            1 => m.data.fill(true),
+            // Single pixel (corners often).
+            2 => {
+                let x = [0, w - 1, rng.gen_range(0..w)][rng.gen_range(0..3)];
+                let y = [0, h - 1, rng.gen_range(0..h)][rng.gen_range(0..3)];
+                set(&mut m, x as i64, y as i64);
+            }
+            // Blobs: unions of discs, some centred off the image (touching the borders).
+            3 | 4 => {
+                for _ in 0..rng.gen_range(1..5) {
+                    let (cx, cy) = (rng.gen_range(-3..w as i64 + 3), rng.gen_range(-3..h as i64 + 3));
+                    let r = rng.gen_range(0..(w.max(h) as i64 / 2 + 2));
+                    for y in cy - r..=cy + r {
+                        for x in cx - r..=cx + r {
+                            if (x - cx).pow(2) + (y - cy).pow(2) <= r * r {
+                                set(&mut m, x, y);
+                            }
+                        }
+                    }
+                }
+            }
+            // Thin lines: rows, columns, diagonals.
+            5 => {
+                for _ in 0..rng.gen_range(1..4) {
+                    let (x0, y0) = (rng.gen_range(0..w) as i64, rng.gen_range(0..h) as i64);
+                    let (dx, dy) = [(1, 0), (0, 1), (1, 1), (1, -1)][rng.gen_range(0..4)];
+                    for t in -(w.max(h) as i64)..w.max(h) as i64 {
+                        set(&mut m, x0 + t * dx, y0 + t * dy);
+                    }
+                }
+            }
+            // Rectangles, often touching the borders.
+            6 => {
+                for _ in 0..rng.gen_range(1..4) {
+                    let (x0, x1) = (rng.gen_range(0..w), rng.gen_range(0..=w));
+                    let (y0, y1) = (rng.gen_range(0..h), rng.gen_range(0..=h));
+                    for y in y0.min(y1)..y0.max(y1) {
+                        for x in x0.min(x1)..x0.max(x1) {
+                            set(&mut m, x as i64, y as i64);
+                        }
+                    }
+                }
+            }
+            // Whole columns (runs spanning several columns) with gaps.
+            7 => {
+                for x in 0..w {
+                    if rng.gen_bool(0.6) {
+                        (0..h).for_each(|y| set(&mut m, x as i64, y as i64));
+                    }
+                }
+            }
+            // Noise at a random density.
+            _ => {
+                let p = rng.gen_range(0.05..0.95);
+                m.data.iter_mut().for_each(|v| *v = rng.gen_bool(p));
+            }
+        }
+        m
+    }
+
+    /// Splits some ones runs of `counts` with zero-length zeros runs between the pieces (valid
+    /// counts pycocotools would not write, same mask).
+    fn with_empty_zero_runs(rng: &mut ChaCha8Rng, counts: &[u32]) -> Vec<u32> {
+        let mut out = Vec::new();
+        for (i, &c) in counts.iter().enumerate() {
+            if i % 2 == 1 && c >= 2 && rng.gen_bool(0.5) {
+                let a = rng.gen_range(1..c);
+                out.extend([a, 0, c - a]);
+            } else {
+                out.push(c);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn coco_counts_equal_the_decoded_mask_on_random_masks() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut scratch = vec![false; 7];
+        let mut shapes_checked = 0;
+        for case in 0..3000 {
+            let (w, h) = match case % 5 {
+                0 => (1, rng.gen_range(1..40)),
+                1 => (rng.gen_range(1..40), 1),
+                _ => (rng.gen_range(1..48), rng.gen_range(1..48)),
+            };
+            let mask = random_mask(&mut rng, w, h);
+            let rle = Rle::encode(&mask);
+            let quality = (rng.gen(), rng.gen());
+            let expected = MaskInput::from_plane(&rle.decode().unwrap(), quality.0, quality.1);
+            assert_eq!(expected, MaskInput::from_plane(&mask, quality.0, quality.1));
+            let got = MaskInput::from_coco_counts(&rle.counts, w, h, &mut scratch, quality).unwrap();
+            assert_eq!(got, expected, "case {case}: {w}×{h}, counts {:?}", rle.counts);
+            let split = with_empty_zero_runs(&mut rng, &rle.counts);
+            let got = MaskInput::from_coco_counts(&split, w, h, &mut scratch, quality).unwrap();
+            assert_eq!(got, expected, "case {case}: {w}×{h}, split counts {split:?}");
+            shapes_checked += usize::from(!expected.runs.is_empty());
+        }
+        assert!(shapes_checked > 2000, "most random masks are non-empty ({shapes_checked})");
+        assert_eq!(scratch, vec![false; 7], "scratch is left as passed");
+    }
+
+    #[test]
+    fn coco_counts_edge_cases() {
+        let mut scratch = Vec::new();
+        let runs = |counts: &[u32], w, h, scratch: &mut Vec<bool>| {
+            MaskInput::from_coco_counts(counts, w, h, scratch, (0.0, 0.0)).map(|m| m.runs)
+        };
+        // Full 4×3 image: one ones run over every column.
+        assert_eq!(runs(&[0, 12], 4, 3, &mut scratch).unwrap(), vec![(0, 4), (4, 4), (8, 4)]);
+        // A run from (x 0, y 2) over columns 1 and 2 to (x 3, y 0) (of 4 × 3): row 0 is
+        // x 1..=3, row 1 x 1..=2, row 2 x 0..=2.
+        assert_eq!(runs(&[2, 8, 2], 4, 3, &mut scratch).unwrap(), vec![(1, 3), (5, 2), (8, 3)]);
+        // Empty and zero-sized images.
+        assert_eq!(runs(&[12], 4, 3, &mut scratch).unwrap(), vec![]);
+        assert_eq!(runs(&[0], 0, 3, &mut scratch).unwrap(), vec![]);
+        assert_eq!(runs(&[], 4, 0, &mut scratch).unwrap(), vec![]);
+        assert!(scratch.is_empty());
+    }
+
+    #[test]
+    fn coco_counts_with_a_wrong_sum_are_refused() {
+        let mut scratch = Vec::new();
+        let err = |counts: &[u32], w, h, scratch: &mut Vec<bool>| {
+            MaskInput::from_coco_counts(counts, w, h, scratch, (0.0, 0.0)).unwrap_err()
+        };
+        assert_eq!(err(&[1, 2], 3, 2, &mut scratch), "RLE counts sum to 3, expected 3×2 = 6");
+        assert_eq!(err(&[4, 4], 3, 2, &mut scratch), "RLE counts sum to 8, expected 3×2 = 6");
+        assert_eq!(err(&[], 3, 2, &mut scratch), "RLE counts sum to 0, expected 3×2 = 6");
+        assert_eq!(
+            err(&[u32::MAX, u32::MAX, 2], 3, 2, &mut scratch),
+            format!("RLE counts sum to {}, expected 3×2 = 6", 2 * u32::MAX as u64 + 2)
+        );
     }
 }
