@@ -64,9 +64,8 @@ impl MaskInput {
     ///
     /// The cost follows the counts and the runs produced, not the image size (no per-pixel
     /// work; a sweep over the columns, see `row_runs_from_column_runs`). `scratch` is no longer
-    /// used and is left exactly
-    /// as passed (an all-`false` buffer stays all-`false`); it is kept so callers that reuse one
-    /// across masks need not change.
+    /// used and is left exactly as passed (an all-`false` buffer stays all-`false`); it is kept
+    /// so callers that reuse one across masks need not change.
     pub fn from_coco_counts(
         counts: &[u32],
         width: usize,
