@@ -1,11 +1,11 @@
 //! `splatseg ablate`: the merge stage's ablation and sensitivity tables on a synthetic scene.
 
+use crate::pipeline::mask_inputs;
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use rayon::prelude::*;
 use splatseg_cues::{
-    DenseFeatureDescriptors, DepthKind, DepthMap, FeatureGrid, FeatureGrids, MaskInput, RegionOptions,
-    UncoveredPolicy,
+    DenseFeatureDescriptors, DepthKind, DepthMap, FeatureGrid, FeatureGrids, RegionOptions, UncoveredPolicy,
 };
 use splatseg_eval::{EvalConfig, ViewCounts};
 use splatseg_merge::study::{
@@ -61,16 +61,8 @@ fn study_views(scene: &SynthScene, region_options: RegionOptions) -> anyhow::Res
         .map(|(i, v)| {
             let (w, h) = v.image.size();
             let rgb = v.image.map(|p| p.map(|c| c as f32 / 255.0));
-            let mut scratch = Vec::new();
-            let masks = v
-                .sam_masks
-                .iter()
-                .map(|m| {
-                    let q = (m.predicted_iou as f32, m.stability_score as f32);
-                    MaskInput::from_coco_counts(&m.segmentation.counts, w, h, &mut scratch, q)
-                        .map_err(|e| anyhow::anyhow!("view {}: {e}", v.stem))
-                })
-                .collect::<anyhow::Result<Vec<_>>>()?;
+            let masks =
+                mask_inputs(&v.sam_masks, w, h).map_err(|e| anyhow::anyhow!("view {}: {e}", v.stem))?;
             let f = &v.features;
             let grid =
                 FeatureGrid::new(f.grid_h, f.grid_w, f.dim, f.values.clone()).context("feature grid")?;

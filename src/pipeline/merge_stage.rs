@@ -140,8 +140,7 @@ pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> anyhow::
 
 #[cfg(test)]
 mod tests {
-    use crate::pipeline::mask_input::mask_inputs;
-    use crate::pipeline::read_view_mask_inputs;
+    use crate::pipeline::{mask_inputs, read_view_mask_inputs};
     use splatseg_cues::{regions_from_sam_masks, MaskInput, RegionOptions};
     use splatseg_scene::sam::{write_sam_json, write_sam_png_folder, SamMask};
     use splatseg_synth::SynthConfig;

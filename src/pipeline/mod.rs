@@ -25,7 +25,7 @@ use anyhow::{bail, Context};
 use cache::{read_json, write_json, KeyHasher};
 use eval_stage::{evaluate, offset_local_maps, StageMaps};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
-pub use mask_input::read_view_mask_inputs;
+pub use mask_input::{mask_inputs, read_view_mask_inputs};
 use merge_stage::{merge_one, MergeContext, MergedView, ViewDepth};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
