@@ -63,9 +63,10 @@ pub struct Trained {
     /// The optimised Gaussians; `object_ids` hold the ids read back from the object features when the
     /// joint stage ran (else whatever came in, carried through densification).
     pub gaussians: Gaussians,
-    /// `[N, D]` object features (empty when the joint stage was off).
+    /// `[N, D]` object features (empty when the joint stage did not run: off, no lifted ids, or training
+    /// ended before densification did).
     pub object_features: Vec<f32>,
-    /// Object-feature width D (0 when off).
+    /// Object-feature width D (0 when the joint stage did not run).
     pub feature_dim: usize,
     /// Every densification step, in order.
     pub densify_reports: Vec<(usize, DensifyReport)>,
@@ -213,10 +214,13 @@ pub fn train(
         last = Some(record);
     }
 
-    if let (true, Some(codes)) = (joint && config.iterations >= config.densify.until, codes.as_ref()) {
+    // the joint stage ran only if training reached the end of densification
+    let joint_ran = joint && config.iterations >= config.densify.until;
+    if let (true, Some(codes)) = (joint_ran, codes.as_ref()) {
         g.object_ids = Some(assign_ids(&features, codes, config.joint.assign_min_cosine as f32));
     }
-    Ok(Trained { gaussians: g, object_features: features, feature_dim: dim, densify_reports: reports, last })
+    let (object_features, feature_dim) = if joint_ran { (features, dim) } else { (Vec::new(), 0) };
+    Ok(Trained { gaussians: g, object_features, feature_dim, densify_reports: reports, last })
 }
 
 /// PSNR and SSIM of the Gaussians rendered (all SH degrees, clamped to [0, 1] as 3DGS's evaluation

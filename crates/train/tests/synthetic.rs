@@ -126,4 +126,10 @@ fn training_is_deterministic_with_densification_and_the_joint_stage() {
     assert_eq!(a.object_features, b.object_features);
     assert_eq!(a.densify_reports, b.densify_reports);
     assert_eq!(a.object_features.len(), a.gaussians.len() * 16, "features follow densification");
+
+    // stopping before densification ends: no joint stage, the lifted ids pass through untouched
+    let short = TrainConfig { iterations: 30, ..config.clone() };
+    let early = train(start.clone(), &train_views, &short, &|_| {}).expect("train");
+    assert_eq!((early.feature_dim, early.object_features.len()), (0, 0));
+    assert_eq!(early.gaussians.object_ids.as_ref().map(|ids| ids.len()), Some(early.gaussians.len()));
 }
