@@ -143,8 +143,16 @@ fn train_runs_end_to_end_and_scores_held_out_views() {
         out_dir.to_str().expect("utf-8"),
         "--iterations",
         "30",
+        "--save-iterations",
+        "10,30,7000",
     ]);
     assert!(out.status.success(), "train failed: {}", stderr(&out));
+    // 3DGS's checkpoint layout, for iterations before the last only
+    assert!(out_dir.join("point_cloud/iteration_10/point_cloud.ply").is_file());
+    assert!(
+        !out_dir.join("point_cloud/iteration_30").exists()
+            && !out_dir.join("point_cloud/iteration_7000").exists()
+    );
     let quality: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("quality.json")).expect("quality.json"))
             .expect("valid JSON");

@@ -51,6 +51,10 @@ pub struct Args {
     /// Iterations (one view each); overrides the config's `[train] iterations`.
     #[arg(long)]
     pub iterations: Option<usize>,
+    /// Also save the Gaussians after these iterations, as OUT/point_cloud/iteration_<N>/point_cloud.ply
+    /// (3DGS's layout and default: 7000,30000); overrides `[train] save_iterations`.
+    #[arg(long, value_delimiter = ',')]
+    pub save_iterations: Option<Vec<usize>>,
     /// Iteration at which densification stops and the joint stage starts; overrides `[train.densify] until`.
     #[arg(long)]
     pub densify_until: Option<usize>,
@@ -77,6 +81,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     if let Some(n) = args.iterations {
         config.iterations = n;
+    }
+    if let Some(list) = args.save_iterations {
+        config.save_iterations = list;
     }
     if let Some(n) = args.densify_until {
         config.densify.until = n;

@@ -17,8 +17,8 @@ use splatseg_scene::ply::{read_ply, write_ply};
 use splatseg_scene::{load_scene, Gaussians};
 use splatseg_scene::{Camera, Pose};
 use splatseg_train::{
-    evaluate_views, gaussians_from_points, random_gaussians_in_cube, train, TrainConfig, TrainView,
-    ViewQuality,
+    evaluate_views, gaussians_from_points, random_gaussians_in_cube, train_with_checkpoints, TrainConfig,
+    TrainView, ViewQuality,
 };
 use std::path::{Path, PathBuf};
 
@@ -211,7 +211,8 @@ fn write_object_maps(out: &Path, gaussians: &Gaussians, inputs: &Inputs) -> anyh
 
 /// Runs the train stage and writes `gaussians.ply`, `quality.json`, `renders/` (held-out views) and,
 /// after a joint stage, `object_features.npy` (`[N, D]`) and every view's label map rendered from the
-/// relabelled Gaussians (`masks/`, `overlays/`).
+/// relabelled Gaussians (`masks/`, `overlays/`); the Gaussians of each `save_iterations` entry before the
+/// last go to `point_cloud/iteration_<N>/point_cloud.ply` (3DGS's layout).
 pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
     run.config.validate()?;
     let options = LoadOptions {
@@ -246,12 +247,29 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
     let start_count = gaussians.len();
 
     let bar = progress(run.config.iterations, "training");
-    let trained = train(gaussians, &train_views, &run.config, &|p| {
-        bar.inc(1);
-        if p.iteration % 50 == 0 {
-            bar.set_message(format!("loss {:.4}, {} Gaussians", p.render_loss, p.gaussians));
-        }
-    })?;
+    let checkpoint_dir = run.out.join("point_cloud");
+    let mut save = |iteration: usize, g: &Gaussians| -> splatseg_train::TrainResult<()> {
+        let dir = checkpoint_dir.join(format!("iteration_{iteration}"));
+        std::fs::create_dir_all(&dir).map_err(|e| {
+            splatseg_train::TrainError::Input(format!("cannot create {}: {e}", dir.display()))
+        })?;
+        write_ply(&dir.join("point_cloud.ply"), g)
+            .map_err(|e| splatseg_train::TrainError::Input(format!("cannot write a checkpoint: {e}")))?;
+        tracing::info!("saved the Gaussians of iteration {iteration} to {}", dir.display());
+        Ok(())
+    };
+    let trained = train_with_checkpoints(
+        gaussians,
+        &train_views,
+        &run.config,
+        &|p| {
+            bar.inc(1);
+            if p.iteration % 50 == 0 {
+                bar.set_message(format!("loss {:.4}, {} Gaussians", p.render_loss, p.gaussians));
+            }
+        },
+        &mut save,
+    )?;
     bar.finish_and_clear();
 
     let test_views = evaluate_views(&trained.gaussians, &test, background)?;

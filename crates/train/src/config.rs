@@ -140,6 +140,9 @@ pub struct TrainConfig {
     pub test_every: usize,
     /// RGB background the images were composited on.
     pub background: [f32; 3],
+    /// Iterations after which the Gaussians are also saved (3DGS's `--save_iterations`: 7000, 30000);
+    /// the final ones are always saved.
+    pub save_iterations: Vec<usize>,
     /// Learning rates.
     pub lr: LearningRates,
     /// Densification.
@@ -157,6 +160,7 @@ impl Default for TrainConfig {
             seed: 0,
             test_every: 8,
             background: [0.0; 3],
+            save_iterations: vec![7000, 30_000],
             lr: LearningRates::default(),
             densify: DensifyConfig::default(),
             joint: JointConfig::default(),

@@ -23,4 +23,6 @@ pub mod trainer;
 pub use config::{DensifyConfig, JointConfig, LearningRates, TrainConfig};
 pub use error::{TrainError, TrainResult};
 pub use init::{gaussians_from_points, random_gaussians_in_cube};
-pub use trainer::{evaluate_views, train, TrainView, Trained, TrainingProgress, ViewQuality};
+pub use trainer::{
+    evaluate_views, train, train_with_checkpoints, TrainView, Trained, TrainingProgress, ViewQuality,
+};

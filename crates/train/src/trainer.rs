@@ -102,6 +102,18 @@ pub fn train(
     config: &TrainConfig,
     progress: &(dyn Fn(&TrainingProgress) + Sync),
 ) -> TrainResult<Trained> {
+    train_with_checkpoints(gaussians, views, config, progress, &mut |_, _| Ok(()))
+}
+
+/// [`train`], also handing the Gaussians to `checkpoint` after each iteration listed in
+/// `config.save_iterations` that comes before the last (their `object_id`s are still the lifted ones).
+pub fn train_with_checkpoints(
+    gaussians: Gaussians,
+    views: &[TrainView],
+    config: &TrainConfig,
+    progress: &(dyn Fn(&TrainingProgress) + Sync),
+    checkpoint: &mut dyn FnMut(usize, &Gaussians) -> TrainResult<()>,
+) -> TrainResult<Trained> {
     config.validate()?;
     if views.is_empty() {
         return Err(TrainError::Input("no training views".into()));
@@ -212,6 +224,9 @@ pub fn train(
         };
         progress(&record);
         last = Some(record);
+        if iteration < config.iterations && config.save_iterations.contains(&iteration) {
+            checkpoint(iteration, &g)?;
+        }
     }
 
     // the joint stage ran only if training reached the end of densification

@@ -127,6 +127,26 @@ fn training_is_deterministic_with_densification_and_the_joint_stage() {
     assert_eq!(a.densify_reports, b.densify_reports);
     assert_eq!(a.object_features.len(), a.gaussians.len() * 16, "features follow densification");
 
+    // checkpoints: the Gaussians of iteration 20 (after its densification), not of the last one
+    let with_saves = TrainConfig { save_iterations: vec![20, 60, 500], ..config.clone() };
+    let mut saved = Vec::new();
+    let c = splatseg_train::train_with_checkpoints(
+        start.clone(),
+        &train_views,
+        &with_saves,
+        &|_| {},
+        &mut |i, g| {
+            saved.push((i, g.len()));
+            Ok(())
+        },
+    )
+    .expect("train");
+    assert_eq!(c.gaussians, a.gaussians, "checkpoints do not change training");
+    let after_first_densify = a.densify_reports[0].1;
+    let expected =
+        start.len() + after_first_densify.cloned + after_first_densify.split - after_first_densify.pruned;
+    assert_eq!(saved, vec![(20, expected)]);
+
     // stopping before densification ends: no joint stage, the lifted ids pass through untouched
     let short = TrainConfig { iterations: 30, ..config.clone() };
     let early = train(start.clone(), &train_views, &short, &|_| {}).expect("train");
