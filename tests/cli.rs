@@ -218,3 +218,24 @@ fn train_with_a_missing_ply_or_a_bad_setting_fails_clearly() {
     assert!(stderr(&out).contains("lambda_dssim"), "{}", stderr(&out));
     assert!(!out_dir.join("gaussians.ply").exists(), "nothing written on a bad setting");
 }
+
+#[test]
+fn train_scales_images_wider_than_1600_px_unless_told() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    let out =
+        splatseg(&["synth", "--out", scene.to_str().expect("utf-8"), "--views", "2", "--size", "1700x64"]);
+    assert!(out.status.success(), "synth failed: {}", stderr(&out));
+    let render_width = |extra: &[&str]| {
+        let out_dir = tmp.path().join(format!("out{}", extra.len()));
+        let mut args =
+            vec!["train", scene.to_str().expect("utf-8"), "--out", out_dir.to_str().expect("utf-8")];
+        args.extend(["--iterations", "1"]);
+        args.extend(extra);
+        let out = splatseg(&args);
+        assert!(out.status.success(), "train failed: {}", stderr(&out));
+        image::open(out_dir.join("renders/view_000.png")).expect("held-out render").width()
+    };
+    assert_eq!(render_width(&[]), 850, "1700 px → 1/2");
+    assert_eq!(render_width(&["--resolution", "1"]), 1700);
+}

@@ -2,6 +2,7 @@
 
 use crate::pipeline::train_stage::{run_training, InitOptions, TrainRun};
 use crate::pipeline::PipelineConfig;
+use anyhow::Context;
 use clap::Args as ClapArgs;
 use std::path::PathBuf;
 
@@ -61,9 +62,11 @@ pub struct Args {
     /// TOML settings (the `[train]` table of `splatseg config`'s output).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Image down-scaling factor (1, 2, 4, 8), as 3DGS's `--resolution`.
-    #[arg(long, default_value_t = 1)]
-    pub resolution: u32,
+    /// Image down-scaling factor (1, 2, 4, 8, …), as 3DGS's `--resolution`. Without it, images wider
+    /// than 1600 px are scaled down by the smallest whole factor that brings them to 1600 px or less
+    /// (3DGS rescales such images to 1600 px); pass 1 to train at full size.
+    #[arg(long)]
+    pub resolution: Option<u32>,
     /// Photometric training only, even if the PLY has object ids.
     #[arg(long)]
     pub no_joint: bool,
@@ -94,6 +97,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.white_background {
         config.background = [1.0; 3];
     }
+    let resolution = match args.resolution {
+        Some(factor) => factor,
+        None => automatic_resolution(&args.scene)?,
+    };
     let summary = run_training(&TrainRun {
         scene: args.scene,
         gaussians: args.gaussians,
@@ -104,9 +111,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         out: args.out,
         config,
-        resolution: args.resolution,
+        resolution,
     })?;
     println!("{}", summary.table());
     println!("outputs: {} (gaussians.ply, quality.json, renders/)", summary.out.display());
     Ok(())
+}
+
+/// Widest image a view is trained at without `--resolution` (3DGS's rule).
+const MAX_AUTO_WIDTH_PX: u32 = 1600;
+
+/// 1, or the smallest whole factor that brings the widest camera of `scene` to 1600 px or less.
+fn automatic_resolution(scene: &std::path::Path) -> anyhow::Result<u32> {
+    let loaded = splatseg_scene::load_scene(scene, &splatseg_scene::LoadOptions::default())
+        .with_context(|| format!("cannot load scene {}", scene.display()))?;
+    let widest = loaded.views.iter().map(|v| loaded.camera(v).width).max().unwrap_or(0);
+    let factor = widest.div_ceil(MAX_AUTO_WIDTH_PX).max(1);
+    if factor > 1 {
+        tracing::warn!(
+            "images are up to {widest} px wide: training at 1/{factor} resolution (as 3DGS rescales above \
+             {MAX_AUTO_WIDTH_PX} px); pass --resolution 1 to keep the full size"
+        );
+    }
+    Ok(factor)
 }
