@@ -78,17 +78,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     println!("outputs: {} (report.md, masks/, overlays/, gaussians.ply)", result.out.display());
     if args.train_iterations > 0 {
-        train_after_pipeline(&scene_dir, &result.out, &args)?;
+        let lifted = result
+            .report
+            .as_ref()
+            .and_then(|r| r.sets.iter().find(|s| s.name == "lifted"))
+            .map(|s| s.metrics.clone())
+            .context("the pipeline's report has no `lifted` metrics")?;
+        train_after_pipeline(&scene_dir, &result.out, &lifted, &args)?;
     }
     Ok(())
 }
 
 /// The train stage on the lifted Gaussians: photometric fine-tuning, then the joint optimisation.
 /// Densification is left out (the synthetic Gaussians are already dense and its start, iteration
-/// 500, is past the end) so the Gaussians stay row-aligned with the ground-truth ids.
+/// 500, is past the end) so the Gaussians stay row-aligned with the ground-truth ids. `lifted`: the
+/// pipeline's own metrics of its final maps (with the 3D label accuracy).
 fn train_after_pipeline(
     scene_dir: &std::path::Path,
     run_out: &std::path::Path,
+    lifted: &splatseg_eval::Metrics,
     args: &Args,
 ) -> anyhow::Result<()> {
     let mut config = splatseg_train::TrainConfig { iterations: args.train_iterations, ..Default::default() };
@@ -102,7 +110,7 @@ fn train_after_pipeline(
     );
     let summary = run_training(&TrainRun {
         scene: scene_dir.to_path_buf(),
-        gaussians: Some(lifted_ply.clone()),
+        gaussians: Some(lifted_ply),
         init: Default::default(),
         out: train_out.clone(),
         config,
@@ -113,20 +121,17 @@ fn train_after_pipeline(
         "\ntrain stage (3DGS loss on the CPU, then the paper's joint optimisation):\n{}",
         summary.table()
     );
-    let gt_ids = scene_dir.join("gt").join("gaussian_ids.npy");
-    let before = splatseg_eval::label_accuracy_3d_files(&gt_ids, &lifted_ply)?;
-    let after = splatseg_eval::label_accuracy_3d_files(&gt_ids, &train_out.join("gaussians.ply"))?;
     // the label maps rendered from the relabelled Gaussians, scored like the pipeline's
+    let gt_ids = scene_dir.join("gt").join("gaussian_ids.npy");
     let gt_maps = scene_dir.join("gt").join("instance");
-    let eval_config = splatseg_eval::EvalConfig::default();
-    let mut lifted = splatseg_eval::evaluate_folders(&gt_maps, &run_out.join("masks"), &eval_config)?;
-    lifted.label_accuracy_3d = Some(before);
-    let mut joint = splatseg_eval::evaluate_folders(&gt_maps, &train_out.join("masks"), &eval_config)?;
-    joint.label_accuracy_3d = Some(after);
+    let mut joint =
+        splatseg_eval::evaluate_folders(&gt_maps, &train_out.join("masks"), &PipelineConfig::default().eval)?;
+    joint.label_accuracy_3d =
+        Some(splatseg_eval::label_accuracy_3d_files(&gt_ids, &train_out.join("gaussians.ply"))?);
     println!(
         "\n{}",
         splatseg_eval::summary_table(&[
-            ("lifted (run)", &lifted),
+            ("lifted (run)", lifted),
             ("joint (rendered from the trained Gaussians)", &joint)
         ])
     );
@@ -134,7 +139,7 @@ fn train_after_pipeline(
         |m: &splatseg_eval::Metrics| m.label_accuracy_3d.as_ref().map_or(0, |a| a.unlabelled_predictions);
     println!(
         "(joint = label maps rendered from the trained Gaussians' new ids, not snapped; {} → {} Gaussians without an id)",
-        unlabelled(&lifted),
+        unlabelled(lifted),
         unlabelled(&joint)
     );
     println!("outputs: {} (gaussians.ply, quality.json, renders/, masks/, overlays/)", train_out.display());

@@ -114,12 +114,20 @@ fn labelled_share(g: &Gaussians) -> Option<f64> {
 struct Inputs {
     /// Every view, in scene order.
     views: Vec<TrainView>,
-    /// `[n_views]` scene camera and pose of each view (for label maps).
+    /// What the label maps of every view need.
+    maps: MapViews,
+    /// The starting Gaussians.
+    gaussians: Gaussians,
+}
+
+/// Every view, in scene order, as [`write_object_maps`] needs it.
+struct MapViews {
+    /// `[n_views]` image stems.
+    names: Vec<String>,
+    /// `[n_views]` scene camera and pose.
     posed: Vec<(Camera, Pose)>,
     /// `[n_views]` the images as loaded (for overlays).
     images: Vec<RgbImage>,
-    /// The starting Gaussians.
-    gaussians: Gaussians,
 }
 
 /// Loads every view's image and camera, in scene order, and the starting Gaussians.
@@ -180,13 +188,14 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> 
             )
         }
     };
-    Ok(Inputs { views, posed, images, gaussians })
+    let names = scene.views.iter().map(|view| view.stem.clone()).collect();
+    Ok(Inputs { views, maps: MapViews { names, posed, images }, gaussians })
 }
 
 /// Renders every view's label map from the Gaussians' `object_id`s (ids ≥ 1 are objects, 0 and −1
 /// vote for nothing) with lifting's label compositor, and writes `masks/<stem>.png` and
 /// `overlays/<stem>.png` under `out`.
-fn write_object_maps(out: &Path, gaussians: &Gaussians, inputs: &Inputs) -> anyhow::Result<()> {
+fn write_object_maps(out: &Path, gaussians: &Gaussians, views: &MapViews) -> anyhow::Result<()> {
     let Some(ids) = gaussians.object_ids.as_deref() else { return Ok(()) };
     let prepared = PreparedGaussians::new(gaussians)?;
     let votes =
@@ -196,14 +205,11 @@ fn write_object_maps(out: &Path, gaussians: &Gaussians, inputs: &Inputs) -> anyh
         std::fs::create_dir_all(out.join(dir))
             .with_context(|| format!("cannot create {}", out.join(dir).display()))?;
     }
-    inputs.views.par_iter().zip(&inputs.posed).zip(&inputs.images).try_for_each(
-        |((view, (camera, pose)), image)| {
+    views.names.par_iter().zip(&views.posed).zip(&views.images).try_for_each(
+        |((name, (camera, pose)), image)| {
             let map = render_label_map(&prepared, &votes, camera, pose, &config);
-            write_label_png(&out.join("masks").join(format!("{}.png", view.name)), &map)?;
-            write_png_rgb(
-                &out.join("overlays").join(format!("{}.png", view.name)),
-                &overlay(image, &map, 0.5),
-            )?;
+            write_label_png(&out.join("masks").join(format!("{name}.png")), &map)?;
+            write_png_rgb(&out.join("overlays").join(format!("{name}.png")), &overlay(image, &map, 0.5))?;
             anyhow::Ok(())
         },
     )
@@ -220,9 +226,7 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
         background: run.config.background,
         ..LoadOptions::default()
     };
-    let inputs = load_inputs(run, &options)?;
-    let views = inputs.views.clone();
-    let gaussians = inputs.gaussians.clone();
+    let Inputs { views, maps, gaussians } = load_inputs(run, &options)?;
     // 3DGS's `--eval` split: views 0, every, 2·every, … are held out (none when there is only one view)
     let every = run.config.test_every;
     let hold_out = every > 0 && views.len() > 1;
@@ -298,7 +302,7 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
         }
     }
     if trained.feature_dim > 0 {
-        write_object_maps(&run.out, &trained.gaussians, &inputs)?;
+        write_object_maps(&run.out, &trained.gaussians, &maps)?;
     }
     let labelled = match (labelled_before, trained.feature_dim > 0) {
         (Some(before), true) => labelled_share(&trained.gaussians).map(|after| (before, after)),

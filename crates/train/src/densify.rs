@@ -7,7 +7,6 @@
 //! screen" rule can never fire. Here the radii of the Gaussians that existed are kept (new ones start
 //! at 0), so the rule does what the paper says.
 
-use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use splatseg_render::GaussianGrads;
 use splatseg_render::RenderState;
@@ -15,6 +14,7 @@ use splatseg_scene::Gaussians;
 
 use crate::config::DensifyConfig;
 use crate::optimizer::GaussianAdam;
+use crate::sampling::standard_normal;
 
 /// Per-Gaussian statistics between two densification steps.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -189,13 +189,6 @@ fn rotation_matrix(q: [f32; 4]) -> [[f32; 3]; 3] {
         [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
         [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
     ]
-}
-
-/// A standard normal sample by Box–Muller.
-pub(crate) fn standard_normal(rng: &mut ChaCha8Rng) -> f32 {
-    let u1: f64 = rng.gen_range(f64::EPSILON..1.0);
-    let u2: f64 = rng.gen::<f64>();
-    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::densify::standard_normal;
+use crate::sampling::standard_normal;
 
 /// One unit code per object id.
 #[derive(Clone, Debug, PartialEq)]

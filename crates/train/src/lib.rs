@@ -18,6 +18,7 @@ pub mod joint;
 pub mod knn;
 pub mod loss;
 pub mod optimizer;
+mod sampling;
 pub mod trainer;
 
 pub use config::{DensifyConfig, JointConfig, LearningRates, TrainConfig};

@@ -11,14 +11,13 @@ use splatseg_render::{render, render_bwd, render_with_state, OutputGrads, Render
 use splatseg_scene::Gaussians;
 
 use crate::config::TrainConfig;
-use crate::densify::{
-    densify_and_prune, reset_opacity, standard_normal, DensifyReport, DensifyStats, DensifyStep,
-};
+use crate::densify::{densify_and_prune, reset_opacity, DensifyReport, DensifyStats, DensifyStep};
 use crate::error::{TrainError, TrainResult};
 use crate::joint::{assign_ids, knn_regulariser, semantic_loss, ObjectCodes};
 use crate::knn::knn;
 use crate::loss::render_loss;
 use crate::optimizer::{GaussianAdam, StepRates};
+use crate::sampling::standard_normal;
 
 /// One training or test image.
 #[derive(Clone, Debug)]
@@ -170,7 +169,7 @@ pub fn train_with_checkpoints(
             stats.add_view(&state, &gaussian_grads, view.camera.width, view.camera.height);
         }
         let joint_active = joint && iteration >= config.densify.until;
-        let mut feature_grads = vec![0f32; features.len()];
+        let mut feature_grads = if joint_active { vec![0f32; features.len()] } else { Vec::new() };
         let (mut semantic, mut reg) = (0.0, 0.0);
         if let (true, Some(codes), Some(ids)) = (joint_active, codes.as_ref(), g.object_ids.as_deref()) {
             if neighbours.len() != g.len() * config.joint.knn
@@ -192,7 +191,8 @@ pub fn train_with_checkpoints(
             rotation: config.lr.rotation as f32,
             features: if joint_active { config.lr.object_features as f32 } else { 0.0 },
         };
-        adam.step(&mut g, &gaussian_grads, Some((&mut features[..], &feature_grads[..])), &rates);
+        let feature_step = joint_active.then_some((&mut features[..], &feature_grads[..]));
+        adam.step(&mut g, &gaussian_grads, feature_step, &rates);
 
         if densifying {
             let d = &config.densify;
