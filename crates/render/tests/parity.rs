@@ -199,3 +199,13 @@ fn dense_scene_matches_gsplat() {
     check_projection(&s);
     check_images_and_grads(&s);
 }
+
+/// 16 feature channels besides RGB and depth (gsplat's multi-channel colours; the joint stage's
+/// identity maps), same tolerances.
+#[test]
+fn sixteen_channel_scene_matches_gsplat() {
+    let s = scene("raster_wide");
+    assert_eq!(s.dim, 16);
+    check_projection(&s);
+    check_images_and_grads(&s);
+}
