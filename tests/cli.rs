@@ -88,6 +88,7 @@ fn config_prints_the_papers_defaults_as_toml() {
     assert!(text.contains("[matching]") && text.contains("[lift]"), "{text}");
     assert!(text.contains("[train]") && text.contains("iterations = 100000\n"), "{text}");
     assert!(text.contains("lambda_semantic = 0.1\n") && text.contains("lambda_reg = 0.01\n"), "{text}");
+    assert!(text.contains("identity_maps = true\n") && text.contains("readback = \"rendered\"\n"), "{text}");
 }
 
 #[test]

@@ -32,6 +32,11 @@ pub struct Args {
     /// the rest the joint optimisation of object features seeded by the lifted ids.
     #[arg(long, default_value_t = 300)]
     pub train_iterations: usize,
+    /// Instead of the train stage, compare its joint optimisation with the 3D terms only and with the
+    /// 3D terms plus the 2D identity maps (every read-back) against the ground truth, as one table
+    /// (trains twice; `BENCHMARKS.md` records it over several seeds).
+    #[arg(long)]
+    pub identity_study: bool,
 }
 
 /// Runs the demo.
@@ -84,9 +89,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .and_then(|r| r.sets.iter().find(|s| s.name == "lifted"))
             .map(|s| s.metrics.clone())
             .context("the pipeline's report has no `lifted` metrics")?;
-        train_after_pipeline(&scene_dir, &result.out, &lifted, &args)?;
+        if args.identity_study {
+            let table = crate::pipeline::identity_study::identity_study(
+                &scene_dir,
+                &result.out,
+                &lifted,
+                &args.out.join("study"),
+                &demo_train_config(args.train_iterations),
+            )?;
+            println!(
+                "\nidentity study, seed {} ({} iterations, joint from 100):\n{table}",
+                args.seed, args.train_iterations
+            );
+        } else {
+            train_after_pipeline(&scene_dir, &result.out, &lifted, &args)?;
+        }
     }
     Ok(())
+}
+
+/// The demo's training settings: `iterations`, the first 100 photometric only (densification, from
+/// iteration 500, never runs), the paper's values otherwise.
+fn demo_train_config(iterations: usize) -> splatseg_train::TrainConfig {
+    let mut config = splatseg_train::TrainConfig { iterations, ..Default::default() };
+    config.densify.until = 100.min(iterations);
+    config
 }
 
 /// The train stage on the lifted Gaussians: photometric fine-tuning, then the joint optimisation.
@@ -99,8 +126,7 @@ fn train_after_pipeline(
     lifted: &splatseg_eval::Metrics,
     args: &Args,
 ) -> anyhow::Result<()> {
-    let mut config = splatseg_train::TrainConfig { iterations: args.train_iterations, ..Default::default() };
-    config.densify.until = 100.min(args.train_iterations);
+    let config = demo_train_config(args.train_iterations);
     let lifted_ply = run_out.join("gaussians.ply");
     let train_out = args.out.join("train");
     tracing::info!(
@@ -115,6 +141,7 @@ fn train_after_pipeline(
         out: train_out.clone(),
         config,
         resolution: 1,
+        label_maps: None,
     })
     .context("training the synthetic scene's Gaussians")?;
     println!(

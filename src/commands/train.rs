@@ -19,6 +19,16 @@ use std::path::PathBuf;
 /// features (λ_reg = 0.01); at the end every Gaussian takes the id of the closest code, which labels
 /// the ones lifting left at −1 and corrects stray votes.
 ///
+/// By default (the supplement's "16-channel identity feature maps for 3D-to-2D supervision"; off with
+/// --no-identity-maps), the features are also rendered with the colour into a 16-channel identity map, a
+/// learnable linear classifier (16 → objects + background) scores each pixel, and the cross-entropy
+/// against the view's final label map from `splatseg run` (masks/<view>.png beside the --gaussians PLY,
+/// or --label-maps; without them the 3D terms run alone, with a warning) joins the loss with weight
+/// λ_s = 0.1; its gradients reach the features and, through α, the geometry. Each Gaussian's id is then
+/// read back from the rendered, classified identity maps: the class it contributes most blending
+/// weight α·T to over all training views (`[train.joint] readback`; every read-back's label maps go to
+/// OUT/readback/<kind>/masks/).
+///
 /// Defaults are the paper's (100k iterations; `splatseg config` prints the `[train]` table). On a CPU,
 /// pass `--iterations` (a few thousand) and, for large images, `--resolution 2` or `4`.
 ///
@@ -70,6 +80,17 @@ pub struct Args {
     /// Photometric training only, even if the PLY has object ids.
     #[arg(long)]
     pub no_joint: bool,
+    /// Supervise the rendered 16-channel identity maps in 2D with each training view's label map (the
+    /// default; sets `[train.joint] identity_maps = true`, and a missing label map is then an error).
+    #[arg(long, conflicts_with = "no_identity_maps")]
+    pub identity_maps: bool,
+    /// Only the 3D terms of the joint stage (sets `[train.joint] identity_maps = false`).
+    #[arg(long)]
+    pub no_identity_maps: bool,
+    /// Folder of the label maps (`<view stem>.png`, global ids) for --identity-maps; default: `masks/`
+    /// beside the --gaussians PLY, where `splatseg run` writes them.
+    #[arg(long)]
+    pub label_maps: Option<PathBuf>,
     /// Composite RGBA images on white and render on white (3DGS's `--white_background`); the default
     /// background is the config's (black).
     #[arg(long, short = 'w')]
@@ -94,9 +115,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_joint {
         config.joint.enabled = false;
     }
+    if args.identity_maps {
+        config.joint.identity_maps = true;
+    }
+    if args.no_identity_maps {
+        config.joint.identity_maps = false;
+    }
     if args.white_background {
         config.background = [1.0; 3];
     }
+    // asked for explicitly: the label maps beside the PLY must be there (else the stage warns and skips)
+    let label_maps = match (&args.label_maps, args.identity_maps, &args.gaussians) {
+        (None, true, Some(ply)) => ply.parent().map(|dir| dir.join("masks")),
+        _ => args.label_maps.clone(),
+    };
     let resolution = match args.resolution {
         Some(factor) => factor,
         None => automatic_resolution(&args.scene)?,
@@ -112,6 +144,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out: args.out,
         config,
         resolution,
+        label_maps,
     })?;
     println!("{}", summary.table());
     println!("outputs: {} (gaussians.ply, quality.json, renders/)", summary.out.display());

@@ -12,6 +12,7 @@
 
 mod cache;
 mod eval_stage;
+pub mod identity_study;
 mod inputs;
 mod lift_stage;
 mod mask_input;

@@ -209,6 +209,7 @@ fn train_stage_after_the_pipeline_improves_3d_ids_and_keeps_2d_quality() {
         out: train_out.clone(),
         config: train_config,
         resolution: 1,
+        label_maps: None,
     })
     .expect("training runs");
     let (labelled_before, labelled_after) = summary.labelled.expect("joint stage ran");

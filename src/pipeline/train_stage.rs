@@ -10,15 +10,15 @@ use splatseg_lift::{render_label_map, LiftConfig, PreparedGaussians, RenderVotes
 use splatseg_render::export::write_rgb_png;
 use splatseg_render::{render, RenderCamera, RenderRequest};
 use splatseg_scene::images::load_image_rgb;
-use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
+use splatseg_scene::labels::{overlay, read_label_png, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::npy::write_npy_f32;
 use splatseg_scene::ply::{read_ply, write_ply};
 use splatseg_scene::{load_scene, Gaussians};
 use splatseg_scene::{Camera, Pose};
 use splatseg_train::{
-    evaluate_views, gaussians_from_points, random_gaussians_in_cube, train_with_checkpoints, TrainConfig,
-    TrainView, ViewQuality,
+    evaluate_views, gaussians_from_points, random_gaussians_in_cube, train_with_checkpoints, ReadBack,
+    TrainConfig, TrainView, ViewQuality,
 };
 use std::path::{Path, PathBuf};
 
@@ -41,6 +41,9 @@ pub struct TrainRun {
     pub config: TrainConfig,
     /// Image down-scaling factor (3DGS's `--resolution`).
     pub resolution: u32,
+    /// Folder of per-view label maps (`<stem>.png`, global ids) for the identity maps' 2D supervision;
+    /// `None` = `masks/` beside the `gaussians` PLY (where `splatseg run` writes them).
+    pub label_maps: Option<PathBuf>,
 }
 
 /// 3DGS's initialisation when no PLY is given: one Gaussian per sparse point when the scene has them
@@ -90,6 +93,12 @@ pub struct TrainSummary {
     pub test_views: Vec<ViewQuality>,
     /// Share of Gaussians with an object id (≥ 0) before and after the joint stage, when it ran.
     pub labelled: Option<(f64, f64)>,
+    /// Every read-back the joint stage computed (the chosen one is in `gaussians.ply`; each one's label
+    /// maps are in `readback/<kind>/masks/` when there are several).
+    pub readbacks: Vec<ReadBackSummary>,
+    /// `[N]` ids of each read-back, rows as `gaussians.ply`.
+    #[serde(skip)]
+    pub readback_ids: Vec<(ReadBack, Vec<i32>)>,
     /// Output folder.
     #[serde(skip)]
     pub out: PathBuf,
@@ -108,6 +117,17 @@ fn labelled_share(g: &Gaussians) -> Option<f64> {
     g.object_ids
         .as_ref()
         .map(|ids| ids.iter().filter(|&&id| id >= 0).count() as f64 / ids.len().max(1) as f64)
+}
+
+/// One way of reading ids back after the joint stage.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReadBackSummary {
+    /// Which.
+    pub kind: ReadBack,
+    /// Share of Gaussians with an id.
+    pub labelled: f64,
+    /// The one written to `gaussians.ply`.
+    pub chosen: bool,
 }
 
 /// Everything [`run_training`] reads.
@@ -161,7 +181,7 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> 
                 );
             }
             let pixels = image.as_raw().iter().map(|&c| f32::from(c) / 255.0).collect();
-            Ok(TrainView { name: view.stem.clone(), camera, image: pixels })
+            Ok(TrainView { name: view.stem.clone(), camera, image: pixels, labels: None })
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
     let init = &run.init;
@@ -188,20 +208,88 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> 
             )
         }
     };
+    let mut views = views;
+    if let Some(dir) = label_map_folder(run, &gaussians) {
+        for view in &mut views {
+            view.labels = Some(load_label_map(&dir, &view.name, &view.camera)?);
+        }
+        tracing::info!("identity maps supervised by the label maps in {}", dir.display());
+    }
     let names = scene.views.iter().map(|view| view.stem.clone()).collect();
     Ok(Inputs { views, maps: MapViews { names, posed, images }, gaussians })
+}
+
+/// Where the label maps of the identity maps' 2D supervision are, when that supervision will run
+/// (identity maps on, joint stage on, lifted ids in the PLY): `--label-maps`, else `masks/` beside the
+/// PLY if it exists (else none, with a warning).
+fn label_map_folder(run: &TrainRun, gaussians: &Gaussians) -> Option<PathBuf> {
+    let joint = &run.config.joint;
+    if !(joint.enabled && joint.identity_maps && gaussians.object_ids.is_some()) {
+        return None;
+    }
+    if let Some(dir) = &run.label_maps {
+        return Some(dir.clone());
+    }
+    // by default `masks/` beside the PLY; without it (a labelled PLY from elsewhere) the 3D terms only
+    let beside = run.gaussians.as_ref().and_then(|p| p.parent()).map(|dir| dir.join("masks"))?;
+    if beside.is_dir() {
+        Some(beside)
+    } else {
+        tracing::warn!(
+            "no label maps at {} (pass --label-maps DIR): the joint stage runs without the identity maps",
+            beside.display()
+        );
+        None
+    }
+}
+
+/// `[H, W]` global ids of view `stem` from `dir/<stem>.png`, resampled (nearest) to the camera's size
+/// when the map is at another resolution of the same frame.
+fn load_label_map(dir: &Path, stem: &str, camera: &RenderCamera) -> anyhow::Result<Vec<u32>> {
+    let path = dir.join(format!("{stem}.png"));
+    if !path.is_file() {
+        anyhow::bail!(
+            "no label map for view {stem} (the identity maps need every training view's final label map from              `splatseg run`; pass --label-maps DIR or --no-identity-maps): {}",
+            path.display()
+        );
+    }
+    let map = read_label_png(&path)?;
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    if (map.width, map.height) == (w, h) {
+        return Ok(map.data);
+    }
+    let (sx, sy) = (map.width as f64 / w as f64, map.height as f64 / h as f64);
+    if map.width < w || (sx / sy - 1.0).abs() > 0.02 {
+        anyhow::bail!(
+            "label map is {}×{} but the view is {w}×{h} (not the same frame at a coarser resolution): {}",
+            map.width,
+            map.height,
+            path.display()
+        );
+    }
+    let at = |v: usize, scale: f64, size: usize| (((v as f64 + 0.5) * scale) as usize).min(size - 1);
+    Ok((0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| map.data[at(y, sy, map.height) * map.width + at(x, sx, map.width)])
+        .collect())
 }
 
 /// Renders every view's label map from the Gaussians' `object_id`s (ids ≥ 1 are objects, 0 and −1
 /// vote for nothing) with lifting's label compositor, and writes `masks/<stem>.png` and
 /// `overlays/<stem>.png` under `out`.
-fn write_object_maps(out: &Path, gaussians: &Gaussians, views: &MapViews) -> anyhow::Result<()> {
+fn write_object_maps(
+    out: &Path,
+    gaussians: &Gaussians,
+    views: &MapViews,
+    overlays: bool,
+) -> anyhow::Result<()> {
     let Some(ids) = gaussians.object_ids.as_deref() else { return Ok(()) };
     let prepared = PreparedGaussians::new(gaussians)?;
     let votes =
         RenderVotes::uniform(ids.iter().map(|&id| if id > 0 { id as u32 } else { ABSTAIN }).collect());
     let config = LiftConfig::default();
-    for dir in ["masks", "overlays"] {
+    let dirs: &[&str] = if overlays { &["masks", "overlays"] } else { &["masks"] };
+    for dir in dirs {
         std::fs::create_dir_all(out.join(dir))
             .with_context(|| format!("cannot create {}", out.join(dir).display()))?;
     }
@@ -209,7 +297,9 @@ fn write_object_maps(out: &Path, gaussians: &Gaussians, views: &MapViews) -> any
         |((name, (camera, pose)), image)| {
             let map = render_label_map(&prepared, &votes, camera, pose, &config);
             write_label_png(&out.join("masks").join(format!("{name}.png")), &map)?;
-            write_png_rgb(&out.join("overlays").join(format!("{name}.png")), &overlay(image, &map, 0.5))?;
+            if overlays {
+                write_png_rgb(&out.join("overlays").join(format!("{name}.png")), &overlay(image, &map, 0.5))?;
+            }
             anyhow::Ok(())
         },
     )
@@ -302,8 +392,34 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
         }
     }
     if trained.feature_dim > 0 {
-        write_object_maps(&run.out, &trained.gaussians, &maps)?;
+        write_object_maps(&run.out, &trained.gaussians, &maps, true)?;
     }
+    if trained.readbacks.len() > 1 {
+        // every read-back's label maps, to compare them
+        let mut alternative = trained.gaussians.clone();
+        for (kind, ids) in &trained.readbacks {
+            alternative.object_ids = Some(ids.clone());
+            write_object_maps(
+                &run.out.join("readback").join(readback_name(*kind)),
+                &alternative,
+                &maps,
+                false,
+            )?;
+        }
+    }
+    // the configured read-back, or the nearest-code one it falls back to without identity maps
+    let wanted = run.config.joint.readback;
+    let chosen =
+        if trained.readbacks.iter().any(|(k, _)| *k == wanted) { wanted } else { ReadBack::NearestCode };
+    let readbacks = trained
+        .readbacks
+        .iter()
+        .map(|(kind, ids)| ReadBackSummary {
+            kind: *kind,
+            labelled: ids.iter().filter(|&&id| id >= 0).count() as f64 / ids.len().max(1) as f64,
+            chosen: *kind == chosen,
+        })
+        .collect();
     let labelled = match (labelled_before, trained.feature_dim > 0) {
         (Some(before), true) => labelled_share(&trained.gaussians).map(|after| (before, after)),
         _ => None,
@@ -316,10 +432,21 @@ pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
         train_after,
         test_views,
         labelled,
+        readbacks,
+        readback_ids: trained.readbacks,
         out: run.out.clone(),
     };
     write_json(&run.out.join("quality.json"), &summary)?;
     Ok(summary)
+}
+
+/// The folder name of a read-back (`[train.joint] readback`'s spelling).
+pub fn readback_name(kind: ReadBack) -> &'static str {
+    match kind {
+        ReadBack::NearestCode => "nearest-code",
+        ReadBack::Classifier => "classifier",
+        ReadBack::Rendered => "rendered",
+    }
 }
 
 impl TrainSummary {

@@ -30,6 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             name: synth.stem.clone(),
             camera: RenderCamera::from_scene(scene.scene.camera(view), &view.world_from_cam),
             image: synth.image.data.iter().flat_map(|p| p.map(|c| f32::from(c) / 255.0)).collect(),
+            labels: None,
         })
         .collect();
     let mut gaussians = scene.gaussians.clone();

@@ -7,16 +7,20 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use splatseg_eval::photometric::{psnr, ssim};
-use splatseg_render::{render, render_bwd, render_with_state, OutputGrads, RenderCamera, RenderRequest};
+use splatseg_render::{
+    render, render_bwd, render_with_state, FeatureInput, OutputGrads, RenderCamera, RenderRequest,
+};
 use splatseg_scene::Gaussians;
 
-use crate::config::TrainConfig;
+use crate::config::{ReadBack, TrainConfig};
 use crate::densify::{densify_and_prune, reset_opacity, DensifyReport, DensifyStats, DensifyStep};
 use crate::error::{TrainError, TrainResult};
+use crate::identity::{identity_loss, vote_winners, Classifier, IdentityClasses};
 use crate::joint::{assign_ids, knn_regulariser, semantic_loss, ObjectCodes};
 use crate::knn::knn;
 use crate::loss::render_loss;
 use crate::optimizer::{GaussianAdam, StepRates};
+use crate::readback::rendered_votes;
 use crate::sampling::standard_normal;
 
 /// One training or test image.
@@ -28,6 +32,9 @@ pub struct TrainView {
     pub camera: RenderCamera,
     /// `[H, W, 3]` colour in [0, 1], composited on the configured background.
     pub image: Vec<f32>,
+    /// `[H, W]` the view's final label map (global ids, 0 = unlabelled) for the identity maps' 2D
+    /// supervision; `None` = no 2D supervision from this view.
+    pub labels: Option<Vec<u32>>,
 }
 
 /// Reported to the progress callback after every iteration.
@@ -41,6 +48,8 @@ pub struct TrainingProgress {
     pub semantic_loss: f64,
     /// `L_3D-reg` (0 before the joint stage).
     pub reg_loss: f64,
+    /// Cross-entropy of the classified identity map against the view's label map (0 when not rendered).
+    pub identity_loss: f64,
     /// Gaussians now.
     pub gaussians: usize,
 }
@@ -69,6 +78,9 @@ pub struct Trained {
     pub feature_dim: usize,
     /// Every densification step, in order.
     pub densify_reports: Vec<(usize, DensifyReport)>,
+    /// Every read-back the joint stage could compute (`[N]` ids each, −1 = none); `gaussians.object_ids`
+    /// holds the one `config.joint.readback` chose.
+    pub readbacks: Vec<(ReadBack, Vec<i32>)>,
     /// The last progress record.
     pub last: Option<TrainingProgress>,
 }
@@ -129,6 +141,16 @@ pub fn train_with_checkpoints(
                 v.image.len()
             )));
         }
+        if let Some(labels) = &v.labels {
+            if labels.len() != v.camera.pixel_count() {
+                return Err(TrainError::Input(format!(
+                    "view `{}`: label map has {} pixels, its camera {}",
+                    v.name,
+                    labels.len(),
+                    v.camera.pixel_count()
+                )));
+            }
+        }
     }
     let mut g = gaussians;
     let extent = cameras_extent(views);
@@ -138,6 +160,17 @@ pub fn train_with_checkpoints(
     let codes = g.object_ids.as_deref().filter(|_| joint).map(|ids| ObjectCodes::new(ids, dim, config.seed));
     let mut features: Vec<f32> =
         (0..g.len() * dim).map(|_| standard_normal(&mut rng) * config.joint.init_std as f32).collect();
+    // the 2D term: classes from the label maps and the lifted ids, a classifier seeded by the codes
+    let identity = config.joint.identity_maps && views.iter().any(|v| v.labels.is_some());
+    let mut classifier = match (identity, codes.as_ref(), g.object_ids.as_deref()) {
+        (true, Some(codes), Some(ids)) => {
+            let classes = IdentityClasses::new(views.iter().filter_map(|v| v.labels.as_deref()), ids);
+            Some((Classifier::from_codes(&classes, codes), classes))
+        }
+        _ => None,
+    };
+    let view_classes: Vec<Option<Vec<u32>>> =
+        views.iter().map(|v| Some(classifier.as_ref()?.1.classes_of_map(v.labels.as_deref()?))).collect();
     let mut adam = GaussianAdam::new(&g, dim);
     let mut stats = DensifyStats::new(g.len());
     let mut reports = Vec::new();
@@ -150,26 +183,50 @@ pub fn train_with_checkpoints(
             order = (0..views.len()).collect();
             order.shuffle(&mut rng);
         }
-        let view = &views[order.pop().unwrap_or(0)];
+        let view_index = order.pop().unwrap_or(0);
+        let view = &views[view_index];
         let degree = (iteration / config.sh_degree_interval).min(usize::from(g.sh_degree)) as u8;
+        let joint_active = joint && iteration >= config.densify.until;
+        // the identity map is rendered with the colour, in the same blend, once the features are live
+        let supervised = match (&classifier, &view_classes[view_index]) {
+            (Some((c, _)), Some(classes)) if joint_active => Some((c, classes)),
+            _ => None,
+        };
         let request = RenderRequest {
             background: config.background,
             sh_degree: Some(degree),
+            features: supervised.map(|_| FeatureInput { values: &features, dim }),
             ..RenderRequest::default()
         };
         let (out, state) = render_with_state(&g, &view.camera, &request)?;
         let rgb = out.rgb.ok_or_else(|| TrainError::Input("the rasteriser returned no colour".into()))?;
         let (w, h) = (view.camera.width as usize, view.camera.height as usize);
         let photometric = render_loss(&rgb, &view.image, w, h, config.lambda_dssim)?;
-        let grads = OutputGrads { rgb: Some(&photometric.grad), ..OutputGrads::default() };
+        let identity_term = match (supervised, out.features.as_deref()) {
+            (Some((c, classes)), Some(map)) => {
+                Some(identity_loss(map, classes, c, config.joint.lambda_identity as f32))
+            }
+            _ => None,
+        };
+        let grads = OutputGrads {
+            rgb: Some(&photometric.grad),
+            features: identity_term.as_ref().map(|t| &t.d_map[..]),
+            ..OutputGrads::default()
+        };
         let gaussian_grads = render_bwd(&g, &view.camera, &request, &state, &grads)?;
 
         let densifying = iteration < config.densify.until;
         if densifying {
             stats.add_view(&state, &gaussian_grads, view.camera.width, view.camera.height);
         }
-        let joint_active = joint && iteration >= config.densify.until;
-        let mut feature_grads = if joint_active { vec![0f32; features.len()] } else { Vec::new() };
+        let mut feature_grads = match (&identity_term, &gaussian_grads.features) {
+            (Some(_), Some(f)) => f.clone(),
+            _ if joint_active => vec![0f32; features.len()],
+            _ => Vec::new(),
+        };
+        if let (Some(term), Some((c, _))) = (&identity_term, classifier.as_mut()) {
+            c.step(&term.d_classifier, config.lr.classifier as f32);
+        }
         let (mut semantic, mut reg) = (0.0, 0.0);
         if let (true, Some(codes), Some(ids)) = (joint_active, codes.as_ref(), g.object_ids.as_deref()) {
             if neighbours.len() != g.len() * config.joint.knn
@@ -220,6 +277,7 @@ pub fn train_with_checkpoints(
             render_loss: photometric.loss,
             semantic_loss: semantic,
             reg_loss: reg,
+            identity_loss: identity_term.as_ref().map_or(0.0, |t| t.loss),
             gaussians: g.len(),
         };
         progress(&record);
@@ -231,11 +289,33 @@ pub fn train_with_checkpoints(
 
     // the joint stage ran only if training reached the end of densification
     let joint_ran = joint && config.iterations >= config.densify.until;
+    let mut readbacks = Vec::new();
     if let (true, Some(codes)) = (joint_ran, codes.as_ref()) {
-        g.object_ids = Some(assign_ids(&features, codes, config.joint.assign_min_cosine as f32));
+        readbacks.push((
+            ReadBack::NearestCode,
+            assign_ids(&features, codes, config.joint.assign_min_cosine as f32),
+        ));
+        if let Some((c, classes)) = &classifier {
+            let own: Vec<i32> = c.classify(&features).iter().map(|&k| classes.id_of(k as usize)).collect();
+            let cameras: Vec<&RenderCamera> = views.iter().map(|v| &v.camera).collect();
+            let votes = rendered_votes(&g, &features, c, &cameras)?;
+            let rendered = vote_winners(&votes, c.classes)
+                .iter()
+                .zip(&own)
+                .map(|(winner, &fallback)| winner.map_or(fallback, |k| classes.id_of(k)))
+                .collect();
+            readbacks.push((ReadBack::Classifier, own));
+            readbacks.push((ReadBack::Rendered, rendered));
+        }
+        let chosen = readbacks
+            .iter()
+            .find(|(kind, _)| *kind == config.joint.readback)
+            .or(readbacks.first())
+            .map(|(_, ids)| ids.clone());
+        g.object_ids = chosen;
     }
     let (object_features, feature_dim) = if joint_ran { (features, dim) } else { (Vec::new(), 0) };
-    Ok(Trained { gaussians: g, object_features, feature_dim, densify_reports: reports, last })
+    Ok(Trained { gaussians: g, object_features, feature_dim, densify_reports: reports, readbacks, last })
 }
 
 /// PSNR and SSIM of the Gaussians rendered (all SH degrees, clamped to [0, 1] as 3DGS's evaluation

@@ -26,6 +26,7 @@ fn views(s: &SynthScene) -> Vec<TrainView> {
             name: synth.stem.clone(),
             camera: RenderCamera::from_scene(s.scene.camera(view), &view.world_from_cam),
             image: synth.image.data.iter().flat_map(|p| p.map(|c| f32::from(c) / 255.0)).collect(),
+            labels: None,
         })
         .collect()
 }
