@@ -185,7 +185,8 @@ fn rasterise_tile_avx2(
     rasterise_tile_any(inp, list, tile, st)
 }
 
-/// Dispatch on the channel count, so the common counts get unrolled loops.
+/// Dispatch on the channel count, so the common counts get unrolled loops (19 = RGB + the joint
+/// stage's 16-channel identity map).
 #[inline(always)]
 fn rasterise_tile_any(
     inp: &RasterInputs,
@@ -197,6 +198,7 @@ fn rasterise_tile_any(
         1 => rasterise_tile_c::<1>(inp, list, tile, st),
         3 => rasterise_tile_c::<3>(inp, list, tile, st),
         4 => rasterise_tile_c::<4>(inp, list, tile, st),
+        19 => rasterise_tile_c::<19>(inp, list, tile, st),
         _ => rasterise_tile_c::<0>(inp, list, tile, st),
     }
 }
@@ -491,6 +493,7 @@ fn rasterise_tile_bwd_any(
         1 => rasterise_tile_bwd_c::<1>(inp, list, tile, records, st, max_walked),
         3 => rasterise_tile_bwd_c::<3>(inp, list, tile, records, st, max_walked),
         4 => rasterise_tile_bwd_c::<4>(inp, list, tile, records, st, max_walked),
+        19 => rasterise_tile_bwd_c::<19>(inp, list, tile, records, st, max_walked),
         _ => rasterise_tile_bwd_c::<0>(inp, list, tile, records, st, max_walked),
     }
 }

@@ -208,4 +208,39 @@ fn sixteen_channel_scene_matches_gsplat() {
     assert_eq!(s.dim, 16);
     check_projection(&s);
     check_images_and_grads(&s);
+    check_without_depth(&s);
+}
+
+/// RGB + features without depth (19 channels here: the training pass, which has its own unrolled
+/// blend): images, and the gradients a depth term does not touch (colour, features).
+fn check_without_depth(s: &Scene) {
+    let name = &s.fx.name;
+    let req = RenderRequest { depth: false, ..request(s) };
+    let (out, state) = render_with_state(&s.gaussians, &s.camera, &req).expect("render");
+    let stable: Vec<bool> = s.fx.i32("out_stable").iter().map(|&v| v != 0).collect();
+    let (atol, rtol) = (2e-5, 1e-4);
+    let rgb = out.rgb.as_ref().unwrap();
+    let want_rgb = s.fx.f32("out_rgb");
+    assert_close(
+        &format!("{name} rgb (no depth)"),
+        &masked(rgb, 3, &stable),
+        &masked(&want_rgb, 3, &stable),
+        atol,
+        rtol,
+    );
+    let feats = out.features.as_ref().unwrap();
+    let want_f = s.fx.f32("out_features");
+    let (got_f, want_f) = (masked(feats, s.dim, &stable), masked(&want_f, s.dim, &stable));
+    assert_close(&format!("{name} features (no depth)"), &got_f, &want_f, atol, rtol);
+    let (w_rgb, w_feat) = (s.fx.f32("w_rgb"), s.fx.f32("w_features"));
+    let grads = OutputGrads { rgb: Some(&w_rgb), features: Some(&w_feat), ..Default::default() };
+    let g = render_bwd(&s.gaussians, &s.camera, &req, &state, &grads).expect("backward");
+    for (what, got, key) in [
+        ("grad sh_dc (no depth)", g.sh_dc.iter().flatten().copied().collect::<Vec<f32>>(), "grad_sh_dc"),
+        ("grad features (no depth)", g.features.clone().unwrap(), "grad_features"),
+    ] {
+        let want = s.fx.f32(key);
+        let scale = want.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        assert_close(&format!("{name} {what}"), &got, &want, 1e-4 * scale, 1e-3);
+    }
 }
