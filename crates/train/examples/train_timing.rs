@@ -1,11 +1,13 @@
 //! Times training iterations on the synthetic scene (the numbers in BENCHMARKS.md):
 //!
 //! ```text
-//! cargo run --release -p splatseg-train --example train_timing -- WIDTHxHEIGHT ITERATIONS [joint]
+//! cargo run --release -p splatseg-train --example train_timing -- WIDTHxHEIGHT ITERATIONS [joint|identity]
 //! ```
 //!
-//! Prints the Gaussian count, the mean wall time per iteration of the photometric stage and, with
-//! `joint`, of the joint stage (object features, kNN regulariser) on the same views.
+//! Prints the Gaussian count, the mean wall time per iteration of the photometric stage, with `joint`
+//! of the joint stage with the 3D terms only (object features, kNN regulariser), with `identity` of
+//! the joint stage with the 16-channel identity maps too (ground-truth instance maps as label maps;
+//! the final read-backs are timed apart).
 
 use std::time::Instant;
 
@@ -19,7 +21,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (w, h) = size.split_once('x').ok_or("size as WIDTHxHEIGHT")?;
     let (width, height): (u32, u32) = (w.parse()?, h.parse()?);
     let iterations: usize = args.get(2).map_or(Ok(200), |s| s.parse())?;
-    let joint = args.get(3).is_some_and(|s| s == "joint");
+    let mode = args.get(3).map_or("photometric", String::as_str);
+    let (joint, identity) = (mode == "joint" || mode == "identity", mode == "identity");
     let scene = generate(&SynthConfig { width, height, views: 12, ..SynthConfig::default() })?;
     let views: Vec<TrainView> = scene
         .scene
@@ -30,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             name: synth.stem.clone(),
             camera: RenderCamera::from_scene(scene.scene.camera(view), &view.world_from_cam),
             image: synth.image.data.iter().flat_map(|p| p.map(|c| f32::from(c) / 255.0)).collect(),
-            labels: None,
+            labels: identity.then(|| synth.gt_instance.data.clone()),
         })
         .collect();
     let mut gaussians = scene.gaussians.clone();
@@ -44,17 +47,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rayon::current_num_threads()
     );
     let mut config = TrainConfig { iterations, ..TrainConfig::default() };
+    config.joint.identity_maps = identity;
     // no densification (it would change the count being timed); joint stage from the first iteration
     config.densify.until = if joint { 1 } else { iterations + 1 };
     let start = Instant::now();
-    let trained = train(gaussians, &views, &config, &|_| {})?;
-    let total = start.elapsed();
+    let last_iteration = std::sync::Mutex::new(None);
+    let trained = train(gaussians, &views, &config, &|p| {
+        if p.iteration == iterations {
+            *last_iteration.lock().expect("lock") = Some(Instant::now());
+        }
+    })?;
+    let end = Instant::now();
+    let loop_end = last_iteration.into_inner()?.unwrap_or(end);
+    let total = loop_end - start;
     println!(
-        "{} stage: {:.1} ms per iteration ({:.2?} in all), final L_render {:.4}",
-        if joint { "joint" } else { "photometric" },
+        "{mode} stage: {:.1} ms per iteration ({:.2?} in all), final L_render {:.4}, read-backs {:.2?}",
         total.as_secs_f64() * 1e3 / iterations as f64,
         total,
-        trained.last.map_or(f64::NAN, |p| p.render_loss)
+        trained.last.map_or(f64::NAN, |p| p.render_loss),
+        end - loop_end
     );
     Ok(())
 }

@@ -52,7 +52,7 @@ fn share_correct(ids: &[i32], truth: &[u32], rows: &[usize]) -> f64 {
 }
 
 fn run(start: &splatseg_scene::Gaussians, views: &[TrainView], identity_maps: bool) -> Trained {
-    let mut config = TrainConfig { iterations: 240, ..TrainConfig::default() };
+    let mut config = TrainConfig { iterations: 150, ..TrainConfig::default() };
     config.densify.until = 1; // the Gaussians are already fitted: joint stage from the start
     config.joint.identity_maps = identity_maps;
     train(start.clone(), views, &config, &|_| {}).expect("train")
@@ -99,6 +99,10 @@ fn identity_maps_repair_a_consistently_wrong_block_the_3d_terms_keep() {
         with_2d.readbacks.iter().map(|(k, _)| *k).collect::<Vec<_>>(),
         vec![ReadBack::NearestCode, ReadBack::Classifier, ReadBack::Rendered]
     );
+    // measured (150 iterations): block 0.000 with the 3D terms only; with the identity maps 0.273
+    // (nearest code), 0.280 (classifier), 0.731 (rendered, the default); all Gaussians 0.900 → 0.967
+    assert!(block_3d < 0.1, "the 3D terms alone were expected to keep the block wrong: {block_3d:.3}");
     assert!(block_2d > block_3d + 0.5, "block {block_3d:.3} → {block_2d:.3}");
-    assert!(share_correct(chosen, truth, &all) > share_correct(ids_3d, truth, &all));
+    let (all_3d, all_2d) = (share_correct(ids_3d, truth, &all), share_correct(chosen, truth, &all));
+    assert!(all_2d > all_3d + 0.03, "all Gaussians {all_3d:.3} → {all_2d:.3}");
 }
