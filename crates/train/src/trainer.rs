@@ -106,7 +106,10 @@ pub fn cameras_extent(views: &[TrainView]) -> f64 {
 
 /// Trains `gaussians` on `views`. When `config.joint.enabled` and `gaussians.object_ids` is set (the
 /// lifted ids, −1 = unreliable), the object features join the optimisation once densification ends and
-/// the returned ids are read back from them. `progress` is called after every iteration.
+/// the returned ids are read back from them. With `config.joint.identity_maps` and views carrying
+/// `labels`, the features are also rendered into identity maps, classified and supervised in 2D
+/// ([`crate::identity`]), and the ids are read back as `config.joint.readback` says (every read-back
+/// is returned in [`Trained::readbacks`]). `progress` is called after every iteration.
 pub fn train(
     gaussians: Gaussians,
     views: &[TrainView],
