@@ -104,9 +104,10 @@ class Viewer {
       if (!r.ok) throw new Error(`chunk ${k}: ${r.status}`);
       const words = new Uint32Array(await r.arrayBuffer());
       const offset = k * m.chunk_gaussians;
+      const n = words.length / 12;
       this.renderer.uploadChunk(offset, words);
       this.worker.postMessage({ type: 'positions', offset, words }, [words.buffer]);
-      this.loaded = offset + words.length / 12;
+      this.loaded = offset + n;
       this.panel.status(`loaded ${this.loaded.toLocaleString()} / ${m.gaussians.toLocaleString()} Gaussians`);
       this.requestSort(true);
     }
@@ -255,10 +256,14 @@ class Viewer {
     };
   }
 
-  whenReady() {
+  // Resolves with the state once the first complete frame is drawn; rejects on an error or
+  // after `timeoutMs`.
+  whenReady(timeoutMs = 300000) {
+    const start = performance.now();
     return new Promise((resolve, reject) => {
       const poll = () => {
         if (this.error) reject(new Error(this.error));
+        else if (performance.now() - start > timeoutMs) reject(new Error(`not ready after ${timeoutMs} ms: ${JSON.stringify(this.state())}`));
         else if (this.ready) resolve(this.state());
         else setTimeout(poll, 50);
       };

@@ -86,7 +86,10 @@ fn to_response(reply: Reply<'_>) -> tiny_http::Response<std::io::Cursor<Vec<u8>>
         header("Content-Type", reply.content_type),
         header("Cache-Control", "no-store"),
         header("X-Content-Type-Options", "nosniff"),
-        reply.download_name.as_deref().and_then(|n| header("Content-Disposition", &format!("attachment; filename=\"{n}\""))),
+        reply
+            .download_name
+            .as_deref()
+            .and_then(|n| header("Content-Disposition", &format!("attachment; filename=\"{n}\""))),
     ]
     .into_iter()
     .flatten()

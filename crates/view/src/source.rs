@@ -97,7 +97,10 @@ fn read_gaussians(path: &Path) -> ViewResult<Gaussians> {
     let g = splatseg_scene::ply::read_ply(path)
         .map_err(|e| ViewError::BadPly { reason: e.to_string(), path: path.to_path_buf() })?;
     if g.is_empty() {
-        return Err(ViewError::BadPly { reason: "it has no Gaussians".to_string(), path: path.to_path_buf() });
+        return Err(ViewError::BadPly {
+            reason: "it has no Gaussians".to_string(),
+            path: path.to_path_buf(),
+        });
     }
     Ok(g)
 }

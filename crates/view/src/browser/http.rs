@@ -29,9 +29,42 @@ pub fn request(method: &str, url: &str, body: Option<&[u8]>, timeout: Duration) 
         body.len()
     );
     stream.write_all(head.as_bytes()).and_then(|_| stream.write_all(body)).map_err(|e| e.to_string())?;
-    let mut raw = Vec::new();
-    stream.read_to_end(&mut raw).map_err(|e| format!("reading the answer of {url}: {e}"))?;
+    let raw = read_answer(&mut stream).map_err(|e| format!("reading the answer of {url}: {e}"))?;
     parse(&raw).ok_or_else(|| format!("malformed HTTP answer from {url}"))
+}
+
+/// Reads one answer: up to its `Content-Length`, the end of its chunks, or the end of the stream
+/// (some servers keep the connection open despite `Connection: close`).
+fn read_answer(stream: &mut TcpStream) -> std::io::Result<Vec<u8>> {
+    let mut raw = Vec::new();
+    let mut buf = [0u8; 64 * 1024];
+    loop {
+        if is_complete(&raw) {
+            return Ok(raw);
+        }
+        let n = stream.read(&mut buf)?;
+        if n == 0 {
+            return Ok(raw);
+        }
+        raw.extend_from_slice(&buf[..n]);
+    }
+}
+
+fn is_complete(raw: &[u8]) -> bool {
+    let Some(end) = raw.windows(4).position(|w| w == b"\r\n\r\n") else {
+        return false;
+    };
+    let head = String::from_utf8_lossy(&raw[..end]).to_ascii_lowercase();
+    let body = &raw[end + 4..];
+    for line in head.lines() {
+        if let Some(len) = line.strip_prefix("content-length:") {
+            return len.trim().parse::<usize>().is_ok_and(|n| body.len() >= n);
+        }
+        if line.starts_with("transfer-encoding:") && line.contains("chunked") {
+            return body.ends_with(b"0\r\n\r\n");
+        }
+    }
+    false
 }
 
 fn parse(raw: &[u8]) -> Option<Response> {
@@ -68,8 +101,10 @@ mod tests {
     fn parses_plain_and_chunked_answers() {
         let r = super::parse(b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\n\r\nhi").unwrap();
         assert_eq!((r.status, r.body.as_slice()), (200, &b"hi"[..]));
-        let r =
-            super::parse(b"HTTP/1.1 404 NF\r\nTransfer-Encoding: chunked\r\n\r\n3\r\nabc\r\n2\r\nde\r\n0\r\n\r\n").unwrap();
+        let r = super::parse(
+            b"HTTP/1.1 404 NF\r\nTransfer-Encoding: chunked\r\n\r\n3\r\nabc\r\n2\r\nde\r\n0\r\n\r\n",
+        )
+        .unwrap();
         assert_eq!((r.status, r.body.as_slice()), (404, &b"abcde"[..]));
     }
 }

@@ -28,8 +28,8 @@ fn on_path(names: &[&str]) -> Option<PathBuf> {
 /// (`chromium`, `chromium-browser`, `google-chrome`; `chromedriver`), or `None`.
 pub fn find_chromium() -> Option<ChromiumPaths> {
     let from_env = |k: &str| std::env::var_os(k).map(PathBuf::from).filter(|p| p.is_file());
-    let chromium =
-        from_env("SPLATSEG_CHROMIUM").or_else(|| on_path(&["chromium", "chromium-browser", "google-chrome"]))?;
+    let chromium = from_env("SPLATSEG_CHROMIUM")
+        .or_else(|| on_path(&["chromium", "chromium-browser", "google-chrome"]))?;
     let chromedriver = from_env("SPLATSEG_CHROMEDRIVER").or_else(|| on_path(&["chromedriver"]))?;
     Some(ChromiumPaths { chromium, chromedriver })
 }
@@ -52,14 +52,16 @@ impl Browser {
     pub fn launch(paths: &ChromiumPaths, width: u32, height: u32) -> ViewResult<Browser> {
         let port = free_port()?;
         let profile = std::env::temp_dir().join(format!("splatseg-chromium-{}-{port}", std::process::id()));
-        std::fs::create_dir_all(&profile).map_err(|e| err(format!("cannot create {}: {e}", profile.display())))?;
+        std::fs::create_dir_all(&profile)
+            .map_err(|e| err(format!("cannot create {}: {e}", profile.display())))?;
         let driver = Command::new(&paths.chromedriver)
             .arg(format!("--port={port}"))
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
             .map_err(|e| err(format!("cannot start {}: {e}", paths.chromedriver.display())))?;
-        let mut browser = Browser { driver, base: format!("http://127.0.0.1:{port}"), session: String::new(), profile };
+        let mut browser =
+            Browser { driver, base: format!("http://127.0.0.1:{port}"), session: String::new(), profile };
         browser.wait_until_ready()?;
         let args = [
             "--headless".to_string(),
@@ -81,8 +83,13 @@ impl Browser {
             "goog:chromeOptions": { "binary": paths.chromium.display().to_string(), "args": args }
         }}});
         let value = browser.call("POST", "/session", Some(caps))?;
-        browser.session = value["sessionId"].as_str().ok_or_else(|| err(format!("no session id in {value}")))?.to_string();
-        browser.call("POST", &browser.path("/timeouts"), Some(json!({ "script": 600_000, "pageLoad": 60_000 })))?;
+        browser.session =
+            value["sessionId"].as_str().ok_or_else(|| err(format!("no session id in {value}")))?.to_string();
+        browser.call(
+            "POST",
+            &browser.path("/timeouts"),
+            Some(json!({ "script": 600_000, "pageLoad": 60_000 })),
+        )?;
         Ok(browser)
     }
 
@@ -143,9 +150,13 @@ impl Browser {
     /// Clicks with the mouse at pixel `(x, y)` of the element matching `css` (CSS pixels from its
     /// top-left corner).
     pub fn click_at(&self, css: &str, x: f64, y: f64) -> ViewResult<()> {
-        let found =
-            self.call("POST", &self.path("/element"), Some(json!({ "using": "css selector", "value": css })))?;
-        let element = found[ELEMENT_KEY].as_str().ok_or_else(|| err(format!("no element `{css}`")))?.to_string();
+        let found = self.call(
+            "POST",
+            &self.path("/element"),
+            Some(json!({ "using": "css selector", "value": css })),
+        )?;
+        let element =
+            found[ELEMENT_KEY].as_str().ok_or_else(|| err(format!("no element `{css}`")))?.to_string();
         let rect = self.call("GET", &self.path(&format!("/element/{element}/rect")), None)?;
         let (w, h) = (rect["width"].as_f64().unwrap_or(0.0), rect["height"].as_f64().unwrap_or(0.0));
         // Actions with an element origin are offsets from the element's centre (whole CSS px).
@@ -186,6 +197,7 @@ impl Drop for Browser {
 }
 
 fn free_port() -> ViewResult<u16> {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").map_err(|e| err(format!("no free port: {e}")))?;
+    let listener =
+        std::net::TcpListener::bind("127.0.0.1:0").map_err(|e| err(format!("no free port: {e}")))?;
     listener.local_addr().map(|a| a.port()).map_err(|e| err(format!("no free port: {e}")))
 }
