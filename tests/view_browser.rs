@@ -303,7 +303,9 @@ fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
     );
 
     if std::env::var_os("SPLATSEG_UPDATE_SCREENSHOT").is_some() {
-        write_screenshot(&browser, &server.url, target);
+        // the object at the centre of the first view, to show a selection
+        let centre = labels.data[(labels.height / 2) * labels.width + labels.width / 2];
+        write_screenshot(&browser, &server.url, if centre > 0 { centre } else { target });
     }
 }
 

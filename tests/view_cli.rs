@@ -47,7 +47,7 @@ fn view_of_a_ply_without_positions_fails_and_names_the_file() {
     let out = splatseg(&["view", utf8(&ply), "--port", "0"]);
     assert!(!out.status.success());
     let err = stderr(&out);
-    assert!(err.contains("no_positions.ply") && err.contains("`x`"), "{err}");
+    assert!(err.contains("no_positions.ply") && err.contains("'x' is missing"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
 

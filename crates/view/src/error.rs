@@ -15,14 +15,12 @@ pub enum ViewError {
          or point_cloud.ply); give the folder of a run or a .ply file: {0}"
     )]
     NoPly(PathBuf),
-    /// The PLY could not be read or is not a 3DGS PLY.
-    #[error("cannot view the PLY: {reason}: {path}")]
-    BadPly {
-        /// What is wrong.
-        reason: String,
-        /// The PLY.
-        path: PathBuf,
-    },
+    /// The PLY could not be read or is not a 3DGS PLY (the message names the file).
+    #[error("cannot view the PLY: {0}")]
+    BadPly(splatseg_scene::SceneError),
+    /// The PLY holds no Gaussians.
+    #[error("cannot view the PLY: it has no Gaussians: {0}")]
+    EmptyPly(PathBuf),
     /// The scene (cameras) could not be loaded.
     #[error("cannot load the scene's cameras ({reason}); give --scene or leave it out: {path}")]
     Scene {

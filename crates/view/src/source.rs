@@ -94,13 +94,9 @@ fn find_ply(dir: &Path) -> Option<PathBuf> {
 
 /// Reads and checks the PLY: it must have Gaussians.
 fn read_gaussians(path: &Path) -> ViewResult<Gaussians> {
-    let g = splatseg_scene::ply::read_ply(path)
-        .map_err(|e| ViewError::BadPly { reason: e.to_string(), path: path.to_path_buf() })?;
+    let g = splatseg_scene::ply::read_ply(path).map_err(ViewError::BadPly)?;
     if g.is_empty() {
-        return Err(ViewError::BadPly {
-            reason: "it has no Gaussians".to_string(),
-            path: path.to_path_buf(),
-        });
+        return Err(ViewError::EmptyPly(path.to_path_buf()));
     }
     Ok(g)
 }
