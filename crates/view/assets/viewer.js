@@ -13,10 +13,29 @@ const HIDDEN = 1, SELECTED = 2, RECOLOURED = 4, HIGHLIGHT = 8;
 const SORT_COS = Math.cos(0.01);
 const SORT_MOVE = 0.005;
 
+// fetch with a time limit, tried three times (a stalled connection is given up and reopened).
+async function get(url, timeoutMs = 20000) {
+  let last = null;
+  for (let attempt = 0; attempt < 3; attempt++) {
+    const abort = new AbortController();
+    const timer = setTimeout(() => abort.abort(), timeoutMs);
+    try {
+      const r = await fetch(url, { signal: abort.signal, cache: 'no-store' });
+      if (!r.ok) throw new Error(`${url}: HTTP ${r.status}`);
+      const body = await r.arrayBuffer();
+      clearTimeout(timer);
+      return body;
+    } catch (e) {
+      clearTimeout(timer);
+      last = e;
+      if (!(e && e.name === 'AbortError')) break;
+    }
+  }
+  throw new Error(`${url}: ${last}`);
+}
+
 async function text(url) {
-  const r = await fetch(url);
-  if (!r.ok) throw new Error(`${url}: ${r.status}`);
-  return r.text();
+  return new TextDecoder().decode(await get(url));
 }
 
 class Viewer {
@@ -45,8 +64,9 @@ class Viewer {
   async start() {
     const params = new URLSearchParams(location.search);
     this.native = params.get('canvas') === 'native';
+    this.phase = 'fetching the scene description and shaders';
     const [manifest, splatVert, splatFrag, linesVert, linesFrag] = await Promise.all([
-      fetch('/api/scene.json').then((r) => r.json()),
+      text('/api/scene.json').then((t) => JSON.parse(t)),
       text('/assets/splat.vert'), text('/assets/splat.frag'), text('/assets/lines.vert'), text('/assets/lines.frag'),
     ]);
     this.manifest = manifest;
@@ -75,7 +95,9 @@ class Viewer {
     this.worker.postMessage({ type: 'init', count: manifest.gaussians });
     this.panel = new Panel(this);
     requestAnimationFrame(() => this.frame());
+    this.phase = 'loading Gaussians';
     await this.load();
+    this.phase = 'loaded';
   }
 
   resize() {
@@ -100,9 +122,7 @@ class Viewer {
   async load() {
     const m = this.manifest;
     for (let k = 0; k < m.chunks; k++) {
-      const r = await fetch(`/api/gaussians/${k}.bin`);
-      if (!r.ok) throw new Error(`chunk ${k}: ${r.status}`);
-      const words = new Uint32Array(await r.arrayBuffer());
+      const words = new Uint32Array(await get(`/api/gaussians/${k}.bin`, 60000));
       const offset = k * m.chunk_gaussians;
       const n = words.length / 12;
       this.renderer.uploadChunk(offset, words);
@@ -240,6 +260,7 @@ class Viewer {
     return {
       ready: this.ready,
       error: this.error,
+      phase: this.phase,
       loaded: this.loaded,
       gaussians: this.manifest?.gaussians,
       visible: this.renderer?.visible,

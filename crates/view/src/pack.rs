@@ -44,12 +44,12 @@ pub fn covariance(log_scales: [f32; 3], quat_wxyz: [f32; 4]) -> [f32; 6] {
 /// Packs every Gaussian (`slots`: `[N]` object slot of each) into the wire layout, `[N × 48]` bytes.
 pub fn pack(g: &Gaussians, slots: &[u32]) -> Vec<u8> {
     let mut out = Vec::with_capacity(g.len() * BYTES_PER_GAUSSIAN);
-    for i in 0..g.len() {
+    for (i, &slot) in slots.iter().enumerate().take(g.len()) {
         let mut words = [0u32; 12];
         for (k, v) in g.means[i].iter().enumerate() {
             words[k] = v.to_bits();
         }
-        words[3] = slots[i];
+        words[3] = slot;
         for (k, v) in covariance(g.log_scales[i], g.rotations[i]).iter().enumerate() {
             words[4 + k] = v.to_bits();
         }
