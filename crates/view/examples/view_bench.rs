@@ -11,7 +11,8 @@ use splatseg_view::pack::BYTES_PER_GAUSSIAN;
 use splatseg_view::{Site, SourceOptions, ViewServer, ViewSource};
 use std::path::PathBuf;
 
-/// `n` Gaussians with deterministic pseudo-random centres in a 2-unit cube, small scales,
+/// `n` Gaussians with deterministic pseudo-random centres in a 2-unit cube, scales of 1–4 mm
+/// (≈ 1–2 px σ at the overview camera, so the frame is not all overdraw),
 /// random rotations, opacities and colours.
 fn random_gaussians(n: usize) -> Gaussians {
     let mut seed = 0x2545_f491_u64;
@@ -22,7 +23,7 @@ fn random_gaussians(n: usize) -> Gaussians {
     let mut g = Gaussians::default();
     for _ in 0..n {
         g.means.push([2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0]);
-        let s = (0.003 + 0.01 * next()).ln();
+        let s = (0.001 + 0.003 * next()).ln();
         g.log_scales.push([s, s + 0.5 * next(), s - 0.5 * next()]);
         g.rotations.push([next() - 0.5, next() - 0.5, next() - 0.5, next() - 0.5]);
         g.raw_opacities.push(4.0 * next() - 1.0);
@@ -79,6 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             (source.gaussians.len(), source.scene.as_ref().map(|s| s.cameras[0].width).unwrap_or(0));
         let ms = first_frame(&browser, source)?;
         rows.push(format!("| first frame, demo ({demo}: {n} Gaussians, {camera} px wide) | {ms:.0} ms |"));
+        eprintln!("{}", rows.last().map_or("", String::as_str));
     }
     let n = 1_000_000;
     let source = ViewSource {
