@@ -4,6 +4,7 @@
 //!
 //! - the first frame arrives and matches `splatseg render`'s image of the same camera (PSNR ≥ 20 dB);
 //! - clicking the centre of each object visible in the first view selects its id (≥ 90 %);
+//! - clicking an object in the strip of overlays selects it;
 //! - hide and isolate change the pixels as expected;
 //! - the exported selection is byte-identical to `splatseg extract --ids …`.
 //!
@@ -252,7 +253,30 @@ fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
     assert!(hits * 10 >= visible.len() * 9, "picking: {hits} of {} objects", visible.len());
 
     // 3. Hide and isolate the largest visible object.
-    let &(target, _, _, _) = visible.iter().max_by_key(|v| v.3).expect("an object");
+    let &(target, (tx, ty), _, _) = visible.iter().max_by_key(|v| v.3).expect("an object");
+
+    // The strip: clicking the object in the first view's overlay selects it in 3D.
+    browser.execute("viewer.select([]);", serde_json::json!([])).expect("clear");
+    let thumb = browser
+        .await_promise(
+            "(async () => { const img = document.querySelector('#strip figure:first-child img'); \
+             await img.decode(); return [img.naturalWidth, img.getBoundingClientRect().width]; })()",
+        )
+        .expect("strip image");
+    let scale = thumb[1].as_f64().expect("shown width") / thumb[0].as_f64().expect("natural width");
+    browser
+        .click_at("#strip figure:first-child img", tx as f64 * scale, ty as f64 * scale)
+        .expect("strip click");
+    let mut selected = serde_json::Value::Null;
+    for _ in 0..50 {
+        selected = state(&browser)["selected"].clone();
+        if selected == serde_json::json!([target]) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    assert_eq!(selected, serde_json::json!([target]), "clicking object {target} in the strip");
+
     let (inside, outside) = regions(&labels, target, 4);
     browser
         .execute("viewer.select([]); viewer.hide([arguments[0]]);", serde_json::json!([target]))
@@ -303,9 +327,11 @@ fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
     );
 
     if std::env::var_os("SPLATSEG_UPDATE_SCREENSHOT").is_some() {
-        // the object at the centre of the first view, to show a selection
-        let centre = labels.data[(labels.height / 2) * labels.width + labels.width / 2];
-        write_screenshot(&browser, &server.url, if centre > 0 { centre } else { target });
+        // an object of median size, to show a selection
+        let mut by_area: Vec<_> = visible.iter().map(|v| (v.3, v.0)).collect();
+        by_area.sort_unstable();
+        let shown_id = by_area[by_area.len() / 2].1;
+        write_screenshot(&browser, &server.url, shown_id);
     }
 }
 
