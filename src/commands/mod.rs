@@ -17,6 +17,7 @@ pub mod render;
 pub mod run;
 pub mod synth;
 pub mod train;
+pub mod view;
 
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
 ///
@@ -64,6 +65,8 @@ pub enum Command {
     Synth(synth::Args),
     /// Train the Gaussians on the images (3DGS on the CPU) and, with lifted ids, the joint optimisation.
     Train(train::Args),
+    /// Open a labelled scene in the browser: see, pick, hide and export objects (WebGL2 viewer).
+    View(view::Args),
 }
 
 /// Runs the chosen subcommand.
@@ -84,6 +87,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => run::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Train(args) => train::run(args),
+        Command::View(args) => view::run(args),
     }
 }
 

@@ -1,0 +1,29 @@
+//! `view` stage: `splatseg view`, a local web viewer for a labelled 3DGS scene.
+//!
+//! The server ([`server`], `tiny_http`, synchronous) serves an embedded page ([`assets`]: HTML,
+//! JS, GLSL, our own) that renders the Gaussians with WebGL2 (instanced screen-space ellipses from
+//! the EWA projection of `splatseg-render`, sorted back to front in a Web Worker), picks objects
+//! with an id pass, hides / isolates / recolours them and exports a selection through
+//! `splatseg-edit` ([`export`]).
+//!
+//! - [`source`]: what PATH is (run / train / INRIA folder or a PLY), cameras, per-view overlays.
+//! - [`pack`]: the 48-byte-per-Gaussian binary layout sent to the page.
+//! - [`manifest`]: the scene description (objects by slot, cameras, views).
+//! - [`routes`]: every URL the server answers; anything else is 404.
+//! - [`browser`]: a minimal WebDriver client for headless Chromium (tests, benchmarks, the
+//!   README's screenshot).
+
+pub mod assets;
+pub mod browser;
+pub mod error;
+pub mod export;
+pub mod manifest;
+pub mod pack;
+pub mod routes;
+pub mod server;
+pub mod source;
+
+pub use error::{ViewError, ViewResult};
+pub use routes::Site;
+pub use server::ViewServer;
+pub use source::{SourceOptions, ViewSource};

@@ -1,0 +1,193 @@
+//! Request routing: a pure function from (method, URL, body) to a reply, so every rule (what is
+//! served, 404 for anything else, export) is tested without a socket. Nothing here builds a file
+//! path from the URL: files are looked up in tables made at start, so `..` and unknown paths are
+//! simply not found.
+
+use crate::assets::asset;
+use crate::export::{export, ExportRequest};
+use crate::manifest::{self, Manifest};
+use crate::pack::{pack, BYTES_PER_GAUSSIAN, CHUNK_GAUSSIANS};
+use crate::source::ViewSource;
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+/// Largest request body accepted, bytes (an export request is a list of ids).
+pub const MAX_BODY_BYTES: usize = 64 * 1024;
+
+/// An HTTP reply.
+#[derive(Debug)]
+pub struct Reply<'a> {
+    /// Status code.
+    pub status: u16,
+    /// `Content-Type`.
+    pub content_type: &'static str,
+    /// Body.
+    pub body: Cow<'a, [u8]>,
+    /// `Content-Disposition` file name (downloads).
+    pub download_name: Option<String>,
+}
+
+impl<'a> Reply<'a> {
+    fn ok(content_type: &'static str, body: Cow<'a, [u8]>) -> Self {
+        Reply { status: 200, content_type, body, download_name: None }
+    }
+
+    fn json(status: u16, value: &serde_json::Value) -> Self {
+        let body = serde_json::to_vec(value).unwrap_or_default();
+        Reply { status, content_type: "application/json", body: Cow::Owned(body), download_name: None }
+    }
+
+    fn error(status: u16, message: &str) -> Self {
+        Self::json(status, &serde_json::json!({ "error": message }))
+    }
+
+    /// 404.
+    pub fn not_found() -> Self {
+        Self::error(404, "not found")
+    }
+
+    /// 413: the body is over [`MAX_BODY_BYTES`].
+    pub fn too_large() -> Self {
+        Self::error(413, &format!("request body over {MAX_BODY_BYTES} bytes"))
+    }
+}
+
+/// What the server holds: the source, its packed Gaussians, the manifest, and the exports written.
+pub struct Site {
+    source: ViewSource,
+    manifest: Manifest,
+    manifest_json: Vec<u8>,
+    packed: Vec<u8>,
+    exports: Mutex<BTreeMap<String, PathBuf>>,
+}
+
+impl Site {
+    /// Packs the Gaussians and builds the manifest.
+    pub fn new(source: ViewSource) -> Site {
+        let (slots, objects) = manifest::object_slots(&source.gaussians);
+        let packed = pack(&source.gaussians, &slots);
+        let manifest = manifest::build(&source, objects);
+        let manifest_json = serde_json::to_vec(&manifest).unwrap_or_default();
+        Site { source, manifest, manifest_json, packed, exports: Mutex::new(BTreeMap::new()) }
+    }
+
+    /// The manifest served at `/api/scene.json`.
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    /// The source shown.
+    pub fn source(&self) -> &ViewSource {
+        &self.source
+    }
+
+    /// Answers one request.
+    pub fn respond(&self, method: &str, url: &str, body: &[u8]) -> Reply<'_> {
+        let path = url.split(['?', '#']).next().unwrap_or("");
+        match method {
+            "GET" | "HEAD" => self.get(path),
+            "POST" if path == "/api/export" => self.export(body),
+            _ => Reply::not_found(),
+        }
+    }
+
+    fn get(&self, path: &str) -> Reply<'_> {
+        if let Some((content_type, bytes)) = asset(path) {
+            return Reply::ok(content_type, Cow::Borrowed(bytes));
+        }
+        let parts: Vec<&str> = path.trim_start_matches('/').split('/').collect();
+        match parts[..] {
+            ["api", "scene.json"] => Reply::ok("application/json", Cow::Borrowed(&self.manifest_json)),
+            ["api", "gaussians", chunk] => self.chunk(chunk),
+            ["views", view, "overlay.png"] => self.overlay(view),
+            ["api", "label", view, x, y] => self.label(view, x, y),
+            ["exports", name] => self.exported(name),
+            _ => Reply::not_found(),
+        }
+    }
+
+    fn chunk(&self, name: &str) -> Reply<'_> {
+        let Some(k) = name.strip_suffix(".bin").and_then(|k| k.parse::<usize>().ok()) else {
+            return Reply::not_found();
+        };
+        let n = self.source.gaussians.len();
+        let start = k.saturating_mul(CHUNK_GAUSSIANS);
+        if start >= n {
+            return Reply::not_found();
+        }
+        let end = (start + CHUNK_GAUSSIANS).min(n);
+        let bytes = &self.packed[start * BYTES_PER_GAUSSIAN..end * BYTES_PER_GAUSSIAN];
+        Reply::ok("application/octet-stream", Cow::Borrowed(bytes))
+    }
+
+    fn view_index(&self, view: &str) -> Option<usize> {
+        view.parse::<usize>().ok().filter(|&i| i < self.source.views.len())
+    }
+
+    fn overlay(&self, view: &str) -> Reply<'_> {
+        let Some(path) = self.view_index(view).and_then(|i| self.source.views[i].overlay.as_ref()) else {
+            return Reply::not_found();
+        };
+        match std::fs::read(path) {
+            Ok(bytes) => Reply::ok("image/png", Cow::Owned(bytes)),
+            Err(_) => Reply::not_found(),
+        }
+    }
+
+    fn label(&self, view: &str, x: &str, y: &str) -> Reply<'_> {
+        let Some(path) = self.view_index(view).and_then(|i| self.source.views[i].mask.as_ref()) else {
+            return Reply::not_found();
+        };
+        let (Ok(x), Ok(y)) = (x.parse::<usize>(), y.parse::<usize>()) else {
+            return Reply::not_found();
+        };
+        match splatseg_scene::labels::read_label_png(path) {
+            Ok(map) if x < map.width && y < map.height => {
+                let id = map.data[y * map.width + x];
+                Reply::json(200, &serde_json::json!({ "id": if id == 0 { None } else { Some(id) } }))
+            }
+            Ok(_) => Reply::error(400, "pixel outside the label map"),
+            Err(e) => Reply::error(500, &e.to_string()),
+        }
+    }
+
+    fn export(&self, body: &[u8]) -> Reply<'_> {
+        if body.len() > MAX_BODY_BYTES {
+            return Reply::too_large();
+        }
+        let request: ExportRequest = match serde_json::from_slice(body) {
+            Ok(r) => r,
+            Err(e) => return Reply::error(400, &format!("bad export request: {e}")),
+        };
+        let source = &self.source;
+        match export(&source.gaussians, &source.ply_path, &source.export_dir, &request) {
+            Ok(done) => {
+                if let Ok(mut exports) = self.exports.lock() {
+                    exports.insert(done.name.clone(), done.path.clone());
+                }
+                Reply::json(
+                    200,
+                    &serde_json::json!({
+                        "path": done.path.display().to_string(),
+                        "url": format!("/exports/{}", done.name),
+                        "count": done.count,
+                    }),
+                )
+            }
+            Err(e) => Reply::error(400, &e.to_string()),
+        }
+    }
+
+    fn exported(&self, name: &str) -> Reply<'_> {
+        let path = self.exports.lock().ok().and_then(|e| e.get(name).cloned());
+        match path.map(std::fs::read) {
+            Some(Ok(bytes)) => Reply {
+                download_name: Some(name.to_string()),
+                ..Reply::ok("application/octet-stream", Cow::Owned(bytes))
+            },
+            _ => Reply::not_found(),
+        }
+    }
+}

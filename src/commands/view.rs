@@ -1,0 +1,87 @@
+//! `splatseg view`: serve the interactive web viewer (crate `splatseg-view`) for a scene.
+
+use anyhow::Context;
+use clap::Args as ClapArgs;
+use splatseg_view::{Site, SourceOptions, ViewServer, ViewSource};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Open a labelled scene in the browser: see it, click objects, hide / isolate / recolour them
+/// and export a selection as a PLY.
+///
+/// PATH is `splatseg run`'s or `train`'s output folder (e.g. `out/demo/run`), an INRIA 3DGS output
+/// folder, or any 3DGS PLY (without `object_id` it is one object). The viewer starts at the
+/// capture's first camera: the scene `run` recorded in its report.md, a `scene/` folder beside
+/// PATH, or --scene. The page (HTML, JS, WebGL2 shaders) is built into the binary: no network, no
+/// GPU toolkit, any browser with WebGL2.
+///
+/// The server listens on 127.0.0.1 only, serves nothing but this scene's files, and writes
+/// exports (the same bytes as `splatseg extract` / `remove`) into --out, or PATH's folder.
+/// Stop it with Ctrl-C.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// Output folder of `run` / `train`, or a 3DGS PLY.
+    pub path: PathBuf,
+    /// Scene folder with the cameras (COLMAP or transforms.json), if not found automatically.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Port (0 = any free port).
+    #[arg(long, default_value_t = 8080)]
+    pub port: u16,
+    /// Address to listen on. Anything but 127.0.0.1 / localhost exposes the scene and its export
+    /// endpoint to other machines.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Folder for exported PLYs (default: PATH's folder).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Open the page in the default browser.
+    #[arg(long)]
+    pub open: bool,
+}
+
+/// Runs the command (until interrupted).
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let options = SourceOptions { scene: args.scene.clone(), out: args.out.clone() };
+    let source = ViewSource::open(&args.path, &options)?;
+    for warning in &source.warnings {
+        tracing::warn!("{warning}");
+    }
+    if !matches!(args.host.as_str(), "127.0.0.1" | "localhost" | "::1") {
+        tracing::warn!(
+            "listening on {}: other machines on the network can see this scene and write exports into {}",
+            args.host,
+            source.export_dir.display()
+        );
+    }
+    let summary = format!(
+        "{} Gaussians, {} objects, {} cameras from {}",
+        source.gaussians.len(),
+        splatseg_view::manifest::object_slots(&source.gaussians).1.len(),
+        source.scene.as_ref().map_or(0, |s| s.views.len()),
+        source.ply_path.display()
+    );
+    let server = ViewServer::start(Site::new(source), &args.host, args.port)?;
+    println!("splatseg view: {summary}");
+    println!("open {}", server.url());
+    std::io::stdout().flush().context("writing to stdout")?;
+    if args.open {
+        open_in_browser(server.url());
+    }
+    server.wait();
+    Ok(())
+}
+
+/// Asks the desktop to open `url`; a failure is only a warning (the URL is printed).
+fn open_in_browser(url: &str) {
+    let (program, args): (&str, Vec<&str>) = if cfg!(target_os = "macos") {
+        ("open", vec![url])
+    } else if cfg!(windows) {
+        ("cmd", vec!["/C", "start", "", url])
+    } else {
+        ("xdg-open", vec![url])
+    };
+    if let Err(e) = std::process::Command::new(program).args(&args).spawn() {
+        tracing::warn!("cannot open a browser ({program}: {e}); open {url} yourself");
+    }
+}
