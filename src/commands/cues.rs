@@ -238,36 +238,53 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cues.push(Box::new(LogCue));
     }
     let style = ProgressStyle::with_template(
-        "{prefix:>9} [{bar:30}] {pos}/{len} views {elapsed_precise} (eta {eta})",
+        "{prefix:>9} [{bar:30}] {pos}/{len} views {elapsed_precise} (eta {eta}) {msg}",
     )
     .map(|s| s.progress_chars("=> "))
     .unwrap_or_else(|_| ProgressStyle::default_bar());
-    let mut computed = 0;
     for cue in &cues {
-        let (folder, ext) = cue.folder();
-        let dir = args.out.join(folder);
-        let key_dir = args.out.join("cache").join(folder);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        std::fs::create_dir_all(&key_dir).with_context(|| format!("cannot create {}", key_dir.display()))?;
-        let bar = ProgressBar::new(views.len() as u64).with_style(style.clone()).with_prefix(folder);
-        for view in &views {
-            let image = load_image_rgb(&scene, view, &options)?;
+        let folder = cue.folder().0;
+        for dir in [args.out.join(folder), args.out.join("cache").join(folder)] {
+            std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+    }
+    let bar = ProgressBar::new(views.len() as u64).with_style(style).with_prefix("cues");
+    let mut computed = 0;
+    std::thread::scope(|scope| -> anyhow::Result<()> {
+        // the next image is decoded (and resized) while the models run on this one
+        let (sender, receiver) = std::sync::mpsc::sync_channel(1);
+        let (scene, options, views) = (&scene, &options, &views);
+        scope.spawn(move || {
+            for view in views.iter() {
+                if sender.send(load_image_rgb(scene, view, options)).is_err() {
+                    break;
+                }
+            }
+        });
+        for view in views.iter() {
+            let image = receiver.recv().context("the image loader stopped")??;
             let size = (image.height() as usize, image.width() as usize);
-            let key = format!("{:016x}", fnv1a(image.as_raw(), fnv1a(cue.identity().as_bytes(), FNV_OFFSET)));
-            let out = dir.join(format!("{}.{ext}", view.stem));
-            let key_path = key_dir.join(format!("{}.key", view.stem));
-            let cached =
-                out.is_file() && std::fs::read_to_string(&key_path).map(|k| k.trim() == key).unwrap_or(false);
-            if !cached {
-                cue.write(image.as_raw(), size, &out)
-                    .with_context(|| format!("{folder} for view {}", view.name))?;
-                splatseg_scene::atomic::write_bytes_atomic(&key_path, key.as_bytes())?;
-                computed += 1;
+            for cue in &cues {
+                let (folder, ext) = cue.folder();
+                bar.set_message(format!("{folder} {}", view.name));
+                let key =
+                    format!("{:016x}", fnv1a(image.as_raw(), fnv1a(cue.identity().as_bytes(), FNV_OFFSET)));
+                let out = args.out.join(folder).join(format!("{}.{ext}", view.stem));
+                let key_path = args.out.join("cache").join(folder).join(format!("{}.key", view.stem));
+                let cached = out.is_file()
+                    && std::fs::read_to_string(&key_path).map(|k| k.trim() == key).unwrap_or(false);
+                if !cached {
+                    cue.write(image.as_raw(), size, &out)
+                        .with_context(|| format!("{folder} for view {}", view.name))?;
+                    splatseg_scene::atomic::write_bytes_atomic(&key_path, key.as_bytes())?;
+                    computed += 1;
+                }
             }
             bar.inc(1);
         }
-        bar.finish();
-    }
+        Ok(())
+    })?;
+    bar.finish_with_message("done");
     println!(
         "{} views × {} cues: {computed} computed, {} cached, in {}",
         views.len(),

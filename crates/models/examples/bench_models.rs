@@ -8,6 +8,7 @@
 //! cargo run --release -p splatseg-models --example bench_models -- sam-encoder CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- sam-vs-candle CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- mobile-sam-vs-candle CHECKPOINT
+//! cargo run --release -p splatseg-models --example bench_models -- sam-decoder CHECKPOINT
 //! cargo run --release -p splatseg-models --example bench_models -- sam-amg CHECKPOINT 1024 [POINTS_PER_SIDE]
 //! ```
 //!
@@ -82,12 +83,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let rgb = vec![128u8; 1024 * 1024 * 3];
             let embedded = model.embed_image(&rgb, 1024, 1024)?;
             let points: Vec<[f32; 2]> = (0..64).map(|i| [(i * 16) as f32, (i * 8) as f32]).collect();
-            for chunk in [1usize] {
+            let t = Instant::now();
+            for part in points.chunks(1) {
+                model.predict_points(&embedded, part)?;
+            }
+            println!("one at a time: 64 points in {:.2?} (every mask upscaled)", t.elapsed());
+            let t = Instant::now();
+            let prepared = model.prepare_decoder(&embedded)?;
+            println!("shared: per-image preparation {:.2?}", t.elapsed());
+            for chunk in [1usize, 4, 16, 64] {
                 let t = Instant::now();
                 for part in points.chunks(chunk) {
-                    model.predict_points(&embedded, part)?;
+                    model.decode_points(&embedded, &prepared, part)?;
                 }
-                println!("64 points in chunks of {chunk}: {:.2?}", t.elapsed());
+                let tokens = t.elapsed();
+                let t = Instant::now();
+                for part in points.chunks(chunk) {
+                    let (decoded, _) = model.decode_points(&embedded, &prepared, part)?;
+                    for p in 0..part.len() {
+                        model.point_masks(&prepared, &decoded, p, &[0, 1, 2])?;
+                    }
+                }
+                println!(
+                    "shared, batches of {chunk}: 64 points in {tokens:.2?} (transformer + IoU only), {:.2?} with all masks upscaled",
+                    t.elapsed()
+                );
             }
         }
         "sam-amg" => {

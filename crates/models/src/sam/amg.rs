@@ -5,6 +5,8 @@
 //! Memory stays bounded: points go through the decoder in small chunks, and each mask is upscaled,
 //! scored and run-length encoded on its own (no batch of full-resolution logits is materialised).
 
+use std::time::Instant;
+
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use splatseg_scene::rle::Rle;
@@ -12,12 +14,15 @@ use splatseg_scene::sam::SamMask;
 use splatseg_scene::Plane;
 
 use super::masks::{mask_box, near_crop_edge, nms, remove_small_regions, stability_score, RegionKind};
+use super::shared_decoder::DecoderImage;
 use super::{ImageEmbedding, Sam};
 use crate::error::{ModelsError, ModelsResult};
 
-/// Prompts sent through the decoder at once inside a batch (results do not depend on it). One at a
-/// time measured fastest on the CPU (85 ms per point for ViT-B vs 150–200 ms per point in batches
-/// of 2–16: the batched per-prompt image maps no longer fit in cache).
+/// Prompts sent through the shared-work decoder at once (results do not depend on it); chunks run in
+/// parallel. One at a time measured fastest: ViT-B, 256 points, decoder 12.3 s with 1, 22.7 s with 4,
+/// 31.2 s with 16 (sequential chunks, machine under load ~16): a prompt's `[4096, 256]` image tokens
+/// stay in cache, a batch's do not. Chunks in parallel vs in sequence: 16.4–19.0 s vs 18.3–18.4 s
+/// (same load), no clear difference.
 const DECODER_CHUNK: usize = 1;
 
 /// Parameters of the automatic mask generator; defaults are the reference's.
@@ -80,9 +85,33 @@ struct Candidate {
     crop_box: [usize; 4],
 }
 
+/// How the automatic mask generator runs the mask decoder (same masks either way; tested).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DecoderPath {
+    /// Per-image work shared by all prompts, prompts in batches, only masks that pass the
+    /// predicted-IoU filter upscaled ([`super::shared_decoder`]).
+    #[default]
+    Shared,
+    /// [`Sam::predict_points`] one point at a time, every mask upscaled: the plain reference-shaped
+    /// computation, kept to check the shared one against.
+    OneAtATime,
+}
+
 /// Runs the automatic mask generator on an 8-bit RGB image (`rgb`: `[height, width, 3]`).
 /// `progress(done, total)` is called after each batch of points.
 pub fn generate_masks(
+    sam: &Sam,
+    rgb: &[u8],
+    size: (usize, usize),
+    config: &AmgConfig,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> ModelsResult<Vec<SamMask>> {
+    generate_masks_using(DecoderPath::Shared, sam, rgb, size, config, progress)
+}
+
+/// [`generate_masks`] with a chosen decoder path.
+pub fn generate_masks_using(
+    path: DecoderPath,
     sam: &Sam,
     rgb: &[u8],
     (height, width): (usize, usize),
@@ -105,7 +134,7 @@ pub fn generate_masks(
     let mut done = 0;
     let mut all = Vec::new();
     for (crop, layer) in crops.iter().zip(&layers) {
-        let found = process_crop(sam, rgb, (height, width), crop, &grids[*layer], config, &mut |n| {
+        let found = process_crop(path, sam, rgb, (height, width), crop, &grids[*layer], config, &mut |n| {
             done += n;
             progress(done, total);
         })?;
@@ -151,6 +180,7 @@ fn to_sam_mask(c: Candidate) -> SamMask {
 
 /// Masks of one crop: embed, prompt every grid point in batches, filter, NMS.
 fn process_crop(
+    path: DecoderPath,
     sam: &Sam,
     rgb: &[u8],
     (height, width): (usize, usize),
@@ -164,13 +194,36 @@ fn process_crop(
     for y in crop[1]..crop[3] {
         pixels.extend_from_slice(&rgb[(y * width + crop[0]) * 3..(y * width + crop[2]) * 3]);
     }
+    let started = Instant::now();
     let image = sam.embed_image(&pixels, ch, cw)?;
+    let prepared = match path {
+        DecoderPath::Shared => Some(sam.prepare_decoder(&image)?),
+        DecoderPath::OneAtATime => None,
+    };
+    let mut timing = StageTimes { encoder: started.elapsed().as_secs_f64(), ..StageTimes::default() };
     let points: Vec<[f64; 2]> = grid.iter().map(|p| [p[0] * cw as f64, p[1] * ch as f64]).collect();
     let mut found = Vec::new();
     for batch in points.chunks(config.points_per_batch) {
-        found.extend(process_batch(sam, &image, batch, crop, (height, width), config)?);
+        found.extend(process_batch(
+            sam,
+            &image,
+            prepared.as_ref(),
+            batch,
+            crop,
+            (height, width),
+            config,
+            &mut timing,
+        )?);
         on_batch(1);
     }
+    tracing::debug!(
+        "SAM crop {crop:?}: encoder {:.2} s, decoder {:.2} s ({} points, {} masks upscaled), post-processing {:.2} s",
+        timing.encoder,
+        timing.decoder,
+        points.len(),
+        timing.upscaled,
+        timing.post
+    );
     let boxes: Vec<[f32; 4]> = found.iter().map(|c| c.box_xyxy).collect();
     let scores: Vec<f32> = found.iter().map(|c| c.iou).collect();
     let mut kept = take(found, &nms(&boxes, &scores, config.box_nms_thresh));
@@ -182,32 +235,44 @@ fn process_crop(
     Ok(kept)
 }
 
+/// Seconds spent per stage of one crop, for the log.
+#[derive(Debug, Default)]
+struct StageTimes {
+    /// Image encoder and the decoder's per-image work.
+    encoder: f64,
+    /// Transformer, IoU head and the low-resolution masks that pass the predicted-IoU filter.
+    decoder: f64,
+    /// Upscaling to the image, stability, boxes, run-length encoding.
+    post: f64,
+    /// Masks that passed the predicted-IoU filter.
+    upscaled: usize,
+}
+
 /// One batch of points: decode, keep confident and stable masks away from inner crop edges.
 /// Boxes and points of the result are still in crop coordinates; masks are over the whole image.
+///
+/// The predicted-IoU filter runs on the decoder's IoU head before any mask is formed (the reference
+/// drops those masks before looking at them, so the result is the same); only the masks that pass are
+/// upscaled, scored, and run-length encoded only if they are kept.
+#[allow(clippy::too_many_arguments)]
 fn process_batch(
     sam: &Sam,
     image: &ImageEmbedding,
+    prepared: Option<&DecoderImage>,
     points: &[[f64; 2]],
     crop: &[usize; 4],
     (height, width): (usize, usize),
     config: &AmgConfig,
+    timing: &mut StageTimes,
 ) -> ModelsResult<Vec<Candidate>> {
-    let mut candidates: Vec<(usize, usize, Vec<f32>, f32)> = Vec::new(); // (point, mask, low-res logits, iou)
-    let mut low_size = (0, 0);
-    for (chunk_index, chunk) in points.chunks(DECODER_CHUNK).enumerate() {
-        let as_f32: Vec<[f32; 2]> = chunk.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
-        let (low, iou) = sam.predict_points(image, &as_f32)?;
-        let (b, m, lh, lw) = low.dims4()?;
-        low_size = (lh, lw);
-        let low = low.flatten_all()?.to_vec1::<f32>()?;
-        let iou = iou.flatten_all()?.to_vec1::<f32>()?;
-        for i in 0..b * m {
-            if iou[i] > config.pred_iou_thresh {
-                let logits = low[i * lh * lw..(i + 1) * lh * lw].to_vec();
-                candidates.push((chunk_index * DECODER_CHUNK + i / m, i % m, logits, iou[i]));
-            }
-        }
+    let started = Instant::now();
+    let (candidates, low_size) = decode_low_res(sam, image, prepared, points, config.pred_iou_thresh)?;
+    timing.decoder += started.elapsed().as_secs_f64();
+    timing.upscaled += candidates.len();
+    if candidates.is_empty() {
+        return Ok(Vec::new());
     }
+    let started = Instant::now();
     let (rows, cols) = sam.upscale_taps(image, low_size);
     let (ch, cw) = image.original_size;
     let image_box = [0, 0, width, height];
@@ -237,7 +302,67 @@ fn process_batch(
             })
         })
         .collect();
+    timing.post += started.elapsed().as_secs_f64();
     Ok(kept.into_iter().flatten().collect())
+}
+
+/// Masks that pass the predicted-IoU filter (only with a positive threshold, as in the reference), as
+/// (point index, multimask output, low-res logits `[lh·lw]`, predicted IoU) in point-then-output order,
+/// and the low-res size (lh, lw). Uses the shared-work decoder when `prepared` is given, otherwise
+/// [`Sam::predict_points`] one point at a time.
+type LowResMask = (usize, usize, Vec<f32>, f32);
+
+fn decode_low_res(
+    sam: &Sam,
+    image: &ImageEmbedding,
+    prepared: Option<&DecoderImage>,
+    points: &[[f64; 2]],
+    pred_iou_thresh: f32,
+) -> ModelsResult<(Vec<LowResMask>, (usize, usize))> {
+    let passes = |iou: f32| pred_iou_thresh <= 0.0 || iou > pred_iou_thresh;
+    let Some(prepared) = prepared else {
+        let mut candidates = Vec::new();
+        let mut low_size = (0, 0);
+        for (index, point) in points.iter().enumerate() {
+            let (low, iou) = sam.predict_points(image, &[[point[0] as f32, point[1] as f32]])?;
+            let (b, m, lh, lw) = low.dims4()?;
+            low_size = (lh, lw);
+            let low = low.flatten_all()?.to_vec1::<f32>()?;
+            let iou = iou.flatten_all()?.to_vec1::<f32>()?;
+            for i in (0..b * m).filter(|&i| passes(iou[i])) {
+                candidates.push((index, i % m, low[i * lh * lw..(i + 1) * lh * lw].to_vec(), iou[i]));
+            }
+        }
+        return Ok((candidates, low_size));
+    };
+    // chunks in parallel (each chunk's tensors stay small enough for the cache), results in point order
+    let decode_chunk = |(chunk_index, chunk): (usize, &[[f64; 2]])| -> ModelsResult<(Vec<LowResMask>, Option<(usize, usize)>)> {
+            let as_f32: Vec<[f32; 2]> = chunk.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
+            let (decoded, iou) = sam.decode_points(image, prepared, &as_f32)?;
+            let per_point = iou.len() / chunk.len().max(1);
+            let mut found = Vec::new();
+            let mut low_size = None;
+            for point in 0..chunk.len() {
+                let scores = &iou[point * per_point..(point + 1) * per_point];
+                let wanted: Vec<usize> = (0..per_point).filter(|&m| passes(scores[m])).collect();
+                if wanted.is_empty() {
+                    continue;
+                }
+                let low = sam.point_masks(prepared, &decoded, point, &wanted)?;
+                let (_, lh, lw) = low.dims3()?;
+                low_size = Some((lh, lw));
+                let low = low.flatten_all()?.to_vec1::<f32>()?;
+                for (slot, &mask) in wanted.iter().enumerate() {
+                    let logits = low[slot * lh * lw..(slot + 1) * lh * lw].to_vec();
+                    found.push((chunk_index * DECODER_CHUNK + point, mask, logits, scores[mask]));
+                }
+            }
+            Ok((found, low_size))
+        };
+    let per_chunk: Vec<(Vec<LowResMask>, Option<(usize, usize)>)> =
+        points.par_chunks(DECODER_CHUNK).enumerate().map(decode_chunk).collect::<ModelsResult<_>>()?;
+    let low_size = per_chunk.iter().find_map(|(_, size)| *size).unwrap_or((0, 0));
+    Ok((per_chunk.into_iter().flat_map(|(found, _)| found).collect(), low_size))
 }
 
 /// A crop's mask placed in a zero image of `height × width`.

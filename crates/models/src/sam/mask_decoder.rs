@@ -8,15 +8,15 @@ use crate::error::ModelsResult;
 use crate::weights::Weights;
 
 /// Decoder attention heads (8 in every released SAM).
-const NUM_HEADS: usize = 8;
+pub(super) const NUM_HEADS: usize = 8;
 
 #[derive(Debug, Clone)]
-struct Attention {
-    q: candle_nn::Linear,
-    k: candle_nn::Linear,
-    v: candle_nn::Linear,
-    out: candle_nn::Linear,
-    internal: usize,
+pub(super) struct Attention {
+    pub(super) q: candle_nn::Linear,
+    pub(super) k: candle_nn::Linear,
+    pub(super) v: candle_nn::Linear,
+    pub(super) out: candle_nn::Linear,
+    pub(super) internal: usize,
 }
 
 impl Attention {
@@ -32,7 +32,7 @@ impl Attention {
     }
 
     /// `q`: `[B, Nq, D]`, `k`, `v`: `[B, Nk, D]`. Returns `[B, Nq, D]`.
-    fn forward(&self, q: &Tensor, k: &Tensor, v: &Tensor) -> ModelsResult<Tensor> {
+    pub(super) fn forward(&self, q: &Tensor, k: &Tensor, v: &Tensor) -> ModelsResult<Tensor> {
         let (b, nq, _) = q.dims3()?;
         let nk = k.dims()[1];
         let hd = self.internal / NUM_HEADS;
@@ -50,17 +50,17 @@ impl Attention {
 }
 
 #[derive(Debug, Clone)]
-struct TwoWayBlock {
-    self_attn: Attention,
-    norm1: candle_nn::LayerNorm,
-    token_to_image: Attention,
-    norm2: candle_nn::LayerNorm,
-    lin1: candle_nn::Linear,
-    lin2: candle_nn::Linear,
-    norm3: candle_nn::LayerNorm,
-    norm4: candle_nn::LayerNorm,
-    image_to_token: Attention,
-    skip_first_pe: bool,
+pub(super) struct TwoWayBlock {
+    pub(super) self_attn: Attention,
+    pub(super) norm1: candle_nn::LayerNorm,
+    pub(super) token_to_image: Attention,
+    pub(super) norm2: candle_nn::LayerNorm,
+    pub(super) lin1: candle_nn::Linear,
+    pub(super) lin2: candle_nn::Linear,
+    pub(super) norm3: candle_nn::LayerNorm,
+    pub(super) norm4: candle_nn::LayerNorm,
+    pub(super) image_to_token: Attention,
+    pub(super) skip_first_pe: bool,
 }
 
 impl TwoWayBlock {
@@ -108,7 +108,7 @@ impl TwoWayBlock {
 }
 
 #[derive(Debug, Clone)]
-struct Mlp {
+pub(super) struct Mlp {
     layers: Vec<candle_nn::Linear>,
 }
 
@@ -127,7 +127,7 @@ impl Mlp {
         Ok(Self { layers })
     }
 
-    fn forward(&self, x: &Tensor) -> ModelsResult<Tensor> {
+    pub(super) fn forward(&self, x: &Tensor) -> ModelsResult<Tensor> {
         let mut x = x.clone();
         for (i, layer) in self.layers.iter().enumerate() {
             x = layer.forward(&x)?;
@@ -143,22 +143,22 @@ impl Mlp {
 #[derive(Debug, Clone)]
 pub struct MaskDecoder {
     /// `[1 + M, D]`: IoU token then the M mask tokens.
-    output_tokens: Tensor,
-    blocks: Vec<TwoWayBlock>,
-    final_attn: Attention,
-    final_norm: candle_nn::LayerNorm,
+    pub(super) output_tokens: Tensor,
+    pub(super) blocks: Vec<TwoWayBlock>,
+    pub(super) final_attn: Attention,
+    pub(super) final_norm: candle_nn::LayerNorm,
     /// First 2× transposed conv as a matrix with columns ordered (dy, dx, c): `[D, 4·D/4]`.
-    up1_weight: Tensor,
+    pub(super) up1_weight: Tensor,
     /// `[D/4]`, repeated per (dy, dx) as `[4·D/4]`.
-    up1_bias: Tensor,
-    up_norm: candle_nn::LayerNorm,
+    pub(super) up1_bias: Tensor,
+    pub(super) up_norm: candle_nn::LayerNorm,
     /// Second 2× transposed conv, `[D/4, 4·D/8]`, columns (dy, dx, c).
-    up2_weight: Tensor,
+    pub(super) up2_weight: Tensor,
     /// `[4·D/8]`.
-    up2_bias: Tensor,
-    hypernets: Vec<Mlp>,
-    iou_head: Mlp,
-    dim: usize,
+    pub(super) up2_bias: Tensor,
+    pub(super) hypernets: Vec<Mlp>,
+    pub(super) iou_head: Mlp,
+    pub(super) dim: usize,
 }
 
 impl MaskDecoder {
@@ -235,13 +235,6 @@ impl MaskDecoder {
         let q = (&queries + &tokens)?;
         let k = keys.broadcast_add(&key_pe)?;
         let queries = self.final_norm.forward(&(&queries + self.final_attn.forward(&q, &k, &keys)?)?)?;
-        // keys: [B, h·w, D] (rows = cells); upscale channels-last in blocks
-        let c1 = d / 4;
-        let c2 = d / 8;
-        let up = keys.reshape((b * h * w, d))?.matmul(&self.up1_weight)?.broadcast_add(&self.up1_bias)?; // [B·h·w, (dy1, dx1, c1)]
-        let up = gelu_erf(&self.up_norm.forward(&up.reshape((b * h * w * 4, c1))?)?)?;
-        let up = gelu_erf(&up.matmul(&self.up2_weight)?.broadcast_add(&self.up2_bias)?)?; // [B·h·w·4, (dy2, dx2, c2)]
-        let up = up.reshape((b, h * w * 16, c2))?; // pixels ordered (y, x, dy1, dx1, dy2, dx2)
         let hyper: Vec<Tensor> = self
             .hypernets
             .iter()
@@ -249,13 +242,38 @@ impl MaskDecoder {
             .map(|(i, mlp)| mlp.forward(&queries.narrow(1, 1 + i, 1)?.squeeze(1)?))
             .collect::<ModelsResult<_>>()?;
         let hyper = Tensor::stack(&hyper, 1)?; // [B, M, D/8]
-        let blocked = hyper.matmul(&up.transpose(1, 2)?)?; // [B, M, h·w·16]
-                                                           // pixel (4y + 2·dy1 + dy2, 4x + 2·dx1 + dx2)
-        let masks = blocked
-            .reshape(vec![b * m, h, w, 2, 2, 2, 2])?
-            .permute(vec![0, 1, 3, 5, 2, 4, 6])?
-            .reshape((b, m, 4 * h, 4 * w))?;
+        let masks = self.upscale_masks(&keys, &hyper, (h, w))?;
         let iou = self.iou_head.forward(&queries.narrow(1, 0, 1)?.squeeze(1)?)?;
         Ok((masks, iou))
+    }
+}
+
+impl MaskDecoder {
+    /// The upscaling path and the hypernetwork product: `keys` `[B, h·w, D]` (the transformer's image
+    /// tokens, rows = cells), `hyper` `[B, S, D/8]` (one hypernetwork output per wanted mask). Returns
+    /// `[B, S, 4h, 4w]` logits.
+    pub(super) fn upscale_masks(
+        &self,
+        keys: &Tensor,
+        hyper: &Tensor,
+        (h, w): (usize, usize),
+    ) -> ModelsResult<Tensor> {
+        let (b, _, d) = keys.dims3()?;
+        let s = hyper.dims()[1];
+        let c1 = d / 4;
+        let c2 = d / 8;
+        // channels-last in 2×2 blocks: columns of the products are (dy, dx, c)
+        let up = keys.reshape((b * h * w, d))?.matmul(&self.up1_weight)?.broadcast_add(&self.up1_bias)?; // [B·h·w, (dy1, dx1, c1)]
+        let up = gelu_erf(&self.up_norm.forward(&up.reshape((b * h * w * 4, c1))?)?)?;
+        let up = gelu_erf(&up.matmul(&self.up2_weight)?.broadcast_add(&self.up2_bias)?)?; // [B·h·w·4, (dy2, dx2, c2)]
+        let up = up.reshape((b, h * w * 16, c2))?; // pixels ordered (y, x, dy1, dx1, dy2, dx2)
+        let blocked = hyper.matmul(&up.transpose(1, 2)?)?; // [B, S, h·w·16]
+                                                           // pixel (4y + 2·dy1 + dy2, 4x + 2·dx1 + dx2)
+        Ok(blocked.reshape(vec![b * s, h, w, 2, 2, 2, 2])?.permute(vec![0, 1, 3, 5, 2, 4, 6])?.reshape((
+            b,
+            s,
+            4 * h,
+            4 * w,
+        ))?)
     }
 }

@@ -11,6 +11,7 @@ pub mod mask_decoder;
 pub mod masks;
 pub mod prompt_encoder;
 pub mod rel_pos_attention;
+pub mod shared_decoder;
 pub mod tiny_vit;
 
 use std::path::Path;
@@ -21,10 +22,11 @@ use crate::checkpoint;
 use crate::error::{ModelKind, ModelsError, ModelsResult};
 use crate::resample::{resize_rgb8_like_pil, AxisResize, AxisTaps, Resample};
 use crate::weights::Weights;
-pub use amg::{generate_masks, AmgConfig};
+pub use amg::{generate_masks, generate_masks_using, AmgConfig, DecoderPath};
 use image_encoder::ImageEncoderConfig;
 use mask_decoder::MaskDecoder;
 use prompt_encoder::PromptEncoder;
+use shared_decoder::{DecodedTokens, DecoderImage};
 use tiny_vit::{TinyVit, TinyVitConfig};
 
 /// Input side of the released SAM and MobileSAM models.
@@ -190,6 +192,14 @@ impl Sam {
         image: &ImageEmbedding,
         points: &[[f32; 2]],
     ) -> ModelsResult<(Tensor, Tensor)> {
+        let sparse = self.point_tokens(image, points)?;
+        let (masks, iou) = self.decoder.forward(&image.embedding, &image.dense_pe, &sparse)?;
+        let m = masks.dims()[1];
+        Ok((masks.narrow(1, 1, m - 1)?, iou.narrow(1, 1, m - 1)?))
+    }
+
+    /// Sparse prompt tokens of single positive points given in original-image pixels: `[B, 2, D]`.
+    fn point_tokens(&self, image: &ImageEmbedding, points: &[[f32; 2]]) -> ModelsResult<Tensor> {
         let (oh, ow) = image.original_size;
         let (ih, iw) = image.input_size;
         let scaled: Vec<[f32; 2]> = points
@@ -202,10 +212,44 @@ impl Sam {
             })
             .collect();
         let positive = vec![true; points.len()];
-        let sparse = self.prompt.embed_points(&scaled, &positive, self.encoder.img_size())?;
-        let (masks, iou) = self.decoder.forward(&image.embedding, &image.dense_pe, &sparse)?;
-        let m = masks.dims()[1];
-        Ok((masks.narrow(1, 1, m - 1)?, iou.narrow(1, 1, m - 1)?))
+        self.prompt.embed_points(&scaled, &positive, self.encoder.img_size())
+    }
+
+    /// The decoder's prompt-independent work for an image, shared by all its prompts
+    /// ([`shared_decoder`]).
+    pub fn prepare_decoder(&self, image: &ImageEmbedding) -> ModelsResult<DecoderImage> {
+        self.decoder.prepare_image(&image.embedding, &image.dense_pe)
+    }
+
+    /// [`Sam::predict_points`] in two steps on a prepared image: this one runs the transformer and the
+    /// IoU head for every point; [`Sam::point_masks`] then upscales only the masks wanted.
+    ///
+    /// `points`: `[B, 2]` (x, y) in original-image pixels. Returns the decoded batch and the IoU
+    /// predictions of the 3 multimask outputs, `[B, 3]` row-major.
+    pub fn decode_points(
+        &self,
+        image: &ImageEmbedding,
+        prepared: &DecoderImage,
+        points: &[[f32; 2]],
+    ) -> ModelsResult<(DecodedTokens, Vec<f32>)> {
+        let sparse = self.point_tokens(image, points)?;
+        let decoded = self.decoder.decode_tokens(prepared, &sparse)?;
+        let m = decoded.iou.dims()[1];
+        let iou = decoded.iou.narrow(1, 1, m - 1)?.flatten_all()?.to_vec1::<f32>()?;
+        Ok((decoded, iou))
+    }
+
+    /// Low-resolution logits `[S, 4h, 4w]` of multimask outputs `masks` (each in `0..3`) of point
+    /// `point` of a batch from [`Sam::decode_points`].
+    pub fn point_masks(
+        &self,
+        prepared: &DecoderImage,
+        decoded: &DecodedTokens,
+        point: usize,
+        masks: &[usize],
+    ) -> ModelsResult<Tensor> {
+        let outputs: Vec<usize> = masks.iter().map(|&m| m + 1).collect();
+        self.decoder.masks_of(prepared, decoded, point, &outputs)
     }
 
     /// Per-axis taps taking low-res logits (`low_h × low_w`) to the original image size: bilinear to the
