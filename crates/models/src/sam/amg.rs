@@ -178,7 +178,11 @@ fn to_sam_mask(c: Candidate) -> SamMask {
     }
 }
 
+/// One decoder chunk's kept low-resolution masks and the low-resolution size, when any.
+type ChunkMasks = (Vec<LowResMask>, Option<(usize, usize)>);
+
 /// Masks of one crop: embed, prompt every grid point in batches, filter, NMS.
+#[allow(clippy::too_many_arguments)]
 fn process_crop(
     path: DecoderPath,
     sam: &Sam,
@@ -336,30 +340,30 @@ fn decode_low_res(
         return Ok((candidates, low_size));
     };
     // chunks in parallel (each chunk's tensors stay small enough for the cache), results in point order
-    let decode_chunk = |(chunk_index, chunk): (usize, &[[f64; 2]])| -> ModelsResult<(Vec<LowResMask>, Option<(usize, usize)>)> {
-            let as_f32: Vec<[f32; 2]> = chunk.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
-            let (decoded, iou) = sam.decode_points(image, prepared, &as_f32)?;
-            let per_point = iou.len() / chunk.len().max(1);
-            let mut found = Vec::new();
-            let mut low_size = None;
-            for point in 0..chunk.len() {
-                let scores = &iou[point * per_point..(point + 1) * per_point];
-                let wanted: Vec<usize> = (0..per_point).filter(|&m| passes(scores[m])).collect();
-                if wanted.is_empty() {
-                    continue;
-                }
-                let low = sam.point_masks(prepared, &decoded, point, &wanted)?;
-                let (_, lh, lw) = low.dims3()?;
-                low_size = Some((lh, lw));
-                let low = low.flatten_all()?.to_vec1::<f32>()?;
-                for (slot, &mask) in wanted.iter().enumerate() {
-                    let logits = low[slot * lh * lw..(slot + 1) * lh * lw].to_vec();
-                    found.push((chunk_index * DECODER_CHUNK + point, mask, logits, scores[mask]));
-                }
+    let decode_chunk = |(chunk_index, chunk): (usize, &[[f64; 2]])| -> ModelsResult<ChunkMasks> {
+        let as_f32: Vec<[f32; 2]> = chunk.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
+        let (decoded, iou) = sam.decode_points(image, prepared, &as_f32)?;
+        let per_point = iou.len() / chunk.len().max(1);
+        let mut found = Vec::new();
+        let mut low_size = None;
+        for point in 0..chunk.len() {
+            let scores = &iou[point * per_point..(point + 1) * per_point];
+            let wanted: Vec<usize> = (0..per_point).filter(|&m| passes(scores[m])).collect();
+            if wanted.is_empty() {
+                continue;
             }
-            Ok((found, low_size))
-        };
-    let per_chunk: Vec<(Vec<LowResMask>, Option<(usize, usize)>)> =
+            let low = sam.point_masks(prepared, &decoded, point, &wanted)?;
+            let (_, lh, lw) = low.dims3()?;
+            low_size = Some((lh, lw));
+            let low = low.flatten_all()?.to_vec1::<f32>()?;
+            for (slot, &mask) in wanted.iter().enumerate() {
+                let logits = low[slot * lh * lw..(slot + 1) * lh * lw].to_vec();
+                found.push((chunk_index * DECODER_CHUNK + point, mask, logits, scores[mask]));
+            }
+        }
+        Ok((found, low_size))
+    };
+    let per_chunk: Vec<ChunkMasks> =
         points.par_chunks(DECODER_CHUNK).enumerate().map(decode_chunk).collect::<ModelsResult<_>>()?;
     let low_size = per_chunk.iter().find_map(|(_, size)| *size).unwrap_or((0, 0));
     Ok((per_chunk.into_iter().flat_map(|(found, _)| found).collect(), low_size))
