@@ -25,9 +25,11 @@
 //! counter-based per-pixel noise), so the same seed gives byte-identical files.
 
 pub mod cameras;
+pub mod classes;
 pub mod components;
 pub mod config;
 pub mod error;
+pub mod family;
 pub mod features;
 pub mod gaussians;
 pub mod geometry;
@@ -36,12 +38,15 @@ pub mod layout;
 pub mod mono_depth;
 pub mod noise;
 pub mod render;
+pub mod rooms;
 pub mod sam_sim;
 pub mod texture;
 mod write;
 
-pub use config::{SamSimConfig, SynthConfig};
+pub use classes::FailureClass;
+pub use config::{FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
 pub use error::SynthError;
+pub use family::Family;
 pub use features::PatchFeatures;
 pub use hard_cases::HardCases;
 pub use layout::{HardCase, ObjectKind, SceneObject};
@@ -94,6 +99,10 @@ pub struct ObjectInfo {
     pub gaussians: usize,
     /// Views (indices) where it has visible pixels.
     pub visible_in_views: Vec<usize>,
+    /// Its failure classes (see [`classes`]). Left out of the default family's
+    /// `objects.json`, which stays as it was before the classes existed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub classes: Vec<FailureClass>,
 }
 
 /// A generated scene, in memory.
@@ -119,9 +128,15 @@ pub struct SynthScene {
 impl SynthScene {
     /// The `gt/objects.json` records.
     pub fn object_infos(&self) -> Vec<ObjectInfo> {
+        let mut classes = if self.config.family.is_default() {
+            vec![Vec::new(); self.objects.len()]
+        } else {
+            self.failure_classes()
+        };
         self.objects
             .iter()
-            .map(|o| ObjectInfo {
+            .zip(classes.iter_mut())
+            .map(|(o, classes)| ObjectInfo {
                 id: o.id,
                 name: o.name.clone(),
                 kind: o.kind,
@@ -132,8 +147,26 @@ impl SynthScene {
                 visible_in_views: (0..self.views.len())
                     .filter(|&v| self.views[v].gt_instance.data.contains(&o.id))
                     .collect(),
+                classes: std::mem::take(classes),
             })
             .collect()
+    }
+
+    /// The failure classes of every instance (index = id − 1), for every family.
+    pub fn failure_classes(&self) -> Vec<Vec<FailureClass>> {
+        let mut seen = vec![0usize; self.objects.len()];
+        for v in &self.views {
+            let mut present = vec![false; self.objects.len() + 1];
+            for &id in &v.gt_instance.data {
+                if let Some(p) = present.get_mut(id as usize) {
+                    *p = true;
+                }
+            }
+            for (k, s) in seen.iter_mut().enumerate() {
+                *s += usize::from(present[k + 1]);
+            }
+        }
+        classes::failure_classes(&self.objects, &self.hard_cases, &seen)
     }
 
     /// Ids of the white-on-white pair.
@@ -162,13 +195,40 @@ fn validate(config: &SynthConfig) -> Result<(), SynthError> {
     if config.feature_dim == 0 || config.feature_dim > 4096 || config.feature_patch_px == 0 {
         return bad("feature_dim must be 1..=4096 and feature_patch_px at least 1");
     }
+    let room = &config.room;
+    if room.objects[0] > room.objects[1] || room.objects[1] > 40 {
+        return bad("room.objects must be [min, max] with min <= max <= 40");
+    }
+    let random_only = room.thin_posts + room.foreground_objects + room.stacked + room.touching;
+    if room.layout == LayoutKind::Plan && random_only > 0 {
+        return bad(
+            "room.thin_posts, foreground_objects, stacked and touching need room.layout = \"random\"",
+        );
+    }
+    if random_only > 12 {
+        return bad("room.thin_posts + foreground_objects + stacked + touching must be at most 12");
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(room.wall_scale_m) || !positive(room.floor_scale_m) || !positive(room.thin_post_px) {
+        return bad("room.wall_scale_m, floor_scale_m and thin_post_px must be positive");
+    }
+    if !(0.0..=1.0).contains(&room.multi_tone_share) {
+        return bad("room.multi_tone_share must be between 0 and 1");
+    }
+    let [lo, hi] = config.sam.hole_radius_px;
+    if lo < 1 || lo > hi || hi > 64 {
+        return bad("sam.hole_radius_px must be [min, max] with 1 <= min <= max <= 64");
+    }
     Ok(())
 }
 
 /// Generates the scene described by `config` (deterministic per config).
 pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
     validate(config)?;
-    let objects = layout::build_layout(config.seed);
+    let objects = match config.room.layout {
+        LayoutKind::Plan => layout::build_plan_layout(config.seed, &config.room),
+        LayoutKind::Random => rooms::build_random_layout(config),
+    };
     let camera = cameras::camera(config);
     let poses = cameras::orbit_poses(config);
     let rendered: Vec<render::RenderedView> = poses
