@@ -247,6 +247,9 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
         max_id,
         &[(white[0], white[1], 0.45), (2, 3, 1.0)],
     );
+    let (gh, gw) =
+        features::grid_size(config.width as usize, config.height as usize, config.feature_patch_px);
+    let drift = features::drift_table(&embeddings, gh, gw);
     let views: Vec<SynthView> = rendered
         .into_par_iter()
         .enumerate()
@@ -259,8 +262,14 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
                 view: v,
             };
             let sam_masks = sam_sim::simulate_sam(&sam_input, &config.sam);
-            let features =
-                features::patch_features(&r.instance, &r.part, &embeddings, config.feature_patch_px, v);
+            let features = features::patch_features_with_drift(
+                &r.instance,
+                &r.part,
+                &embeddings,
+                config.feature_patch_px,
+                v,
+                &drift,
+            );
             let relative_depth = mono_depth::relative_depth(&r.depth_z, config.seed, v);
             SynthView {
                 stem: view_stem(v),
