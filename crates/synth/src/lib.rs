@@ -14,7 +14,8 @@
 //! DIR/gt/instance/<stem>.png         16-bit instance ids, equal across views (0 = no surface)
 //! DIR/gt/depth/<stem>.npy            float32 [H, W] metric z (0 = no surface)
 //! DIR/gt/gaussian_ids.npy            float32 [N] instance id of each Gaussian (PLY order)
-//! DIR/gt/objects.json                config, objects (id, name, kind, tags, shape, texture), hard cases
+//! DIR/gt/objects.json                config, objects (id, name, kind, tags, shape, texture, failure
+//!                                    classes — not for the default family), hard cases
 //! DIR/sam/<stem>.json                simulated SAM automatic masks (COCO RLE JSON)
 //! DIR/features/<stem>.npy            float32 [ceil(H/14), ceil(W/14), C] DINOv2-like features
 //! DIR/depth/<stem>.npy               float32 [H, W] relative inverse depth in [0, 1] (1 = near)
@@ -23,6 +24,10 @@
 //! Stems are `view_000`, `view_001`, …; instance ids: 1 floor, 2 left wall, 3 back wall, 4.. the
 //! objects (see [`layout`]). Everything is a pure function of [`SynthConfig`] (seeded RNGs,
 //! counter-based per-pixel noise), so the same seed gives byte-identical files.
+//!
+//! The stress suite's families ([`family`]) draw random rooms ([`rooms`]) with multi-tone walls
+//! and floors, thin posts, border-cut foreground objects, stacked and touching objects and
+//! heavier SAM noise; every instance gets its failure classes ([`classes`]).
 
 pub mod cameras;
 pub mod classes;
