@@ -229,8 +229,11 @@ impl Distribution {
     }
 }
 
-/// The metrics of the table, with how to read them off a score.
-pub const METRICS: [(&str, fn(&SceneScore) -> f64); 7] = [
+/// A metric's name and how to read it off a score.
+pub type Metric = (&'static str, fn(&SceneScore) -> f64);
+
+/// The metrics of the table.
+pub const METRICS: [Metric; 7] = [
     ("mIoU", |s| s.miou),
     ("boundary mIoU", |s| s.boundary_miou),
     ("per-view mIoU", |s| s.per_view_miou),
