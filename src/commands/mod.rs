@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 pub mod ablate;
+pub mod bench;
 pub mod config;
 pub mod cues;
 pub mod demo;
@@ -36,6 +37,8 @@ pub struct Cli {
 pub enum Command {
     /// Print the merge stage's ablation and sensitivity tables on a synthetic scene.
     Ablate(ablate::Args),
+    /// Measure quality over many synthetic scenes of the stress suite (`bench quality`).
+    Bench(bench::Args),
     /// Print the default settings (the paper's values) as a TOML file for `run --config`.
     Config(config::Args),
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
@@ -73,6 +76,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Ablate(args) => ablate::run(args),
+        Command::Bench(args) => bench::run(args),
         Command::Config(args) => config::run(args),
         Command::Cues(args) => cues::run(args),
         Command::Demo(args) => demo::run(args),

@@ -1,5 +1,10 @@
 //! [`SynthConfig`]: everything that shapes a synthetic scene. One seed gives one scene.
+//!
+//! Knobs added for the stress suite (the `[room]` table, the family, the extra SAM noise) are
+//! left out of the serialised config while they keep their default values, so the default
+//! family writes exactly the files it wrote before they existed.
 
+use crate::family::Family;
 use serde::{Deserialize, Serialize};
 
 /// How to generate a synthetic scene. Every field has a default (`#[serde(default)]`), so a
@@ -27,6 +32,13 @@ pub struct SynthConfig {
     /// Patch size of the simulated feature grid (DINOv2: 14): the grid is
     /// `[ceil(H / patch), ceil(W / patch), C]`.
     pub feature_patch_px: u32,
+    /// The family the config was drawn from (see [`crate::family`]); it salts the random
+    /// layout so different families of one seed get different rooms.
+    #[serde(skip_serializing_if = "Family::is_default")]
+    pub family: Family,
+    /// What the room holds and how it looks.
+    #[serde(skip_serializing_if = "RoomConfig::is_default")]
+    pub room: RoomConfig,
     /// How the simulated SAM masks over-segment.
     pub sam: SamSimConfig,
 }
@@ -43,9 +55,121 @@ impl Default for SynthConfig {
             gaussian_spacing_px: 2.5,
             feature_dim: 32,
             feature_patch_px: 14,
+            family: Family::Default,
+            room: RoomConfig::default(),
             sam: SamSimConfig::default(),
         }
     }
+}
+
+/// How objects are placed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LayoutKind {
+    /// The fixed plan of the default scene (7 core objects + 0–3 extras, per-seed jitter).
+    #[default]
+    Plan,
+    /// Objects drawn at random and placed without interpenetration (see [`crate::rooms`]).
+    Random,
+}
+
+/// How the two walls are painted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WallPaint {
+    /// One colour with faint mottling.
+    #[default]
+    Plain,
+    /// A lower and an upper tone, split at [`RoomConfig::wall_scale_m`] above the floor.
+    TwoTone,
+    /// Vertical stripes [`RoomConfig::wall_scale_m`] wide (wallpaper).
+    Stripes,
+}
+
+/// What the floor looks like.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FloorPattern {
+    /// Planks 0.3 m wide, each a little lighter or darker.
+    #[default]
+    Planks,
+    /// Stripes of two tones, [`RoomConfig::floor_scale_m`] wide.
+    Stripes,
+    /// Checkers of two tones, cells [`RoomConfig::floor_scale_m`] wide.
+    Checkers,
+}
+
+/// The room's content (the `[room]` table). `walls`, `floor` apply to every layout; the
+/// object counts only to the random layout.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RoomConfig {
+    /// How objects are placed.
+    pub layout: LayoutKind,
+    /// Random layout: the number of objects (not floor and walls), drawn in `[min, max]`;
+    /// the hard-case objects below count towards it.
+    pub objects: [usize; 2],
+    /// Wall paint.
+    pub walls: WallPaint,
+    /// Split height (two-tone) or stripe width (stripes) of the walls, metres.
+    pub wall_scale_m: f64,
+    /// Floor pattern.
+    pub floor: FloorPattern,
+    /// Stripe width or checker cell of the floor, metres.
+    pub floor_scale_m: f64,
+    /// Each tone of a two-tone wall or floor is its own SAM part (SAM cuts a coarse pattern
+    /// into its tones; a fine one it keeps whole). Features of the parts agree (cos ≈ 0.9).
+    pub tone_parts: bool,
+    /// Random layout: posts this many pixels wide in the image (sized from the resolution).
+    pub thin_posts: usize,
+    /// Width of the thin posts in the image at the orbit radius, pixels.
+    pub thin_post_px: f64,
+    /// Random layout: large textured objects near the cameras, cut by the image border.
+    pub foreground_objects: usize,
+    /// Random layout: objects standing on a box.
+    pub stacked: usize,
+    /// Random layout: pairs of objects touching in 3D (besides the same-depth pair).
+    pub touching: usize,
+    /// Random layout: probability that an ordinary object gets a multi-tone texture (stripes
+    /// or two tones, each band its own SAM part).
+    pub multi_tone_share: f64,
+}
+
+impl Default for RoomConfig {
+    fn default() -> Self {
+        RoomConfig {
+            layout: LayoutKind::Plan,
+            objects: [6, 14],
+            walls: WallPaint::Plain,
+            wall_scale_m: 1.0,
+            floor: FloorPattern::Planks,
+            floor_scale_m: 0.6,
+            tone_parts: true,
+            thin_posts: 0,
+            thin_post_px: 3.0,
+            foreground_objects: 0,
+            stacked: 0,
+            touching: 0,
+            multi_tone_share: 0.3,
+        }
+    }
+}
+
+impl RoomConfig {
+    /// True when every knob has its default value.
+    pub fn is_default(&self) -> bool {
+        *self == RoomConfig::default()
+    }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+fn is_default_hole_radius(v: &[i64; 2]) -> bool {
+    *v == [2, 3]
+}
+fn is_default_hole_min(v: &usize) -> bool {
+    *v == 300
 }
 
 /// Knobs of the simulated Segment Anything output (see [`crate::sam_sim`]).
@@ -67,6 +191,12 @@ pub struct SamSimConfig {
     pub object_second_cut_probability: f64,
     /// Probability that a mask gets a small hole punched into it.
     pub hole_probability: f64,
+    /// Radius of the holes, pixels, drawn in `[min, max]`.
+    #[serde(skip_serializing_if = "is_default_hole_radius")]
+    pub hole_radius_px: [i64; 2],
+    /// Only masks larger than this many pixels get a hole.
+    #[serde(skip_serializing_if = "is_default_hole_min")]
+    pub hole_min_area_px: usize,
     /// Probability that a mask is eroded by one pixel (uncovered pixels along its outline).
     pub erode_probability: f64,
     /// Probability that an object made of several masks also gets one whole-object mask
@@ -78,6 +208,14 @@ pub struct SamSimConfig {
     /// Given a wrong merge, probability that it replaces the pair's masks (otherwise it is an
     /// extra overlapping mask, as SAM's multi-granularity output often is).
     pub wrong_merge_replaces_probability: f64,
+    /// Probability, per view and per pair of objects touching in the image (other than the
+    /// white pair), of a wrong merged mask covering both (replacing their masks with
+    /// [`Self::wrong_merge_replaces_probability`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub adjacent_merge_probability: f64,
+    /// Probability that a mask is dilated by one pixel (spilling onto its neighbours).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub dilate_probability: f64,
 }
 
 impl Default for SamSimConfig {
@@ -89,10 +227,30 @@ impl Default for SamSimConfig {
             object_cut_min_px: 400,
             object_second_cut_probability: 0.5,
             hole_probability: 0.25,
+            hole_radius_px: [2, 3],
+            hole_min_area_px: 300,
             erode_probability: 0.2,
             whole_object_probability: 0.35,
             wrong_merge_probability: 0.35,
             wrong_merge_replaces_probability: 0.5,
+            adjacent_merge_probability: 0.0,
+            dilate_probability: 0.0,
+        }
+    }
+}
+
+impl SamSimConfig {
+    /// The same simulation for an image `scale` times as wide and high: areas scale with
+    /// `scale²`, the hole radius with `scale`; the 1-pixel erosion and dilation stay 1 pixel.
+    pub fn scaled(&self, scale: f64) -> SamSimConfig {
+        let area = |px: usize| (px as f64 * scale * scale).round() as usize;
+        let len = |px: i64| ((px as f64 * scale).round() as i64).max(1);
+        SamSimConfig {
+            min_area_px: area(self.min_area_px),
+            object_cut_min_px: area(self.object_cut_min_px),
+            hole_min_area_px: area(self.hole_min_area_px),
+            hole_radius_px: self.hole_radius_px.map(len),
+            ..self.clone()
         }
     }
 }

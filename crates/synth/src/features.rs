@@ -136,6 +136,32 @@ impl Embeddings {
     }
 }
 
+/// The smooth spatial drift of a `[gh, gw]` grid: `[gh * gw * dim]`, the same in every view
+/// (computed once per scene).
+pub fn drift_table(embeddings: &Embeddings, gh: usize, gw: usize) -> Vec<f64> {
+    let dim = embeddings.dim();
+    let mut out = Vec::with_capacity(gh * gw * dim);
+    for i in 0..gh {
+        for j in 0..gw {
+            let (u, v) = ((j as f64 + 0.5) / gw as f64, (i as f64 + 0.5) / gh as f64);
+            for c in 0..dim {
+                out.push(value_noise2(
+                    hash(embeddings.seed, &[stream::FEATURE_NOISE, c as u64]),
+                    2.0 * u,
+                    2.0 * v,
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// The patch grid `(gh, gw)` of an image `width × height` for patches of `patch_px`.
+pub fn grid_size(width: usize, height: usize, patch_px: u32) -> (usize, usize) {
+    let patch = patch_px.max(1) as usize;
+    (height.div_ceil(patch), width.div_ceil(patch))
+}
+
 /// Patch features of one view. `instance`, `part`: `[H, W]` ground truth.
 pub fn patch_features(
     instance: &Plane<u32>,
@@ -145,8 +171,21 @@ pub fn patch_features(
     view: usize,
 ) -> PatchFeatures {
     let (w, h) = instance.size();
-    let patch = patch_px.max(1) as usize;
-    let (gh, gw) = (h.div_ceil(patch), w.div_ceil(patch));
+    let (gh, gw) = grid_size(w, h, patch_px);
+    patch_features_with_drift(instance, part, embeddings, patch_px, view, &drift_table(embeddings, gh, gw))
+}
+
+/// [`patch_features`] with the scene's [`drift_table`] (`[gh * gw * dim]`) computed once.
+pub fn patch_features_with_drift(
+    instance: &Plane<u32>,
+    part: &Plane<u8>,
+    embeddings: &Embeddings,
+    patch_px: u32,
+    view: usize,
+    drift_values: &[f64],
+) -> PatchFeatures {
+    let (w, h) = instance.size();
+    let (gh, gw) = grid_size(w, h, patch_px);
     let dim = embeddings.dim();
     let mut cache: BTreeMap<(u32, u8), Vec<f64>> = BTreeMap::new();
     let mut values = Vec::with_capacity(gh * gw * dim);
@@ -172,10 +211,9 @@ pub fn patch_features(
                 let weight = c as f64 / total.max(1) as f64;
                 f.iter_mut().zip(e.iter()).for_each(|(a, b)| *a += weight * b);
             }
-            let (u, v) = ((j as f64 + 0.5) / gw as f64, (i as f64 + 0.5) / gh as f64);
+            let cell_drift = &drift_values[(i * gw + j) * dim..(i * gw + j + 1) * dim];
             for (c, value) in f.iter_mut().enumerate() {
-                let drift =
-                    value_noise2(hash(embeddings.seed, &[stream::FEATURE_NOISE, c as u64]), 2.0 * u, 2.0 * v);
+                let drift = cell_drift[c];
                 let noise = normal(hash(
                     embeddings.seed,
                     &[stream::FEATURE_NOISE, view as u64, i as u64, j as u64, c as u64],

@@ -77,8 +77,11 @@ impl Shape {
         match *self {
             Shape::Quad { origin: o, edge_u, edge_v } => intersect_quad(o, edge_u, edge_v, origin, dir),
             Shape::Cuboid { base_centre, size, yaw } => {
-                let lo = rotate_z(origin - base_centre, -yaw);
-                let ld = rotate_z(dir, -yaw);
+                // One sin/cos for both rotations (rotate_z would compute it twice).
+                let (sn, cs) = (-yaw).sin_cos();
+                let turn = |v: DVec3| DVec3::new(cs * v.x - sn * v.y, sn * v.x + cs * v.y, v.z);
+                let lo = turn(origin - base_centre);
+                let ld = turn(dir);
                 let half = DVec3::new(size.x / 2.0, size.y / 2.0, size.z);
                 intersect_slabs(lo, ld, DVec3::new(-half.x, -half.y, 0.0), half)
             }

@@ -7,9 +7,11 @@
 //! Placement uses view-aligned coordinates `(a, b)`: `a` is to the right in the middle view of
 //! the camera arc, `b` away from the cameras; the arc's middle looks along world `(−1, −1)`.
 
+use crate::classes::FailureClass;
+use crate::config::{FloorPattern, RoomConfig, WallPaint};
 use crate::geometry::Shape;
 use crate::noise::{rng_for, stream};
-use crate::texture::{Rgb, Texture};
+use crate::texture::{Rgb, RoomPattern, Texture};
 use glam::DVec3;
 use rand::seq::SliceRandom;
 use rand::Rng;
@@ -62,6 +64,9 @@ pub struct SceneObject {
     pub texture: Texture,
     /// Hard cases it takes part in.
     pub tags: Vec<HardCase>,
+    /// Failure classes it was built for (thin, stacked, touching, …); the measured ones (cut
+    /// by the border, occluded) are added by [`crate::SynthScene::failure_classes`].
+    pub design: Vec<FailureClass>,
 }
 
 /// The shared albedo of the white-on-white pair.
@@ -75,18 +80,18 @@ pub const CORE: [&str; 7] =
 pub const EXTRAS: [&str; 3] = ["checker_box", "blotch_sphere", "two_tone_box"];
 
 /// Half-width of the square floor region the room spans, around `ROOM_OFFSET`.
-const WALL_AT: f64 = -2.6;
+pub(crate) const WALL_AT: f64 = -2.6;
 const ROOM_FAR: f64 = 5.6;
 const WALL_HEIGHT: f64 = 2.6;
 
 /// World xy of view-aligned `(a, b)`.
-fn world_xy(a: f64, b: f64) -> DVec3 {
+pub(crate) fn world_xy(a: f64, b: f64) -> DVec3 {
     let s = std::f64::consts::FRAC_1_SQRT_2;
     DVec3::new(-(a + b) * s, (a - b) * s, 0.0)
 }
 
 /// World yaw of the view-aligned lateral axis `a`.
-const LATERAL_YAW: f64 = 0.75 * std::f64::consts::PI;
+pub(crate) const LATERAL_YAW: f64 = 0.75 * std::f64::consts::PI;
 
 struct Jitter<'a, R: Rng> {
     rng: &'a mut R,
@@ -111,7 +116,7 @@ impl<R: Rng> Jitter<'_, R> {
     }
 }
 
-fn object(
+pub(crate) fn object(
     id: u32,
     name: &str,
     kind: ObjectKind,
@@ -119,11 +124,47 @@ fn object(
     texture: Texture,
     tags: &[HardCase],
 ) -> SceneObject {
-    SceneObject { id, name: name.to_string(), kind, shape, texture, tags: tags.to_vec() }
+    SceneObject { id, name: name.to_string(), kind, shape, texture, tags: tags.to_vec(), design: Vec::new() }
+}
+
+/// The floor's texture: today's planks, or a two-tone pattern.
+fn floor_texture(seed: u64, room: &RoomConfig) -> Texture {
+    let pattern = match room.floor {
+        FloorPattern::Planks => {
+            return Texture::Planks { base: [0.55, 0.4, 0.28], width_m: 0.3, variation: 0.06, seed }
+        }
+        FloorPattern::Stripes => RoomPattern::Stripes,
+        FloorPattern::Checkers => RoomPattern::Checkers,
+    };
+    Texture::Room {
+        a: [0.55, 0.4, 0.28],
+        b: [0.72, 0.62, 0.48],
+        pattern,
+        scale_m: room.floor_scale_m,
+        tone_parts: room.tone_parts,
+        seed,
+    }
+}
+
+/// A wall's texture: today's plain paint, or two tones.
+fn wall_texture(base: Rgb, second: Rgb, seed: u64, room: &RoomConfig) -> Texture {
+    let pattern = match room.walls {
+        WallPaint::Plain => return Texture::Wall { base, seed },
+        WallPaint::TwoTone => RoomPattern::Split,
+        WallPaint::Stripes => RoomPattern::Stripes,
+    };
+    Texture::Room {
+        a: base,
+        b: second,
+        pattern,
+        scale_m: room.wall_scale_m,
+        tone_parts: room.tone_parts,
+        seed,
+    }
 }
 
 /// Floor and the two walls of the room corner (ids 1–3).
-fn room(seed: u64) -> Vec<SceneObject> {
+pub(crate) fn room(seed: u64, config: &RoomConfig) -> Vec<SceneObject> {
     let span = ROOM_FAR - WALL_AT;
     let floor = Shape::Quad {
         origin: DVec3::new(WALL_AT, WALL_AT, 0.0),
@@ -141,20 +182,13 @@ fn room(seed: u64) -> Vec<SceneObject> {
         edge_v: DVec3::X * span,
     };
     vec![
-        object(
-            1,
-            "floor",
-            ObjectKind::Floor,
-            floor,
-            Texture::Planks { base: [0.55, 0.4, 0.28], width_m: 0.3, variation: 0.06, seed },
-            &[],
-        ),
+        object(1, "floor", ObjectKind::Floor, floor, floor_texture(seed, config), &[]),
         object(
             2,
             "left_wall",
             ObjectKind::Wall,
             left_wall,
-            Texture::Wall { base: [0.62, 0.72, 0.6], seed: seed ^ 1 },
+            wall_texture([0.62, 0.72, 0.6], [0.45, 0.55, 0.42], seed ^ 1, config),
             &[],
         ),
         object(
@@ -162,7 +196,7 @@ fn room(seed: u64) -> Vec<SceneObject> {
             "back_wall",
             ObjectKind::Wall,
             back_wall,
-            Texture::Wall { base: [0.58, 0.64, 0.78], seed: seed ^ 2 },
+            wall_texture([0.58, 0.64, 0.78], [0.82, 0.8, 0.7], seed ^ 2, config),
             &[],
         ),
     ]
@@ -170,8 +204,13 @@ fn room(seed: u64) -> Vec<SceneObject> {
 
 /// Builds the scene for `seed`: the room, the [`CORE`] objects and 0–3 [`EXTRAS`].
 pub fn build_layout(seed: u64) -> Vec<SceneObject> {
+    build_plan_layout(seed, &RoomConfig::default())
+}
+
+/// [`build_layout`] with the room's walls and floor from `room`.
+pub fn build_plan_layout(seed: u64, room_config: &RoomConfig) -> Vec<SceneObject> {
     let mut rng = rng_for(seed, stream::LAYOUT, 0);
-    let mut objects = room(seed);
+    let mut objects = room(seed, room_config);
     let mut j = Jitter { rng: &mut rng };
     let mut next_id = 4;
     let mut push = |objects: &mut Vec<SceneObject>, name: &str, kind, shape, texture, tags: &[HardCase]| {

@@ -14,7 +14,8 @@
 //! DIR/gt/instance/<stem>.png         16-bit instance ids, equal across views (0 = no surface)
 //! DIR/gt/depth/<stem>.npy            float32 [H, W] metric z (0 = no surface)
 //! DIR/gt/gaussian_ids.npy            float32 [N] instance id of each Gaussian (PLY order)
-//! DIR/gt/objects.json                config, objects (id, name, kind, tags, shape, texture), hard cases
+//! DIR/gt/objects.json                config, objects (id, name, kind, tags, shape, texture, failure
+//!                                    classes — not for the default family), hard cases
 //! DIR/sam/<stem>.json                simulated SAM automatic masks (COCO RLE JSON)
 //! DIR/features/<stem>.npy            float32 [ceil(H/14), ceil(W/14), C] DINOv2-like features
 //! DIR/depth/<stem>.npy               float32 [H, W] relative inverse depth in [0, 1] (1 = near)
@@ -23,11 +24,17 @@
 //! Stems are `view_000`, `view_001`, …; instance ids: 1 floor, 2 left wall, 3 back wall, 4.. the
 //! objects (see [`layout`]). Everything is a pure function of [`SynthConfig`] (seeded RNGs,
 //! counter-based per-pixel noise), so the same seed gives byte-identical files.
+//!
+//! The stress suite's families ([`family`]) draw random rooms ([`rooms`]) with multi-tone walls
+//! and floors, thin posts, border-cut foreground objects, stacked and touching objects and
+//! heavier SAM noise; every instance gets its failure classes ([`classes`]).
 
 pub mod cameras;
+pub mod classes;
 pub mod components;
 pub mod config;
 pub mod error;
+pub mod family;
 pub mod features;
 pub mod gaussians;
 pub mod geometry;
@@ -36,12 +43,15 @@ pub mod layout;
 pub mod mono_depth;
 pub mod noise;
 pub mod render;
+pub mod rooms;
 pub mod sam_sim;
 pub mod texture;
 mod write;
 
-pub use config::{SamSimConfig, SynthConfig};
+pub use classes::FailureClass;
+pub use config::{FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
 pub use error::SynthError;
+pub use family::Family;
 pub use features::PatchFeatures;
 pub use hard_cases::HardCases;
 pub use layout::{HardCase, ObjectKind, SceneObject};
@@ -94,6 +104,10 @@ pub struct ObjectInfo {
     pub gaussians: usize,
     /// Views (indices) where it has visible pixels.
     pub visible_in_views: Vec<usize>,
+    /// Its failure classes (see [`classes`]). Left out of the default family's
+    /// `objects.json`, which stays as it was before the classes existed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub classes: Vec<FailureClass>,
 }
 
 /// A generated scene, in memory.
@@ -119,9 +133,15 @@ pub struct SynthScene {
 impl SynthScene {
     /// The `gt/objects.json` records.
     pub fn object_infos(&self) -> Vec<ObjectInfo> {
+        let mut classes = if self.config.family.is_default() {
+            vec![Vec::new(); self.objects.len()]
+        } else {
+            self.failure_classes()
+        };
         self.objects
             .iter()
-            .map(|o| ObjectInfo {
+            .zip(classes.iter_mut())
+            .map(|(o, classes)| ObjectInfo {
                 id: o.id,
                 name: o.name.clone(),
                 kind: o.kind,
@@ -132,8 +152,26 @@ impl SynthScene {
                 visible_in_views: (0..self.views.len())
                     .filter(|&v| self.views[v].gt_instance.data.contains(&o.id))
                     .collect(),
+                classes: std::mem::take(classes),
             })
             .collect()
+    }
+
+    /// The failure classes of every instance (index = id − 1), for every family.
+    pub fn failure_classes(&self) -> Vec<Vec<FailureClass>> {
+        let mut seen = vec![0usize; self.objects.len()];
+        for v in &self.views {
+            let mut present = vec![false; self.objects.len() + 1];
+            for &id in &v.gt_instance.data {
+                if let Some(p) = present.get_mut(id as usize) {
+                    *p = true;
+                }
+            }
+            for (k, s) in seen.iter_mut().enumerate() {
+                *s += usize::from(present[k + 1]);
+            }
+        }
+        classes::failure_classes(&self.objects, &self.hard_cases, &seen)
     }
 
     /// Ids of the white-on-white pair.
@@ -162,13 +200,40 @@ fn validate(config: &SynthConfig) -> Result<(), SynthError> {
     if config.feature_dim == 0 || config.feature_dim > 4096 || config.feature_patch_px == 0 {
         return bad("feature_dim must be 1..=4096 and feature_patch_px at least 1");
     }
+    let room = &config.room;
+    if room.objects[0] > room.objects[1] || room.objects[1] > 40 {
+        return bad("room.objects must be [min, max] with min <= max <= 40");
+    }
+    let random_only = room.thin_posts + room.foreground_objects + room.stacked + room.touching;
+    if room.layout == LayoutKind::Plan && random_only > 0 {
+        return bad(
+            "room.thin_posts, foreground_objects, stacked and touching need room.layout = \"random\"",
+        );
+    }
+    if random_only > 12 {
+        return bad("room.thin_posts + foreground_objects + stacked + touching must be at most 12");
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(room.wall_scale_m) || !positive(room.floor_scale_m) || !positive(room.thin_post_px) {
+        return bad("room.wall_scale_m, floor_scale_m and thin_post_px must be positive");
+    }
+    if !(0.0..=1.0).contains(&room.multi_tone_share) {
+        return bad("room.multi_tone_share must be between 0 and 1");
+    }
+    let [lo, hi] = config.sam.hole_radius_px;
+    if lo < 1 || lo > hi || hi > 64 {
+        return bad("sam.hole_radius_px must be [min, max] with 1 <= min <= max <= 64");
+    }
     Ok(())
 }
 
 /// Generates the scene described by `config` (deterministic per config).
 pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
     validate(config)?;
-    let objects = layout::build_layout(config.seed);
+    let objects = match config.room.layout {
+        LayoutKind::Plan => layout::build_plan_layout(config.seed, &config.room),
+        LayoutKind::Random => rooms::build_random_layout(config),
+    };
     let camera = cameras::camera(config);
     let poses = cameras::orbit_poses(config);
     let rendered: Vec<render::RenderedView> = poses
@@ -187,6 +252,9 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
         max_id,
         &[(white[0], white[1], 0.45), (2, 3, 1.0)],
     );
+    let (gh, gw) =
+        features::grid_size(config.width as usize, config.height as usize, config.feature_patch_px);
+    let drift = features::drift_table(&embeddings, gh, gw);
     let views: Vec<SynthView> = rendered
         .into_par_iter()
         .enumerate()
@@ -199,8 +267,14 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
                 view: v,
             };
             let sam_masks = sam_sim::simulate_sam(&sam_input, &config.sam);
-            let features =
-                features::patch_features(&r.instance, &r.part, &embeddings, config.feature_patch_px, v);
+            let features = features::patch_features_with_drift(
+                &r.instance,
+                &r.part,
+                &embeddings,
+                config.feature_patch_px,
+                v,
+                &drift,
+            );
             let relative_depth = mono_depth::relative_depth(&r.depth_z, config.seed, v);
             SynthView {
                 stem: view_stem(v),

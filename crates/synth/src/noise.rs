@@ -60,6 +60,12 @@ pub mod stream {
     pub const IMAGE_NOISE: u64 = 8;
     /// Blotch texture pattern.
     pub const TEXTURE: u64 = 9;
+    /// A family's knobs.
+    pub const FAMILY: u64 = 10;
+    /// The random layout.
+    pub const ROOM_LAYOUT: u64 = 11;
+    /// The extra SAM noise (adjacent merges, dilation), per view.
+    pub const SAM_EXTRA: u64 = 12;
 }
 
 /// Smooth value noise in [0, 1] on a unit lattice (trilinear interpolation with smoothstep).

@@ -8,7 +8,9 @@
 //! 4. some objects made of several masks also get one whole-object mask (overlapping);
 //! 5. where the white-on-white pair touches, sometimes one wrong mask covers both, either in
 //!    addition to their masks or replacing them;
-//! 6. masks are shuffled: ids and order carry no meaning across views.
+//! 6. (stress knobs, off by default) some masks grow by one pixel; where two other objects
+//!    touch, sometimes one wrong mask covers both;
+//! 7. masks are shuffled: ids and order carry no meaning across views.
 //!
 //! Everything is drawn from an RNG seeded by (seed, view), so a view's masks are reproducible.
 
@@ -67,6 +69,12 @@ pub fn simulate_sam(input: &SamSimInput, config: &SamSimConfig) -> Vec<SamMask> 
     damage_masks(&mut drafts, w, h, config, &mut rng);
     add_whole_object_masks(&mut drafts, input.instance, config, &mut rng);
     add_wrong_merge(&mut drafts, input, config, &mut rng);
+    // The stress knobs draw from their own stream, so the default masks stay as they were.
+    if config.dilate_probability > 0.0 || config.adjacent_merge_probability > 0.0 {
+        let mut extra = rng_for(input.seed, stream::SAM_EXTRA, input.view as u64);
+        dilate_some(&mut drafts, w, h, config.dilate_probability, &mut extra, &mut scratch);
+        add_adjacent_merges(&mut drafts, input, config, &mut extra);
+    }
     drafts.retain(|d| d.pixels.len() >= config.min_area_px.max(1));
     drafts.shuffle(&mut rng);
     drafts.into_iter().map(|d| to_sam_mask(&d.pixels, w, h, &mut rng)).collect()
@@ -136,11 +144,13 @@ fn damage_masks(drafts: &mut [Draft], w: usize, h: usize, config: &SamSimConfig,
     }
     for (k, d) in drafts.iter_mut().enumerate() {
         let erode = rng.gen_bool(config.erode_probability.clamp(0.0, 1.0));
-        let hole = d.pixels.len() > 300 && rng.gen_bool(config.hole_probability.clamp(0.0, 1.0));
+        let hole =
+            d.pixels.len() > config.hole_min_area_px && rng.gen_bool(config.hole_probability.clamp(0.0, 1.0));
         if hole {
             let centre = d.pixels[rng.gen_range(0..d.pixels.len())] as usize;
             let (cx, cy) = ((centre % w) as i64, (centre / w) as i64);
-            let r: i64 = rng.gen_range(2..=3);
+            let [lo, hi] = config.hole_radius_px;
+            let r: i64 = rng.gen_range(lo..=hi);
             d.pixels.retain(|&p| {
                 let (x, y) = ((p as usize % w) as i64, (p as usize / w) as i64);
                 (x - cx) * (x - cx) + (y - cy) * (y - cy) > r * r
@@ -196,6 +206,100 @@ fn add_wrong_merge(
         drafts.retain(|d| !input.white_pair.contains(&d.source_id));
     }
     drafts.push(Draft { pixels: pixels_of(input.instance, &input.white_pair), source_id: 0 });
+}
+
+/// Grows some masks by one pixel (4-neighbourhood), onto whatever is next to them.
+/// `scratch`: `[w · h]`, all `false` on entry and on return.
+fn dilate_some(
+    drafts: &mut [Draft],
+    w: usize,
+    h: usize,
+    probability: f64,
+    rng: &mut ChaCha8Rng,
+    scratch: &mut [bool],
+) {
+    for d in drafts.iter_mut() {
+        if !rng.gen_bool(probability.clamp(0.0, 1.0)) {
+            continue;
+        }
+        for &p in &d.pixels {
+            scratch[p as usize] = true;
+        }
+        let mut grown = d.pixels.clone();
+        for &p in &d.pixels {
+            let i = p as usize;
+            let (x, y) = (i % w, i / w);
+            let around = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            for j in around.into_iter().flatten() {
+                if !scratch[j] {
+                    scratch[j] = true;
+                    grown.push(j as u32);
+                }
+            }
+        }
+        for &p in &grown {
+            scratch[p as usize] = false;
+        }
+        grown.sort_unstable();
+        d.pixels = grown;
+    }
+}
+
+/// Minimum length of the contact (4-adjacent pixel pairs) for two objects to count as
+/// touching in the image, for the wrong adjacent merges.
+const ADJACENT_CONTACT_PX: usize = 6;
+
+/// Pairs of objects (ids ≥ [`FIRST_OBJECT_ID`], other than the white pair) touching in the
+/// image along at least [`ADJACENT_CONTACT_PX`] pixel pairs, sorted.
+fn touching_object_pairs(instance: &Plane<u32>, white_pair: [u32; 2]) -> Vec<[u32; 2]> {
+    let (w, h) = instance.size();
+    let mut contacts: std::collections::BTreeMap<[u32; 2], usize> = Default::default();
+    let mut count = |a: u32, b: u32| {
+        if a != b && a >= FIRST_OBJECT_ID && b >= FIRST_OBJECT_ID {
+            *contacts.entry([a.min(b), a.max(b)]).or_default() += 1;
+        }
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let a = *instance.get(x, y);
+            if x + 1 < w {
+                count(a, *instance.get(x + 1, y));
+            }
+            if y + 1 < h {
+                count(a, *instance.get(x, y + 1));
+            }
+        }
+    }
+    let mut white = white_pair;
+    white.sort_unstable();
+    contacts.into_iter().filter(|&(p, n)| n >= ADJACENT_CONTACT_PX && p != white).map(|(p, _)| p).collect()
+}
+
+/// Where two objects touch in the image, sometimes one wrong mask covering both (SAM merging
+/// adjacent objects), added or replacing their masks.
+fn add_adjacent_merges(
+    drafts: &mut Vec<Draft>,
+    input: &SamSimInput,
+    config: &SamSimConfig,
+    rng: &mut ChaCha8Rng,
+) {
+    if config.adjacent_merge_probability <= 0.0 {
+        return;
+    }
+    for pair in touching_object_pairs(input.instance, input.white_pair) {
+        if !rng.gen_bool(config.adjacent_merge_probability.clamp(0.0, 1.0)) {
+            continue;
+        }
+        if rng.gen_bool(config.wrong_merge_replaces_probability.clamp(0.0, 1.0)) {
+            drafts.retain(|d| !pair.contains(&d.source_id));
+        }
+        drafts.push(Draft { pixels: pixels_of(input.instance, &pair), source_id: 0 });
+    }
 }
 
 /// Pixel indices whose instance is one of `ids`.

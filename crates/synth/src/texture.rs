@@ -74,6 +74,35 @@ pub enum Texture {
         /// Seed of the mottling.
         seed: u64,
     },
+    /// Two tones over a room surface, with the faint mottling of [`Texture::Wall`]. Coordinates:
+    /// on a floor (normal up) the local x, y; on a wall the horizontal distance from the room
+    /// corner and the height.
+    Room {
+        /// First tone (lower paint, even stripes and cells).
+        a: Rgb,
+        /// Second tone.
+        b: Rgb,
+        /// The pattern.
+        pattern: RoomPattern,
+        /// Split height, stripe width or cell size, metres.
+        scale_m: f64,
+        /// Each tone is its own part (else the whole surface is part 0).
+        tone_parts: bool,
+        /// Seed of the mottling.
+        seed: u64,
+    },
+}
+
+/// The two-tone patterns of [`Texture::Room`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RoomPattern {
+    /// Lower and upper tone, split at `scale_m` height.
+    Split,
+    /// Stripes: along the floor's x, vertical on a wall.
+    Stripes,
+    /// Checkers.
+    Checkers,
 }
 
 /// A part index for band `band` on face `face` (bands of a cylinder's side and cap differ).
@@ -118,6 +147,31 @@ impl Texture {
                 let k = 1.0 + 0.04 * (value_noise3(seed, sp.position * 1.5) - 0.5);
                 (base.map(|c| (c * k).clamp(0.0, 1.0)), 0)
             }
+            Texture::Room { a, b, pattern, scale_m, tone_parts, seed } => {
+                let floor = sp.normal.z.abs() > 0.9;
+                let (u, v) =
+                    if floor { (sp.local.x, sp.local.y) } else { (sp.local.x.hypot(sp.local.y), sp.local.z) };
+                let cell = |t: f64| (t / scale_m).floor() as i64;
+                let second = match pattern {
+                    RoomPattern::Split => v >= scale_m,
+                    RoomPattern::Stripes => cell(u).rem_euclid(2) == 1,
+                    RoomPattern::Checkers => (cell(u) + cell(v)).rem_euclid(2) == 1,
+                };
+                let base = if second { b } else { a };
+                let k = 1.0 + 0.04 * (value_noise3(seed, sp.position * 1.5) - 0.5);
+                let part = if tone_parts { u8::from(second) } else { 0 };
+                (base.map(|c| (c * k).clamp(0.0, 1.0)), part)
+            }
+        }
+    }
+
+    /// True when the texture splits a surface into parts by tone (stripes, two tones): the
+    /// simulated SAM cuts one instance into several masks along colour edges.
+    pub fn is_multi_tone(&self) -> bool {
+        match self {
+            Texture::Stripes { .. } | Texture::TwoTone { .. } => true,
+            Texture::Room { tone_parts, .. } => *tone_parts,
+            _ => false,
         }
     }
 }

@@ -1,0 +1,230 @@
+//! Families of synthetic scenes: a name and a seed give a [`SynthConfig`] whose knobs are drawn
+//! at random within the family's ranges (`splatseg synth --family rooms --seed 7`).
+//!
+//! | family | what varies |
+//! | --- | --- |
+//! | `default` | today's scene: the fixed plan, 12 views of 320×240 (byte-identical to before the suite) |
+//! | `rooms` | random rooms: 6–14 objects placed at random, walls plain / two-tone / striped, floors of planks, stripes or checkers at several scales, 0–1 thin post, border-cut foreground object, stacked and touching pair; 24 views of 320×240, 384-d features |
+//! | `multi_tone` | rooms whose walls and floor are always two-toned and most objects striped or two-tone |
+//! | `thin` | rooms with 2–4 posts 2–4 px wide |
+//! | `border` | rooms with 1–2 large textured objects near the cameras, cut by the image border |
+//! | `clutter` | 10–14 objects, 1–2 stacked, 1–2 touching pairs |
+//! | `sam_noise` | rooms with heavy SAM noise: holes, wrong merges of adjacent objects, whole-object masks over their parts, 1-px dilation |
+//! | `hires` | the `rooms` scene of the same seed at 1280×960 (SAM's pixel settings scaled) |
+//! | `many_views` | the `rooms` scene of the same seed seen by 12–100 views |
+//!
+//! Every random family places the white-on-white pair and the same-depth pair.
+
+use crate::config::{FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
+use crate::noise::{rng_for, stream};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// A family of scenes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Family {
+    /// The scene every test and floor was measured on.
+    #[default]
+    Default,
+    /// Random rooms with every failure class now and then.
+    Rooms,
+    /// Multi-tone walls, floors and objects.
+    MultiTone,
+    /// Thin posts.
+    Thin,
+    /// Foreground objects cut by the image border.
+    Border,
+    /// Many objects, stacked and touching.
+    Clutter,
+    /// Heavy SAM noise.
+    SamNoise,
+    /// The rooms at 1280×960.
+    Hires,
+    /// The rooms with 12–100 views.
+    ManyViews,
+}
+
+impl Family {
+    /// Every family, in documentation order.
+    pub const ALL: [Family; 9] = [
+        Family::Default,
+        Family::Rooms,
+        Family::MultiTone,
+        Family::Thin,
+        Family::Border,
+        Family::Clutter,
+        Family::SamNoise,
+        Family::Hires,
+        Family::ManyViews,
+    ];
+
+    /// Its name (`rooms`, `multi_tone`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Default => "default",
+            Family::Rooms => "rooms",
+            Family::MultiTone => "multi_tone",
+            Family::Thin => "thin",
+            Family::Border => "border",
+            Family::Clutter => "clutter",
+            Family::SamNoise => "sam_noise",
+            Family::Hires => "hires",
+            Family::ManyViews => "many_views",
+        }
+    }
+
+    /// The family of a name (`-` and `_` alike).
+    pub fn from_name(name: &str) -> Option<Family> {
+        let name = name.trim().replace('-', "_");
+        Family::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// True for [`Family::Default`] (serde: the field is left out).
+    pub fn is_default(&self) -> bool {
+        *self == Family::Default
+    }
+
+    /// Salt of the random layout: families that are the same room at another resolution or
+    /// view count share the `rooms` layout of their seed.
+    pub fn layout_salt(self) -> u64 {
+        match self {
+            Family::Hires | Family::ManyViews => Family::Rooms as u64,
+            f => f as u64,
+        }
+    }
+
+    /// The config of scene `seed` of this family.
+    pub fn config(self, seed: u64) -> SynthConfig {
+        if self == Family::Default {
+            return SynthConfig { seed, ..SynthConfig::default() };
+        }
+        let mut rng = rng_for(seed, stream::FAMILY, self.layout_salt());
+        let mut c = rooms_config(seed, &mut rng);
+        c.family = self;
+        let r = &mut c.room;
+        match self {
+            Family::Default | Family::Rooms => {}
+            Family::MultiTone => {
+                r.walls = if rng.gen_bool(0.5) { WallPaint::TwoTone } else { WallPaint::Stripes };
+                r.wall_scale_m = wall_scale(r.walls, &mut rng);
+                r.floor = if rng.gen_bool(0.5) { FloorPattern::Stripes } else { FloorPattern::Checkers };
+                r.floor_scale_m = rng.gen_range(0.35..1.4);
+                r.multi_tone_share = 0.7;
+            }
+            Family::Thin => r.thin_posts = rng.gen_range(2..=4),
+            Family::Border => r.foreground_objects = rng.gen_range(1..=2),
+            Family::Clutter => {
+                r.objects = [10, 14];
+                r.stacked = rng.gen_range(1..=2);
+                r.touching = rng.gen_range(1..=2);
+            }
+            Family::SamNoise => {
+                c.sam = SamSimConfig {
+                    hole_probability: 0.6,
+                    hole_radius_px: [2, 5],
+                    whole_object_probability: 0.7,
+                    wrong_merge_probability: 0.6,
+                    adjacent_merge_probability: 0.35,
+                    dilate_probability: 0.3,
+                    erode_probability: 0.3,
+                    ..c.sam
+                };
+            }
+            Family::Hires => {
+                let scale = 4.0;
+                c.width = (c.width as f64 * scale) as u32;
+                c.height = (c.height as f64 * scale) as u32;
+                c.sam = c.sam.scaled(scale);
+            }
+            Family::ManyViews => c.views = rng.gen_range(12..=100),
+        }
+        c
+    }
+}
+
+impl std::fmt::Display for Family {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+fn wall_scale(walls: WallPaint, rng: &mut ChaCha8Rng) -> f64 {
+    match walls {
+        WallPaint::TwoTone => rng.gen_range(0.7..1.4),
+        _ => rng.gen_range(0.3..0.9),
+    }
+}
+
+/// The `rooms` family: the base every random family starts from.
+fn rooms_config(seed: u64, rng: &mut ChaCha8Rng) -> SynthConfig {
+    let walls = match rng.gen_range(0..4) {
+        0 | 1 => WallPaint::Plain,
+        2 => WallPaint::TwoTone,
+        _ => WallPaint::Stripes,
+    };
+    let wall_scale_m = wall_scale(walls, rng);
+    let floor = match rng.gen_range(0..10) {
+        0..=3 => FloorPattern::Planks,
+        4..=6 => FloorPattern::Stripes,
+        _ => FloorPattern::Checkers,
+    };
+    let room = RoomConfig {
+        layout: LayoutKind::Random,
+        objects: [6, 14],
+        walls,
+        wall_scale_m,
+        floor,
+        floor_scale_m: rng.gen_range(0.35..1.4),
+        tone_parts: true,
+        thin_posts: rng.gen_range(0..=1),
+        thin_post_px: 3.0,
+        foreground_objects: rng.gen_range(0..=1),
+        stacked: rng.gen_range(0..=1),
+        touching: rng.gen_range(0..=1),
+        multi_tone_share: 0.3,
+    };
+    let sam = SamSimConfig {
+        whole_object_probability: 0.45,
+        adjacent_merge_probability: 0.1,
+        dilate_probability: 0.1,
+        ..SamSimConfig::default()
+    };
+    SynthConfig { seed, views: 24, feature_dim: 384, room, sam, ..SynthConfig::default() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_default_is_the_default_config() {
+        for f in Family::ALL {
+            assert_eq!(Family::from_name(f.name()), Some(f));
+        }
+        assert_eq!(Family::from_name("sam-noise"), Some(Family::SamNoise));
+        assert_eq!(Family::from_name("nope"), None);
+        assert_eq!(Family::Default.config(4), SynthConfig { seed: 4, ..SynthConfig::default() });
+    }
+
+    #[test]
+    fn families_set_their_knobs_and_hires_is_the_rooms_scene_scaled() {
+        for seed in 0..20 {
+            let rooms = Family::Rooms.config(seed);
+            assert_eq!(rooms.room.layout, LayoutKind::Random);
+            assert!((2..=4).contains(&Family::Thin.config(seed).room.thin_posts));
+            assert!(Family::Border.config(seed).room.foreground_objects >= 1);
+            let hires = Family::Hires.config(seed);
+            assert_eq!((hires.width, hires.height), (1280, 960));
+            assert_eq!(hires.room, rooms.room);
+            assert_eq!(hires.sam.min_area_px, rooms.sam.min_area_px * 16);
+            let many = Family::ManyViews.config(seed);
+            assert!((12..=100).contains(&many.views));
+            assert_eq!(many.room, rooms.room);
+        }
+        let walls: std::collections::BTreeSet<String> =
+            (0..20).map(|s| format!("{:?}", Family::Rooms.config(s).room.walls)).collect();
+        assert_eq!(walls.len(), 3, "rooms draw every wall paint: {walls:?}");
+    }
+}

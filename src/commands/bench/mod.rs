@@ -1,0 +1,32 @@
+//! `splatseg bench`: measurements that take minutes, printed as tables (quality over many
+//! synthetic scenes; later, scale).
+
+use clap::{Args as ClapArgs, Subcommand};
+
+pub mod quality;
+pub mod suite;
+#[cfg(test)]
+mod suite_tests;
+
+/// Measure the pipeline over many scenes and print the distributions.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// What to measure.
+    #[command(subcommand)]
+    pub what: What,
+}
+
+/// The benchmarks.
+#[derive(Debug, Subcommand)]
+pub enum What {
+    /// Segmentation quality over the stress suite's families and seeds.
+    #[command(long_about = quality::LONG_ABOUT)]
+    Quality(quality::Args),
+}
+
+/// Runs the chosen benchmark.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.what {
+        What::Quality(a) => quality::run(a),
+    }
+}
