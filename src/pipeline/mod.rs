@@ -189,7 +189,7 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
 
     // Whole-run key: every input file and every setting.
     let mut run_key = KeyHasher::default();
-    run_key.text("run-v2").json(pc).text(&format!("{:?}", config.depth_kind));
+    run_key.text("run-v1").json(pc).text(&format!("{:?}", config.depth_kind));
     for (view, &masked) in scene.views.iter().zip(&has_masks) {
         run_key.text(&view.stem).file(&view.image_path)?;
         if masked {
@@ -227,14 +227,12 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
         .zip(&poses)
         .map(|(v, p)| PosedCamera { camera: scene.camera(v), world_from_cam: p })
         .collect();
-    let rendered = prepared.as_ref().map(|p| lift_stage::surface_depths(p, &cams, &pc.lift)).transpose()?;
+    let rendered = prepared.as_ref().map(|p| lift_stage::surface_depths(p, &cams, &pc.lift));
     let ply_key = match &ply_path {
         // Only what the rendered depth depends on, so lift-only changes keep the merge cache.
-        Some(p) => KeyHasher::default()
-            .text("surface-depth-v2")
-            .file(p)?
-            .json(&(pc.lift.surface_transmittance, pc.lift.near))
-            .finish(),
+        Some(p) => {
+            KeyHasher::default().file(p)?.json(&(pc.lift.surface_transmittance, pc.lift.near)).finish()
+        }
         None => String::new(),
     };
 
@@ -295,15 +293,16 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
     tracing::info!("merged {raw_masks} regions into {merged_masks} ({cached_views} views from the cache)");
 
     // Match, lift, render back.
-    let contributions =
-        prepared.as_ref().map(|p| lift_stage::contributions(p, &cams, &merged, &pc.lift)).transpose()?;
-    let seen = contributions.as_ref().map(|c| lift_stage::dominant_labels(c, &pc.lift));
-    let matching = lift_stage::match_views(&merged, seen.as_deref(), &pc.matching)?;
+    let visibility = match (&prepared, &rendered) {
+        (Some(p), Some(d)) => Some(lift_stage::visibilities(p, &cams, d, &pc.lift)),
+        _ => None,
+    };
+    let matching = lift_stage::match_views(&merged, visibility.as_deref(), &pc.matching)?;
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
     let matched = lift_stage::matched_maps(&merged, &matching);
-    let (final_maps, lifted) = match (&prepared, &contributions, &seen) {
-        (Some(p), Some(c), Some(s)) => {
-            let out = lift_stage::lift_and_render(p, &cams, c, s, &merged, &matching, &pc.lift)?;
+    let (final_maps, lifted) = match (&prepared, &visibility) {
+        (Some(p), Some(vis)) => {
+            let out = lift_stage::lift_and_render(p, &cams, vis, &merged, &matched, &matching, &pc.lift)?;
             (out.maps, Some(out.lifted))
         }
         _ => {

@@ -106,7 +106,7 @@ fn rerun_resumes_from_the_cache() {
     assert!(second.resumed, "identical inputs: nothing recomputed");
     // A changed lift setting recomputes the run but reuses every view's merge.
     let mut changed = config.clone();
-    changed.pipeline.lift.tau_var = 0.2;
+    changed.pipeline.lift.tau_var = 0.1;
     let third = run_pipeline(&changed).expect("third run");
     assert!(!third.resumed);
     assert_eq!(third.cached_views, third.views_with_masks);

@@ -1,11 +1,11 @@
-//! Criterion benchmark of lifting (contributions + id/fusion) at a reduced size; the full-size
+//! Criterion benchmark of lifting (visibility + vote/fusion) at a reduced size; the full-size
 //! run (1M Gaussians × 100 views at 1 MP) is `examples/lift_bench.rs`.
 
 mod data;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use splatseg_lift::{
-    lift_labels, view_contributions, LiftConfig, LiftView, ObjectFeatures, PosedCamera, PreparedGaussians,
+    lift_labels, visibility_all, LiftConfig, ObjectFeatures, PosedCamera, PreparedGaussians,
 };
 
 fn bench_lift(c: &mut Criterion) {
@@ -23,19 +23,8 @@ fn bench_lift(c: &mut Criterion) {
     group.bench_function("100k_gaussians_10_views_500px", |b| {
         b.iter(|| {
             let prepared = PreparedGaussians::new(&g).expect("finite");
-            let table: Vec<u32> = (0..=20).collect();
-            let contributions: Vec<_> = cams
-                .iter()
-                .zip(&maps)
-                .map(|(c, m)| {
-                    view_contributions(&prepared, c.camera, c.world_from_cam, m, &config).expect("sizes")
-                })
-                .collect();
-            let views: Vec<LiftView> = contributions
-                .iter()
-                .map(|c| LiftView { contributions: c, global_of_label: &table })
-                .collect();
-            lift_labels(n, &views, ObjectFeatures { dim: 8, values: &features }, &config).expect("maps")
+            let vis = visibility_all(&prepared, &cams, None, &config).expect("sizes");
+            lift_labels(n, &vis, &maps, ObjectFeatures { dim: 8, values: &features }, &config).expect("maps")
         })
     });
     group.finish();

@@ -9,10 +9,9 @@
 #[path = "../benches/data/mod.rs"]
 mod data;
 
-use rayon::prelude::*;
 use splatseg_lift::{
-    lift_labels, render_all, render_votes, view_contributions, LiftConfig, LiftView, ObjectFeatures,
-    PosedCamera, PreparedGaussians,
+    lift_labels, render_all, render_votes, visibility_all, LiftConfig, ObjectFeatures, PosedCamera,
+    PreparedGaussians,
 };
 use std::time::Instant;
 
@@ -52,34 +51,25 @@ fn main() {
     let prepared = PreparedGaussians::new(&g).expect("finite Gaussians");
     let t_prepare = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let contributions: Vec<_> = cams
-        .par_iter()
-        .zip(&maps)
-        .map(|(c, m)| {
-            view_contributions(&prepared, c.camera, c.world_from_cam, m, &config).expect("sizes match")
-        })
-        .collect();
+    let vis = visibility_all(&prepared, &cams, None, &config).expect("sizes match");
     let t_vis = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let table: Vec<u32> = (0..=20).collect();
-    let views: Vec<LiftView> =
-        contributions.iter().map(|c| LiftView { contributions: c, global_of_label: &table }).collect();
-    let lifted =
-        lift_labels(n, &views, ObjectFeatures { dim: 8, values: &features }, &config).expect("valid maps");
+    let lifted = lift_labels(n, &vis, &maps, ObjectFeatures { dim: 8, values: &features }, &config)
+        .expect("valid maps");
     let t_lift = t.elapsed().as_secs_f64();
-    let observations: usize = contributions.iter().map(|c| c.len()).sum();
+    let observations: usize = vis.iter().map(|v| v.len()).sum();
     println!(
-        "lifting: prepare {t_prepare:.2} s + contributions {t_vis:.2} s + id/fuse {t_lift:.2} s = {:.2} s",
+        "lifting: prepare {t_prepare:.2} s + visibility {t_vis:.2} s + vote/fuse {t_lift:.2} s = {:.2} s",
         t_prepare + t_vis + t_lift
     );
     println!(
         "  CPU time of lifting {:.2} s (wall time above is inflated when other jobs share the cores)",
         cpu_secs() - cpu
     );
-    println!("  {observations} (Gaussian, view, label) entries; {:?}", lifted.stats);
+    println!("  {observations} (Gaussian, view) observations; {:?}", lifted.stats);
     println!("  peak RSS {:.0} MB", peak_rss_mb().unwrap_or(f64::NAN));
     let (t, cpu) = (Instant::now(), cpu_secs());
-    let back = render_all(&prepared, &render_votes(&lifted, &config), &cams, &config).expect("renders");
+    let back = render_all(&prepared, &render_votes(&lifted, &config), &cams, &config);
     println!(
         "render-back of {} label maps: {:.2} s ({:.2} CPU s)",
         back.len(),

@@ -43,9 +43,6 @@ pub enum LiftError {
         /// Which parameter.
         what: &'static str,
     },
-    /// The camera cannot be rendered.
-    #[error("camera: {0}")]
-    Camera(String),
     /// A label map names an object the identity features do not cover.
     #[error("view {view}: label map holds object id {id}, but only {n_objects} objects are known")]
     UnknownObject {

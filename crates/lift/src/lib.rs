@@ -2,39 +2,40 @@
 //! Gaussians (paper §4.3, "Feature Lifting", "3D Mask ID Assignment", "Variance-based
 //! Reliability Filtering").
 //!
-//! - [`prepared`]: the Gaussians' geometry, checked once.
-//! - [`contributions`]: per view, each Gaussian's summed blending weight `α·T` over the pixels
-//!   of each mask, from the renderer's own compositor (`splatseg_render::visit_contributions`:
-//!   lift has none of its own); the surface depth of a view.
-//! - [`lifting`]: the id of largest summed contribution (FlashSplat's assignment), weighted
-//!   feature fusion and the variance filter over the views' votes.
+//! - [`project`]: Gaussians → 2D footprints per view (EWA, as 3DGS).
+//! - [`composite`]: front-to-back alpha compositing of footprints on the CPU.
+//! - [`visibility`]: which Gaussians a view sees (depth test against the composited surface),
+//!   where their centre lands, and their fusion weight (frontal, near views weigh more).
+//! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
 //! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
 //! - [`snap`]: rendered ids snapped onto a view's merged regions (optional final maps).
 //! - [`touching`]: objects that touch in 3D and look alike become one.
 //! - [`numbering`]: final stable renumbering of the ids.
 //!
-//! Views are independent and run in parallel with rayon ([`render_all`]); per-Gaussian work runs over Gaussian ranges in parallel with views in fixed
+//! Views are independent and run in parallel with rayon ([`visibility_all`],
+//! [`render_all`]); per-Gaussian work runs over Gaussian ranges in parallel with views in fixed
 //! order, so results do not depend on the thread count.
 
+pub mod composite;
 pub mod config;
-pub mod contributions;
 pub mod error;
 pub mod lifting;
 pub mod numbering;
-pub mod prepared;
+pub mod project;
 pub mod render_labels;
 pub mod snap;
 pub mod touching;
+pub mod visibility;
 
-pub use config::{FinalMaps, IdRule, LiftConfig};
-pub use contributions::{view_contributions, view_surface_depth, DominantLabel, ViewContributions};
+pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
-pub use lifting::{lift_labels, CoVotes, GaussianStatus, LiftStats, LiftView, Lifted, ObjectFeatures};
+pub use lifting::{lift_labels, GaussianStatus, LiftStats, Lifted, ObjectFeatures};
 pub use numbering::{drop_small_objects, renumber};
-pub use prepared::PreparedGaussians;
+pub use project::PreparedGaussians;
 pub use render_labels::{render_label_map, render_votes, RenderVotes};
 pub use snap::snap_to_regions;
-pub use touching::{covote_joins, join_touching_objects, seen_apart, touching_joins};
+pub use touching::join_touching_objects;
+pub use visibility::{view_surface_depth, view_visibility, ViewVisibility};
 
 use rayon::prelude::*;
 use splatseg_scene::{Camera, Plane, Pose};
@@ -48,13 +49,31 @@ pub struct PosedCamera<'a> {
     pub world_from_cam: &'a Pose,
 }
 
+/// [`view_visibility`] for every view, in parallel. `depths`: optional per-view surface depth
+/// maps (`[n_views]`, each `[height, width]`), otherwise the Gaussians' own footprints are used.
+pub fn visibility_all(
+    gaussians: &PreparedGaussians,
+    cameras: &[PosedCamera],
+    depths: Option<&[Plane<f32>]>,
+    config: &LiftConfig,
+) -> LiftResult<Vec<ViewVisibility>> {
+    if let Some(d) = depths {
+        check_map_sizes(cameras, d)?;
+    }
+    Ok(cameras
+        .par_iter()
+        .enumerate()
+        .map(|(v, c)| view_visibility(gaussians, c.camera, c.world_from_cam, depths.map(|d| &d[v]), config))
+        .collect())
+}
+
 /// [`render_label_map`] for every view, in parallel.
 pub fn render_all(
     gaussians: &PreparedGaussians,
     votes: &RenderVotes,
     cameras: &[PosedCamera],
     config: &LiftConfig,
-) -> LiftResult<Vec<Plane<u32>>> {
+) -> Vec<Plane<u32>> {
     cameras
         .par_iter()
         .map(|c| render_label_map(gaussians, votes, c.camera, c.world_from_cam, config))

@@ -19,9 +19,10 @@
 //! surviving id is the smaller one.
 
 use crate::config::LiftConfig;
-use crate::contributions::DominantLabel;
 use crate::lifting::{Lifted, ObjectFeatures};
-use crate::prepared::PreparedGaussians;
+use crate::project::PreparedGaussians;
+use crate::visibility::ViewVisibility;
+use splatseg_scene::Plane;
 use std::collections::{BTreeMap, HashMap};
 
 /// A view counts for a pair only when it sees at least this many Gaussians of each object.
@@ -36,10 +37,11 @@ struct ViewCounts {
     total: HashMap<u32, u32>,
 }
 
-fn view_counts(seen: &[DominantLabel], ids: &[i32]) -> ViewCounts {
+fn view_counts(vis: &ViewVisibility, masks: &Plane<u32>, ids: &[i32]) -> ViewCounts {
     let mut counts = ViewCounts { by_mask: HashMap::new(), total: HashMap::new() };
-    for d in seen {
-        let (id, mask) = (ids.get(d.gaussian as usize).copied().unwrap_or(-1), d.label);
+    for (&g, &p) in vis.gaussians.iter().zip(&vis.pixels) {
+        let id = ids[g as usize];
+        let Some(&mask) = masks.data.get(p as usize) else { continue };
         if id <= 0 || mask == 0 {
             continue;
         }
@@ -79,7 +81,8 @@ fn voxel_key(v: [i64; 3]) -> u64 {
 
 /// Typical Gaussian standard deviation: median of `sqrt(trace(Σ) / 3)`.
 fn typical_sigma(gaussians: &PreparedGaussians) -> f32 {
-    let mut s = gaussians.sigmas.clone();
+    let mut s: Vec<f32> =
+        gaussians.cov3d.iter().map(|c| ((c[0] + c[3] + c[5]) / 3.0).max(0.0).sqrt()).collect();
     if s.is_empty() {
         return 0.0;
     }
@@ -134,39 +137,14 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
     x
 }
 
-/// Which touching look-alike objects to join (see the module docs): `[n_objects + 1]`, the id
-/// each id becomes (itself when not joined; index 0 is 0). `views` as in
-/// [`join_touching_objects`].
-pub fn touching_joins(
-    gaussians: &PreparedGaussians,
-    lifted: &Lifted,
-    features: ObjectFeatures,
-    views: &[Vec<DominantLabel>],
-    config: &LiftConfig,
-) -> Vec<u32> {
-    let mut copy = lifted.clone();
-    let n = features.n_objects().min(u32::MAX as usize - 1);
-    let mut table: Vec<u32> = (0..=n as u32).collect();
-    if join_touching_objects(gaussians, &mut copy, features, views, config) > 0 {
-        // Read the union back from the relabelled majority ids.
-        for (&before, &after) in lifted.majority_ids.iter().zip(&copy.majority_ids) {
-            if (before as usize) < table.len() {
-                table[before as usize] = after;
-            }
-        }
-    }
-    table
-}
-
 /// Joins touching look-alike objects in `lifted` (object and majority ids), see the module
-/// docs. `views`: per view, the merged (view-local) mask each Gaussian it sees contributes most
-/// to ([`crate::ViewContributions::dominant`]).
+/// docs. `views`: per view, its visibility and its merged (view-local) mask map `[H, W]`.
 /// Returns the number of joins.
 pub fn join_touching_objects(
     gaussians: &PreparedGaussians,
     lifted: &mut Lifted,
     features: ObjectFeatures,
-    views: &[Vec<DominantLabel>],
+    views: &[(&ViewVisibility, &Plane<u32>)],
     config: &LiftConfig,
 ) -> usize {
     if features.dim == 0 || config.tau_touching > 1.0 {
@@ -177,7 +155,7 @@ pub fn join_touching_objects(
         return 0;
     }
     let n_objects = features.n_objects();
-    let counts: Vec<ViewCounts> = views.iter().map(|v| view_counts(v, &lifted.object_ids)).collect();
+    let counts: Vec<ViewCounts> = views.iter().map(|(v, m)| view_counts(v, m, &lifted.object_ids)).collect();
     let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel)
         .into_iter()
         .filter(|&((a, b), count)| count >= config.min_contact_voxels && (b as usize) <= n_objects && a >= 1)
@@ -212,99 +190,4 @@ pub fn join_touching_objects(
         }
     }
     joins
-}
-
-/// Pairs of global ids `(a, b)`, `a < b`, that at least `min_views` views show as two separate
-/// masks, each over at least `min_gaussians` of the Gaussians it sees: different objects (one
-/// view may cut one object in two; several views agreeing that two ids are apart is evidence). `views`: per view, [`crate::ViewContributions::dominant`] (local labels);
-/// `tables`: per view, local label → global id.
-pub fn seen_apart(
-    views: &[Vec<DominantLabel>],
-    tables: &[&[u32]],
-    min_gaussians: u32,
-    min_views: u32,
-) -> std::collections::BTreeSet<(u32, u32)> {
-    let mut apart: BTreeMap<(u32, u32), u32> = BTreeMap::new();
-    for (seen, table) in views.iter().zip(tables) {
-        let mut count: BTreeMap<u32, u32> = BTreeMap::new();
-        for d in seen {
-            let id = table.get(d.label as usize).copied().unwrap_or(0);
-            if id > 0 {
-                *count.entry(id).or_insert(0) += 1;
-            }
-        }
-        let ids: Vec<u32> =
-            count.into_iter().filter(|&(_, n)| n >= min_gaussians).map(|(id, _)| id).collect();
-        for (k, &a) in ids.iter().enumerate() {
-            for &b in &ids[k + 1..] {
-                *apart.entry((a, b)).or_insert(0) += 1;
-            }
-        }
-    }
-    apart.into_iter().filter(|&(_, n)| n >= min_views).map(|(k, _)| k).collect()
-}
-
-/// Joins of ids that are pieces of one object by the Gaussians they share: ids `a`, `b` whose
-/// pure views split the same Gaussians between them (each id holding at least
-/// [`crate::lifting::COVOTE_SHARE`] of a Gaussian's pure-view weight) on at least
-/// `covote_fraction` of the smaller id's Gaussians (and on at least `covote_min_gaussians`, so
-/// specks cannot chain objects together), and whose identity features have cosine at least
-/// `covote_min_cos` (when features are given). Matching keeps such pieces apart when views cut
-/// one object differently (a fragment in one view, the whole in another); in 3D they cover the
-/// same Gaussians. Two different objects only share the Gaussians along their seam.
-///
-/// Pairs join strongest first (shared fraction), and a join that would put two ids of `apart`
-/// ([`seen_apart`]) in one group is refused: an id made of two objects (a view's wrong merge)
-/// shares Gaussians with both, but cannot bridge them.
-/// Returns `[n_ids + 1]`, the id each id becomes (the smallest of its group).
-pub fn covote_joins(
-    lifted: &Lifted,
-    features: ObjectFeatures,
-    n_ids: usize,
-    apart: &std::collections::BTreeSet<(u32, u32)>,
-    config: &LiftConfig,
-) -> Vec<u32> {
-    let mut pairs: Vec<(f32, u32, u32)> = Vec::new();
-    for (&(a, b), &n) in &lifted.covotes.both {
-        if a as usize > n_ids || b as usize > n_ids || apart.contains(&(a, b)) {
-            continue;
-        }
-        let size = |id| lifted.covotes.voted.get(&id).copied().unwrap_or(0);
-        let smaller = size(a).min(size(b));
-        if n < config.covote_min_gaussians || (n as f32) < config.covote_fraction * smaller as f32 {
-            continue;
-        }
-        if features.dim > 0 && (b as usize) <= features.n_objects() {
-            let cos: f32 = features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum();
-            if cos < config.covote_min_cos {
-                continue;
-            }
-        }
-        tracing::debug!("ids {a} and {b} share {n} of {smaller} Gaussians");
-        pairs.push((n as f32 / smaller as f32, a, b));
-    }
-    pairs.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
-    // Groups as member lists under their smallest id.
-    let mut group: Vec<u32> = (0..=n_ids as u32).collect();
-    let mut members: Vec<Vec<u32>> = (0..=n_ids as u32).map(|id| vec![id]).collect();
-    for (_, a, b) in pairs {
-        let (ga, gb) = (group[a as usize], group[b as usize]);
-        if ga == gb {
-            continue;
-        }
-        let clash = members[ga as usize]
-            .iter()
-            .any(|&x| members[gb as usize].iter().any(|&y| apart.contains(&(x.min(y), x.max(y)))));
-        if clash {
-            tracing::debug!("ids {a} and {b} share Gaussians but views show their groups apart");
-            continue;
-        }
-        let (keep, gone) = (ga.min(gb), ga.max(gb));
-        let moved = std::mem::take(&mut members[gone as usize]);
-        for &m in &moved {
-            group[m as usize] = keep;
-        }
-        members[keep as usize].extend(moved);
-    }
-    group
 }

@@ -3,8 +3,7 @@
 mod common;
 use common::gaussians;
 use splatseg_lift::{
-    join_touching_objects, DominantLabel, GaussianStatus, LiftConfig, LiftStats, Lifted, ObjectFeatures,
-    PreparedGaussians,
+    join_touching_objects, GaussianStatus, LiftConfig, LiftStats, Lifted, ObjectFeatures, PreparedGaussians,
 };
 
 /// A 20 × 20 grid of Gaussians (spacing 0.02) at x offset `x0` and depth `z`.
@@ -21,7 +20,6 @@ fn lifted(ids: Vec<i32>) -> Lifted {
         variances: vec![0.0; n],
         views_seen: vec![1; n],
         fused_features: None,
-        covotes: Default::default(),
         stats: LiftStats::default(),
     }
 }
@@ -80,24 +78,23 @@ fn views_that_keep_the_pieces_apart_block_the_join() {
     means.extend(patch(0.4, 2.0));
     let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
     let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
-    let seen = |together: bool| -> Vec<DominantLabel> {
-        (0..800u32)
-            .map(|g| DominantLabel {
-                gaussian: g,
-                label: if together || g < 400 { 1 } else { 2 },
-                total: 1.0,
-            })
-            .collect()
+    let vis = splatseg_lift::ViewVisibility {
+        gaussians: (0..800).collect(),
+        pixels: (0..800).collect(),
+        weights: vec![1.0; 800],
     };
-    let (apart, together) = (seen(false), seen(true));
+    let apart =
+        splatseg_scene::Plane::from_vec(800, 1, (0..800).map(|p| if p < 400 { 1 } else { 2 }).collect())
+            .unwrap();
+    let together = splatseg_scene::Plane::filled(800, 1, 1u32);
     let config = LiftConfig { min_together_share: 0.5, ..LiftConfig::default() };
     let features = ObjectFeatures { dim: 2, values: &FEATURES };
     // One view of three unites them: share 1/3 < 0.5, no join.
-    let views = [apart.clone(), apart.clone(), together.clone()];
+    let views = [(&vis, &apart), (&vis, &apart), (&vis, &together)];
     let mut l = lifted(ids.clone());
     assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, &config), 0);
     // Two of three: share 2/3, joined.
-    let views = [apart, together.clone(), together];
+    let views = [(&vis, &apart), (&vis, &together), (&vis, &together)];
     let mut l = lifted(ids);
     assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, &config), 1);
 }
