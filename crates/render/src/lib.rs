@@ -8,6 +8,8 @@
 //! - [`rasterise`]: front-to-back alpha blending of any number of channels.
 //! - [`render()`](render::render) / [`render_bwd`]: the whole pass, driven by
 //!   a [`RenderRequest`] (rgb, expected depth, alpha, max-weight ids, features).
+//! - [`contributions`]: per pixel, the Gaussians blended front to back with their weights `α·T`
+//!   (the one compositor label lifting and label rendering use).
 //! - [`export`]: PNG / `.npy` writers for rendered outputs.
 //!
 //! ```
@@ -28,6 +30,7 @@
 
 pub mod bin;
 pub mod camera;
+pub mod contributions;
 pub mod error;
 pub mod export;
 mod fast_exp;
@@ -40,6 +43,7 @@ pub mod settings;
 pub mod sh;
 
 pub use camera::RenderCamera;
+pub use contributions::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 pub use error::{RenderError, RenderResult};
 pub use render::{render, render_bwd, render_with_state, RenderState};
 pub use request::{FeatureInput, GaussianGrads, OutputGrads, RenderOutput, RenderRequest, RenderStats};

@@ -63,7 +63,7 @@ pub struct RasterOutput {
 }
 
 /// Pixel rectangle of tile `(tx, ty)`: `(x0, x1, y0, y1)`, half-open, clipped to the image.
-fn tile_pixels(tx: usize, ty: usize, width: usize, height: usize) -> (usize, usize, usize, usize) {
+pub(crate) fn tile_pixels(tx: usize, ty: usize, width: usize, height: usize) -> (usize, usize, usize, usize) {
     let x0 = tx * TILE_SIZE;
     let y0 = ty * TILE_SIZE;
     (x0, (x0 + TILE_SIZE).min(width), y0, (y0 + TILE_SIZE).min(height))
@@ -71,9 +71,9 @@ fn tile_pixels(tx: usize, ty: usize, width: usize, height: usize) -> (usize, usi
 
 /// α of a splat at a pixel, the same arithmetic in the forward and backward passes.
 #[derive(Clone, Copy, Debug)]
-struct PixelAlpha {
+pub(crate) struct PixelAlpha {
     /// `min(alpha_max, opacity · exp(−σ))`.
-    alpha: f32,
+    pub(crate) alpha: f32,
     /// `exp(−σ)`.
     vis: f32,
     /// Mean − pixel centre, x.
@@ -86,7 +86,7 @@ struct PixelAlpha {
 
 /// Per-row constants of a splat: `σ(dx) = ½a·dx² + (b·dy)·dx + ½c·dy²`.
 #[derive(Clone, Copy, Debug)]
-struct RowTerms {
+pub(crate) struct RowTerms {
     mx: f32,
     dy: f32,
     half_a: f32,
@@ -96,7 +96,7 @@ struct RowTerms {
 
 impl RowTerms {
     #[inline(always)]
-    fn new(s: &Splat2d, py: usize) -> Self {
+    pub(crate) fn new(s: &Splat2d, py: usize) -> Self {
         let dy = s.mean2d[1] - (py as f32 + 0.5);
         let [a, b, c] = s.conic;
         RowTerms { mx: s.mean2d[0], dy, half_a: 0.5 * a, b_dy: b * dy, half_c_dy2: 0.5 * c * dy * dy }
@@ -104,7 +104,7 @@ impl RowTerms {
 
     /// α at pixel column `px`, or `None` when the pixel skips the splat (σ < 0 or α < alpha_min).
     #[inline(always)]
-    fn alpha(&self, px: usize, opacity: f32, settings: &RasterSettings) -> Option<PixelAlpha> {
+    pub(crate) fn alpha(&self, px: usize, opacity: f32, settings: &RasterSettings) -> Option<PixelAlpha> {
         let dx = self.mx - (px as f32 + 0.5);
         let sigma = self.half_a * dx * dx + self.b_dy * dx + self.half_c_dy2;
         let vis = fast_exp(-sigma);
