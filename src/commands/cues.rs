@@ -211,6 +211,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options =
         LoadOptions { resolution: args.resolution, split: args.split.clone(), ..LoadOptions::default() };
     let scene = load_scene(&args.scene, &options)?;
+    let _lock = crate::pipeline::lock::lock_output(&args.out, "cues")?;
     let views: Vec<&View> = scene.views.iter().take(args.max_views.unwrap_or(usize::MAX)).collect();
     let mut cues: Vec<Box<dyn Cue>> = Vec::new();
     if let Some(path) = &args.sam {
@@ -250,6 +251,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         std::fs::create_dir_all(&key_dir).with_context(|| format!("cannot create {}", key_dir.display()))?;
         let bar = ProgressBar::new(views.len() as u64).with_style(style.clone()).with_prefix(folder);
+        if super::logging::quiet() {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        }
         for view in &views {
             let image = load_image_rgb(&scene, view, &options)?;
             let size = (image.height() as usize, image.width() as usize);
