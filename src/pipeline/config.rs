@@ -47,3 +47,29 @@ impl PipelineConfig {
         Ok(config)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed fuzz corpus of `fuzz/fuzz_targets/config_toml.rs`, replayed on stable: no
+    /// file may panic, and the seed (the `splatseg config` output) must parse.
+    #[test]
+    fn the_config_fuzz_corpus_replays_and_the_seed_parses() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/config_toml");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+            .map(|e| e.expect("entry").path())
+            .collect();
+        files.sort();
+        assert!(!files.is_empty());
+        for file in &files {
+            let bytes = std::fs::read(file).expect("corpus file");
+            if let Ok(text) = std::str::from_utf8(&bytes) {
+                let _ = PipelineConfig::from_toml(text, file);
+            }
+        }
+        let seed = std::fs::read_to_string(dir.join("seed_defaults.toml")).expect("seed");
+        PipelineConfig::from_toml(&seed, Path::new("seed_defaults.toml")).expect("the defaults parse");
+    }
+}

@@ -10,8 +10,11 @@
 use crate::plane::Plane;
 use std::path::Path;
 
-/// Every target, by the name of its corpus folder (`fuzz/corpus/<name>/`).
-pub const TARGETS: [(&str, fn(&[u8])); 10] = [
+/// A fuzz target: the name of its corpus folder (`fuzz/corpus/<name>/`) and its entry point.
+pub type Target = (&'static str, fn(&[u8]));
+
+/// Every target.
+pub const TARGETS: [Target; 10] = [
     ("ply", ply),
     ("colmap_bin", colmap_bin),
     ("colmap_txt", colmap_txt),
