@@ -3,7 +3,8 @@
 //! (every PNG, PLY, JSON and .npy in the output folder reads whole; temporary files may remain);
 //! a rerun then resumes and gives byte-identical outputs to an uninterrupted run.
 //!
-//! CI runs 3 kills per command. The harness mode asks for more and prints a table:
+//! CI runs until 3 kills per command have landed while the command ran (kills that come after it
+//! finished are retried, and counted apart). The harness mode asks for more and prints a table:
 //! `SPLATSEG_KILLS=20 cargo test --release --test kill_harness -- --nocapture`.
 #![cfg(unix)]
 
@@ -91,7 +92,9 @@ fn outputs(out: &Path) -> Vec<(PathBuf, Vec<u8>)> {
 
 struct Report {
     command: &'static str,
-    kills: usize,
+    /// Processes started and then sent SIGKILL.
+    attempts: usize,
+    /// Of those, the ones still running when the signal came (the count asked for).
     mid_run: usize,
     files_checked: usize,
     temp_left: usize,
@@ -111,20 +114,22 @@ fn harness(command: &'static str, work: &Path, args: impl Fn(&Path) -> Vec<Strin
     let reference = outputs(&out);
     assert!(!reference.is_empty(), "{command} wrote nothing");
     let mut uniform = Uniform(seed | 1);
-    let mut report = Report {
-        command,
-        kills: kills_per_command(),
-        mid_run: 0,
-        files_checked: 0,
-        temp_left: 0,
-        reference_secs,
-    };
-    for k in 0..report.kills {
+    let wanted = kills_per_command();
+    let mut report =
+        Report { command, attempts: 0, mid_run: 0, files_checked: 0, temp_left: 0, reference_secs };
+    while report.mid_run < wanted {
+        let k = report.attempts;
+        assert!(
+            k < 5 * wanted + 5,
+            "{command}: too few kills landed while it ran ({} of {k})",
+            report.mid_run
+        );
+        report.attempts += 1;
         // Even kills start from nothing; odd kills hit a rerun resuming from the last one.
         if k % 2 == 0 {
             std::fs::remove_dir_all(&out).expect("clear the output folder");
         }
-        let delay = Duration::from_secs_f64(uniform.next() * reference_secs);
+        let delay = Duration::from_secs_f64(uniform.next() * 0.9 * reference_secs);
         let mut child = binary().args(args(&out)).spawn().expect("spawn");
         std::thread::sleep(delay);
         if child.try_wait().expect("status").is_none() {
@@ -190,13 +195,13 @@ fn run_cues_and_train_survive_sigkill_and_resume_to_identical_outputs() {
             0x5eed_0003,
         ),
     ];
-    println!("| command | kills | killed mid-run | output files checked after kills | temp files left by the kills (removed by the rerun) | uninterrupted run (s) |");
+    println!("| command | SIGKILLs sent | landed mid-run | output files checked after kills | temp files left by the kills (removed by the rerun) | uninterrupted run (s) |");
     println!("| --- | ---: | ---: | ---: | ---: | ---: |");
     for r in &reports {
         println!(
             "| {} | {} | {} | {} | {} | {:.2} |",
-            r.command, r.kills, r.mid_run, r.files_checked, r.temp_left, r.reference_secs
+            r.command, r.attempts, r.mid_run, r.files_checked, r.temp_left, r.reference_secs
         );
-        assert!(r.kills == 0 || r.mid_run > 0, "{}: no kill landed while the command ran", r.command);
+        assert_eq!(r.mid_run, kills_per_command(), "{}", r.command);
     }
 }
