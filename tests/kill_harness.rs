@@ -120,13 +120,13 @@ fn harness(command: &'static str, work: &Path, args: impl Fn(&Path) -> Vec<Strin
     while report.mid_run < wanted {
         let k = report.attempts;
         assert!(
-            k < 5 * wanted + 5,
+            k < 10 * wanted + 10,
             "{command}: too few kills landed while it ran ({} of {k})",
             report.mid_run
         );
         report.attempts += 1;
         // Even kills start from nothing; odd kills hit a rerun resuming from the last one.
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             std::fs::remove_dir_all(&out).expect("clear the output folder");
         }
         let delay = Duration::from_secs_f64(uniform.next() * 0.9 * reference_secs);
