@@ -5,8 +5,9 @@ mod commands;
 mod pipeline;
 
 fn main() -> std::process::ExitCode {
-    commands::init_logging();
     let cli = commands::Cli::parse();
+    commands::logging::init(cli.quiet, cli.verbose);
+    commands::ply_input::set_strict(cli.strict);
     match commands::run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {

@@ -211,6 +211,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options =
         LoadOptions { resolution: args.resolution, split: args.split.clone(), ..LoadOptions::default() };
     let scene = load_scene(&args.scene, &options)?;
+    let _lock = crate::pipeline::lock::lock_output(&args.out, "cues")?;
     let views: Vec<&View> = scene.views.iter().take(args.max_views.unwrap_or(usize::MAX)).collect();
     let mut cues: Vec<Box<dyn Cue>> = Vec::new();
     if let Some(path) = &args.sam {
@@ -249,6 +250,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let bar = ProgressBar::new(views.len() as u64).with_style(style).with_prefix("cues");
+    if super::logging::quiet() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
     let mut computed = 0;
     std::thread::scope(|scope| -> anyhow::Result<()> {
         // the next image is decoded (and resized) while the models run on this one

@@ -214,8 +214,9 @@ fn ply_files(root: &Path, explicit: Option<&Path>) -> Vec<PathBuf> {
 }
 
 fn describe_ply(path: &Path) -> anyhow::Result<GaussiansInfo> {
-    let g = splatseg_scene::ply::read_ply(path)
-        .with_context(|| format!("cannot read Gaussians from {}", path.display()))?;
+    let g = super::ply_input::read_rows(path, "commands skip them")
+        .with_context(|| format!("cannot read Gaussians from {}", path.display()))?
+        .gaussians;
     Ok(GaussiansInfo {
         path: path.to_path_buf(),
         count: g.len(),

@@ -242,7 +242,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.gaussians.clone().or_else(|| Some(args.scene.join("gaussians.ply")).filter(|p| p.is_file()));
     let gaussians = match &ply {
         Some(p) if args.depth.is_none() || args.metric_depth.is_none() => {
-            Some(splatseg_scene::ply::read_ply(p)?)
+            Some(super::ply_input::read_finite(p)?)
         }
         _ => None,
     };

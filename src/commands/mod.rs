@@ -10,8 +10,10 @@ pub mod demo;
 pub mod eval;
 pub mod extract;
 pub mod info;
+pub mod logging;
 pub mod merge;
 pub mod objects;
+pub mod ply_input;
 pub mod recolor;
 pub mod remove;
 pub mod render;
@@ -24,9 +26,23 @@ pub mod view;
 ///
 /// Turns a multi-view capture (COLMAP or transforms.json) and its 3DGS PLY into refined per-view
 /// masks with global object ids and Gaussians labelled by object. Start with `splatseg demo`.
+///
+/// Logs go to stderr, coloured only on a terminal (never with NO_COLOR set). Without -q/-v the
+/// level comes from RUST_LOG (e.g. RUST_LOG=debug or RUST_LOG=splatseg_lift=debug), else info.
 #[derive(Debug, Parser)]
 #[command(name = "splatseg", version, about, long_about = None)]
 pub struct Cli {
+    /// Only warnings and errors; no progress bars.
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    pub quiet: bool,
+    /// More detail in the logs: -v debug, -vv trace.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+    /// Refuse a PLY holding any non-finite value (NaN, ±Inf). Without it such Gaussians are
+    /// skipped with one warning per file: `run` keeps their rows in its gaussians.ply with
+    /// object_id -1, other commands leave them out of what they write.
+    #[arg(long, global = true)]
+    pub strict: bool,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -93,13 +109,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Train(args) => train::run(args),
         Command::View(args) => view::run(args),
     }
-}
-
-/// Logs to stderr; `RUST_LOG=debug` for more.
-pub fn init_logging() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).init();
 }
 
 /// Parses an image size written `WIDTHxHEIGHT` (e.g. `320x240`).

@@ -3,7 +3,7 @@
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use rayon::prelude::*;
-use splatseg_edit::io::read_labelled_ply;
+use splatseg_edit::io::require_labels;
 use splatseg_edit::{ids_in_label_map, objects};
 use std::path::PathBuf;
 
@@ -23,7 +23,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let g = read_labelled_ply(&args.ply)?;
+    let g = require_labels(super::ply_input::read_finite(&args.ply)?, &args.ply)?;
     let mut table = objects(&g).map_err(|e| e.with_path(&args.ply))?;
     if let Some(dir) = &args.masks {
         let maps = splatseg_eval::list_label_maps(dir)?;

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use splatseg_edit::io::{read_labelled_ply, write_edited_ply};
+use splatseg_edit::io::{require_labels, write_edited_ply};
 use splatseg_edit::{palette_colour, recolor, ExtraFields, UnlabelledStyle};
 use std::path::PathBuf;
 
@@ -38,7 +38,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let g = read_labelled_ply(&args.ply)?;
+    let g = require_labels(super::ply_input::read_finite(&args.ply)?, &args.ply)?;
     let style = match args.unlabelled {
         Unlabelled::Grey => UnlabelledStyle::Grey,
         Unlabelled::Keep => UnlabelledStyle::Keep,

@@ -5,7 +5,6 @@ use clap::Args as ClapArgs;
 use indicatif::{ProgressBar, ProgressStyle};
 use splatseg_render::export::{write_depth, write_ids_png, write_rgb_png, write_unit_png};
 use splatseg_render::{render, RenderCamera, RenderRequest};
-use splatseg_scene::ply::read_ply;
 use splatseg_scene::{load_scene, LoadOptions};
 use std::path::PathBuf;
 
@@ -56,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for warning in &scene.warnings {
         tracing::warn!("{warning}");
     }
-    let gaussians = read_ply(&args.gaussians)?;
+    let gaussians = super::ply_input::read_finite(&args.gaussians)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let want = |w: What| args.what.contains(&w);
     let request = RenderRequest {
@@ -68,6 +67,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..RenderRequest::default()
     };
     let bar = ProgressBar::new(scene.views.len() as u64);
+    if super::logging::quiet() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} views ({eta})")?.progress_chars("=> "),
     );

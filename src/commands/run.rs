@@ -119,6 +119,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let summary = run_pipeline(&config)?;
     if summary.resumed {
         println!("outputs in {} are up to date (nothing recomputed)", summary.out.display());
+    } else if summary.cached_views > 0 {
+        println!(
+            "{} of {} views' merges came from the cache",
+            summary.cached_views, summary.views_with_masks
+        );
     }
     println!(
         "{} views: {} SAM regions → {} merged → {} global objects → {} objects in the final maps",

@@ -2,7 +2,9 @@
 //! optional ground truth. Every inconsistency is an error naming the file or folder.
 
 use anyhow::{bail, Context};
+use splatseg_scene::ply::PlyRows;
 use splatseg_scene::{Gaussians, Scene};
+use std::borrow::Cow;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
@@ -58,13 +60,23 @@ pub fn gaussians_path(scene_dir: &Path, explicit: Option<&Path>) -> Option<PathB
     }
 }
 
-/// Reads the PLY at `path`.
-pub fn read_gaussians(path: &Path) -> anyhow::Result<Gaussians> {
-    let g = splatseg_scene::ply::read_ply(path)?;
-    if g.is_empty() {
-        bail!("the PLY holds no Gaussians: {}", path.display());
+/// Reads the PLY at `path`: every row, with the non-finite ones listed (skipped with one
+/// warning, or refused with `--strict`).
+pub fn read_gaussians(path: &Path) -> anyhow::Result<PlyRows> {
+    let rows = crate::commands::ply_input::read_rows(path, "they are labelled -1 in gaussians.ply")?;
+    if rows.gaussians.len() == rows.non_finite.len() {
+        bail!("the PLY holds no Gaussians with finite values: {}", path.display());
     }
-    Ok(g)
+    Ok(rows)
+}
+
+/// The finite Gaussians of `rows`, borrowed when every row is finite.
+pub fn finite_gaussians(rows: &PlyRows) -> Cow<'_, Gaussians> {
+    if rows.non_finite.is_empty() {
+        Cow::Borrowed(&rows.gaussians)
+    } else {
+        Cow::Owned(rows.gaussians.select(&rows.finite_rows()))
+    }
 }
 
 /// Where the ground truth is.

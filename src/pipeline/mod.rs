@@ -11,10 +11,12 @@
 //! ```
 
 mod cache;
+pub mod config;
 mod eval_stage;
 pub mod identity_study;
 mod inputs;
 mod lift_stage;
+pub mod lock;
 mod mask_input;
 mod merge_stage;
 mod outputs;
@@ -24,6 +26,7 @@ pub mod train_stage;
 
 use anyhow::{bail, Context};
 use cache::{read_json, write_json, KeyHasher};
+pub use config::PipelineConfig;
 use eval_stage::{evaluate, offset_local_maps, StageMaps};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
@@ -32,43 +35,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
-    FeatureGrids, NpyDepthSource, RegionOptions,
+    FeatureGrids, NpyDepthSource,
 };
-use splatseg_eval::{EvalConfig, EvalReport};
-use splatseg_lift::{LiftConfig, LiftStats, PosedCamera, PreparedGaussians};
-use splatseg_match::{MatchConfig, MatchStats};
-use splatseg_merge::MergeConfig;
+use splatseg_eval::EvalReport;
+use splatseg_lift::{LiftStats, PosedCamera, PreparedGaussians};
+use splatseg_match::MatchStats;
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::Plane;
 use std::path::{Path, PathBuf};
-
-/// Every stage's settings; the `--config` TOML file has one table per stage
-/// (`[regions]`, `[merge]`, `[matching]`, `[lift]`, `[eval]`, `[train]`), each optional.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct PipelineConfig {
-    /// SAM masks → regions.
-    pub regions: RegionOptions,
-    /// Multi-Cue-Guided Mask Merging.
-    pub merge: MergeConfig,
-    /// Cross-view matching.
-    pub matching: MatchConfig,
-    /// Lifting onto the Gaussians.
-    pub lift: LiftConfig,
-    /// Metrics.
-    pub eval: EvalConfig,
-    /// Training and the joint optimisation (`splatseg train`).
-    pub train: splatseg_train::TrainConfig,
-}
-
-impl PipelineConfig {
-    /// Reads a TOML config file.
-    pub fn from_file(path: &Path) -> anyhow::Result<Self> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-        toml::from_str(&text).with_context(|| format!("invalid pipeline config: {}", path.display()))
-    }
-}
 
 /// What to run on.
 #[derive(Clone, Debug)]
@@ -118,9 +92,12 @@ pub struct RunSummary {
     pub lift_stats: Option<LiftStats>,
     /// Metrics per stage (with ground truth).
     pub report: Option<EvalReport>,
-    /// Views whose merge came from the cache.
+    /// Views whose merge came from the cache. Not written to `metrics.json`: it describes this
+    /// invocation, not the outputs, which are byte-identical however often a run was resumed.
+    #[serde(skip)]
     pub cached_views: usize,
-    /// The whole run came from the cache.
+    /// The whole run came from the cache (not written either).
+    #[serde(skip)]
     pub resumed: bool,
 }
 
@@ -135,9 +112,12 @@ impl RunSummary {
     }
 }
 
-/// A progress bar over `len` items (hidden when stderr is not a terminal).
+/// A progress bar over `len` items (hidden when stderr is not a terminal, and with `--quiet`).
 pub(crate) fn progress(len: usize, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len as u64);
+    if crate::commands::logging::quiet() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
     if let Ok(style) = ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}") {
         bar.set_style(style.progress_chars("=> "));
     }
@@ -161,27 +141,34 @@ struct RunCache {
 
 /// Runs the whole pipeline (see the module docs for the outputs).
 pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
+    let _lock = lock::lock_output(&config.out, "run")?;
     let load = LoadOptions::default();
     let scene = splatseg_scene::load_scene(&config.scene, &load)?;
     for w in &scene.warnings {
         tracing::warn!("{w}");
     }
+    // Every camera against its image on disk, before anything of a camera's size is allocated.
+    splatseg_scene::load::check_image_sizes(&scene, &load)?;
     let has_masks = inputs::views_with_masks(&scene, &config.masks)?;
     let ply_path = inputs::gaussians_path(&config.scene, config.gaussians.as_deref());
-    let gaussians = match &ply_path {
+    let ply_rows = match &ply_path {
         Some(p) => {
             tracing::info!("reading Gaussians from {}", p.display());
             Some(inputs::read_gaussians(p)?)
         }
         None => None,
     };
+    // Every stage works on the finite Gaussians; gaussians.ply keeps every input row.
+    let gaussians = ply_rows.as_ref().map(inputs::finite_gaussians);
     if gaussians.is_none() && config.depth.is_none() {
         bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
     }
     let gt = match &config.gt {
-        Some(dir) => {
-            Some(inputs::ground_truth(dir, gaussians.as_ref().map(|g| g.len()), ply_path.as_deref())?)
-        }
+        Some(dir) => Some(inputs::ground_truth(
+            dir,
+            ply_rows.as_ref().map(|r| r.gaussians.len()),
+            ply_path.as_deref(),
+        )?),
         None => None,
     };
     let cache_dir = config.out.join("cache");
@@ -210,6 +197,7 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
         }
     }
     let run_key = run_key.finish();
+    tracing::debug!("inputs and settings key {run_key}");
     let stems: Vec<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
     if let Some(hit) = read_json::<RunCache>(&cache_dir.join("run.json")) {
         if hit.key == run_key && outputs_present(&config.out, &stems, ply_path.is_some()) {
@@ -219,7 +207,8 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
     }
 
     // Depth and visibility from the Gaussians.
-    let prepared = gaussians.as_ref().map(PreparedGaussians::new).transpose()?;
+    let prepared = gaussians.as_ref().map(|g| PreparedGaussians::new(g)).transpose()?;
+    drop(gaussians);
     let poses: Vec<_> = scene.views.iter().map(|v| v.world_from_cam).collect();
     let cams: Vec<PosedCamera> = scene
         .views
@@ -320,13 +309,15 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
 
     // Outputs.
     outputs::write_maps(&config.out, &scene, &load, &final_maps)?;
-    if let (Some(mut g), Some(l), Some(p)) = (gaussians, &lifted, &ply_path) {
-        g.object_ids = Some(l.object_ids.clone());
-        if let Some(f) = &l.fused_features {
-            g.features = Some(f.clone());
-        }
+    // `[N]` ids of every input row (-1 for the non-finite rows that were skipped).
+    let row_ids = match (&ply_rows, &lifted) {
+        (Some(rows), Some(l)) => Some(outputs::ids_of_every_row(rows, &l.object_ids)),
+        _ => None,
+    };
+    if let (Some(rows), Some(ids), Some(l), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
+        let g = outputs::labelled_rows(rows, ids, l.fused_features.as_ref());
         let out_ply = config.out.join("gaussians.ply");
-        splatseg_scene::ply::write_ply(&out_ply, &g)
+        splatseg_scene::ply::write_ply_rows(&out_ply, &g)
             .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
     }
     let mut final_ids: Vec<u32> =
@@ -349,7 +340,7 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
             if lifted.is_some() {
                 stages.push(StageMaps { name: "lifted", maps: &final_opt });
             }
-            let ids = lifted.as_ref().map(|l| l.object_ids.as_slice());
+            let ids = row_ids.as_deref();
             Some(evaluate(&scene, gt, &stages, ids, &pc.eval)?)
         }
         None => None,

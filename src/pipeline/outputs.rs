@@ -3,11 +3,40 @@
 use super::RunSummary;
 use anyhow::Context;
 use rayon::prelude::*;
+use splatseg_scene::gaussians::FeatureBlock;
 use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
-use splatseg_scene::{Plane, Scene};
+use splatseg_scene::ply::PlyRows;
+use splatseg_scene::{Gaussians, Plane, Scene};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// `[N]` object ids of every row of the input PLY: `finite_ids` (`[N - k]`, one per finite row,
+/// in order) spread back, and -1 for the `k` non-finite rows the stages skipped.
+pub fn ids_of_every_row(rows: &PlyRows, finite_ids: &[i32]) -> Vec<i32> {
+    let mut ids = vec![-1; rows.gaussians.len()];
+    for (&row, &id) in rows.finite_rows().iter().zip(finite_ids) {
+        ids[row] = id;
+    }
+    ids
+}
+
+/// The input rows with `object_id` = `ids` (`[N]`) and, when lifting fused them, `feat_*` from
+/// `finite_features` (`[N - k, D]`, one per finite row; zeros for the skipped rows); otherwise the
+/// input's own `feat_*` stay.
+pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<&FeatureBlock>) -> Gaussians {
+    let finite = rows.finite_rows();
+    let mut g = rows.gaussians;
+    g.object_ids = Some(ids.to_vec());
+    if let Some(f) = finite_features {
+        let mut values = vec![0.0; g.len() * f.dim];
+        for (k, &row) in finite.iter().enumerate() {
+            values[row * f.dim..(row + 1) * f.dim].copy_from_slice(&f.values[k * f.dim..(k + 1) * f.dim]);
+        }
+        g.features = Some(FeatureBlock { dim: f.dim, values });
+    }
+    g
+}
 
 /// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` per view.
 pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u32>]) -> anyhow::Result<()> {

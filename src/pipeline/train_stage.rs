@@ -13,7 +13,7 @@ use splatseg_scene::images::load_image_rgb;
 use splatseg_scene::labels::{overlay, read_label_png, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::npy::write_npy_f32;
-use splatseg_scene::ply::{read_ply, write_ply};
+use splatseg_scene::ply::write_ply;
 use splatseg_scene::{load_scene, Gaussians};
 use splatseg_scene::{Camera, Pose};
 use splatseg_train::{
@@ -186,7 +186,7 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> 
         .collect::<anyhow::Result<Vec<_>>>()?;
     let init = &run.init;
     let gaussians = match (&run.gaussians, &scene.points) {
-        (Some(path), _) => read_ply(path)?,
+        (Some(path), _) => crate::commands::ply_input::read_finite(path)?,
         (None, Some(points)) if !points.is_empty() => {
             tracing::info!("initialising one Gaussian per sparse point ({})", points.len());
             let xyz: Vec<[f32; 3]> = points.iter().map(|p| p.xyz.to_array().map(|v| v as f32)).collect();
@@ -311,6 +311,7 @@ fn write_object_maps(
 /// last go to `point_cloud/iteration_<N>/point_cloud.ply` (3DGS's layout).
 pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
     run.config.validate()?;
+    let _lock = super::lock::lock_output(&run.out, "train")?;
     let options = LoadOptions {
         resolution: run.resolution,
         background: run.config.background,

@@ -8,7 +8,11 @@ use std::path::Path;
 
 /// Reads a 3DGS PLY that must carry `object_id`; the error says to run `splatseg run` if not.
 pub fn read_labelled_ply(path: &Path) -> Result<Gaussians, EditError> {
-    let g = splatseg_scene::ply::read_ply(path)?;
+    require_labels(splatseg_scene::ply::read_ply(path)?, path)
+}
+
+/// `g` (read from `path`) if it carries `object_id`; the error says to run `splatseg run` if not.
+pub fn require_labels(g: Gaussians, path: &Path) -> Result<Gaussians, EditError> {
     object_ids(&g).map_err(|e| e.with_path(path))?;
     Ok(g)
 }

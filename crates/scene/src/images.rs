@@ -160,6 +160,13 @@ pub fn check_image_size(scene: &Scene, view: &View, options: &LoadOptions) -> Sc
     fit_of(scene, view, size, options)
 }
 
+/// Checks every view's image (header only) against its camera with [`check_image_size`]:
+/// call it before allocating anything of a camera's size, so a camera that declares a size its
+/// image does not have is an error naming the image and both sizes.
+pub fn check_image_sizes(scene: &Scene, options: &LoadOptions) -> SceneResult<()> {
+    scene.views.iter().try_for_each(|view| check_image_size(scene, view, options).map(|_| ()))
+}
+
 /// Reads the image of `view` as 8-bit RGB at the size of its camera.
 ///
 /// Images with alpha (Blender scenes) are composited on `options.background`. An image at full

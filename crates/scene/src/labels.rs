@@ -14,11 +14,20 @@ const FORMAT: &str = "label map PNG";
 /// (0 = unlabelled). Returns `[height, width]` ids.
 pub fn read_label_png(path: &Path) -> SceneResult<Plane<u32>> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io("cannot read", path, e))?;
-    let invalid = |reason: String| SceneError::invalid(FORMAT, path, reason);
-    let mut decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
+    parse_label_png(&bytes).map_err(|reason| SceneError::invalid(FORMAT, path, reason))
+}
+
+/// [`read_label_png`] on the bytes of a PNG file; the error is a reason without the file name.
+/// The size in the header is checked against [`crate::limits::MAX_PIXELS`] before the pixels
+/// are decoded.
+pub fn parse_label_png(bytes: &[u8]) -> Result<Plane<u32>, String> {
+    let invalid = |reason: String| reason;
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     // Keep palette indices and 16-bit values as stored.
     decoder.set_transformations(png::Transformations::IDENTITY);
     let mut reader = decoder.read_info().map_err(|e| invalid(format!("cannot decode PNG: {e}")))?;
+    let (declared_w, declared_h) = (reader.info().width, reader.info().height);
+    crate::limits::check_pixels("the label map", declared_w as u64, declared_h as u64)?;
     let size = reader.output_buffer_size().ok_or_else(|| invalid("image too large".to_string()))?;
     let mut buffer = vec![0u8; size];
     let frame = reader.next_frame(&mut buffer).map_err(|e| invalid(format!("cannot decode PNG: {e}")))?;

@@ -7,16 +7,20 @@
 //! - [`rle`] + [`sam`]: Segment Anything automatic-mask output (COCO RLE JSON and PNG folders).
 //! - [`labels`]: 8/16-bit label-map PNGs (0 = unlabelled).
 //! - [`npy`]: NumPy `.npy`/`.npz` arrays (dense features, depth).
+//! - [`limits`]: the one cap on pixels per image and Gaussians per PLY.
 //! - [`plane`]: the row-major 2D array type every per-pixel map uses.
+//! - [`fuzzing`]: one bytes entry point per reader, for the fuzz targets and the corpus replay.
 //! - [`atomic`]: write-to-temp-then-rename helpers: nothing half-written.
 
 pub mod atomic;
 pub mod camera;
 pub mod colmap;
 pub mod error;
+pub mod fuzzing;
 pub mod gaussians;
 pub mod images;
 pub mod labels;
+pub mod limits;
 pub mod load;
 pub mod npy;
 pub mod plane;

@@ -9,7 +9,7 @@ use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-pub use crate::images::{check_image_size, load_image_rgb, ImageFit};
+pub use crate::images::{check_image_size, check_image_sizes, load_image_rgb, ImageFit};
 
 /// Which on-disk format a scene was read from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -24,8 +24,8 @@ mod rows;
 mod scalar;
 mod validate;
 
-pub use decode::{parse_ply_bytes, read_ply};
-pub use encode::{to_ply_bytes, write_ply};
+pub use decode::{parse_ply_bytes, parse_ply_bytes_rows, read_ply, read_ply_rows, PlyRows};
+pub use encode::{to_ply_bytes, write_ply, write_ply_rows};
 
 /// Format name used in error messages.
 pub(crate) const FORMAT: &str = "3DGS PLY";

@@ -10,10 +10,11 @@
 use crate::plane::Plane;
 
 /// The largest mask [`Rle::check`] (and so [`Rle::decode`] and [`Rle::from_coco_string`])
-/// accepts: 2^28 pixels (e.g. 16384 × 16384, 256 MB as a `bool` mask). Larger declared sizes
-/// are refused before anything of that size is allocated; no camera image splatseg handles
-/// comes near it, so a bigger `size` in a mask file is corrupt or hostile.
-pub const MAX_MASK_PIXELS: u64 = 1 << 28;
+/// accepts: [`crate::limits::MAX_PIXELS`], 2^28 pixels (e.g. 16384 × 16384, 256 MB as a `bool`
+/// mask). Larger declared sizes are refused before anything of that size is allocated; no
+/// camera image splatseg handles comes near it, so a bigger `size` in a mask file is corrupt
+/// or hostile.
+pub const MAX_MASK_PIXELS: u64 = crate::limits::MAX_PIXELS;
 
 /// Checks a declared mask size (`height × width`, as a file states it) against
 /// [`MAX_MASK_PIXELS`] and the `u32` range, without allocating anything.

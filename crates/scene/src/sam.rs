@@ -8,8 +8,10 @@
 mod json;
 mod png_folder;
 
-pub use json::{read_sam_json, read_sam_json_for_image, write_sam_json};
-pub use png_folder::{read_sam_png_folder, read_sam_png_folder_for_image, write_sam_png_folder};
+pub use json::{parse_sam_json, read_sam_json, read_sam_json_for_image, write_sam_json};
+pub use png_folder::{
+    parse_metadata_csv, read_sam_png_folder, read_sam_png_folder_for_image, write_sam_png_folder,
+};
 
 use crate::error::{SceneError, SceneResult};
 use crate::rle::Rle;

@@ -94,11 +94,7 @@ pub fn read_transforms(dir: &Path, options: &LoadOptions) -> SceneResult<Scene> 
     let base = file.parent().map_or_else(|| PathBuf::from("."), Path::to_path_buf);
     let factor = check_resolution(options, &base)?;
     let text = std::fs::read_to_string(&file).map_err(|e| SceneError::io("cannot read", &file, e))?;
-    let parsed: TransformsFile =
-        serde_json::from_str(&text).map_err(|e| SceneError::invalid(FORMAT, &file, e.to_string()))?;
-    if parsed.frames.is_empty() {
-        return Err(SceneError::invalid(FORMAT, &file, "the file lists no frames"));
-    }
+    let parsed = parse_file(&text, &file)?;
     let mut builder = Builder {
         file: &file,
         base: &base,
@@ -111,6 +107,37 @@ pub fn read_transforms(dir: &Path, options: &LoadOptions) -> SceneResult<Scene> 
         builder.add_frame(i, frame, &parsed.intrinsics)?;
     }
     builder.finish(format)
+}
+
+/// Parses the JSON text of a transforms file; `path` is only named in errors.
+fn parse_file(text: &str, path: &Path) -> SceneResult<TransformsFile> {
+    let parsed: TransformsFile =
+        serde_json::from_str(text).map_err(|e| SceneError::invalid(FORMAT, path, e.to_string()))?;
+    if parsed.frames.is_empty() {
+        return Err(SceneError::invalid(FORMAT, path, "the file lists no frames"));
+    }
+    Ok(parsed)
+}
+
+/// Parses the text of a transforms file without looking at any image: every frame's
+/// `world_from_cam` (in file order), with the errors [`read_transforms`] gives for them.
+/// `path` is only named in errors. The fuzz targets' entry point.
+pub fn parse_transforms_json(text: &str, path: &Path) -> SceneResult<Vec<Pose>> {
+    let parsed = parse_file(text, path)?;
+    parsed
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(i, frame)| {
+            pose_from_opengl(&frame.transform_matrix).map_err(|reason| {
+                SceneError::invalid(
+                    FORMAT,
+                    path,
+                    format!("frame {i} ({}): transform_matrix {reason}", frame.file_path),
+                )
+            })
+        })
+        .collect()
 }
 
 struct Builder<'a> {
@@ -143,6 +170,12 @@ impl Builder<'_> {
         };
         let intrinsics = top.overlaid_by(&frame.intrinsics);
         let camera = self.camera_for(&intrinsics, &full, &image_path, &what)?;
+        crate::limits::check_pixels(
+            &format!("{what}: the camera"),
+            camera.width as u64,
+            camera.height as u64,
+        )
+        .map_err(|reason| self.invalid(reason))?;
         let camera_index = match self.cameras.iter().position(|c| same_intrinsics(c, &camera)) {
             Some(i) => i,
             None => {
@@ -195,7 +228,7 @@ impl Builder<'_> {
                 Some(full_res) => image_size(&full_res)?,
                 None => {
                     let (w, h) = image_size(found)?;
-                    (w * self.factor, h * self.factor)
+                    (w.saturating_mul(self.factor), h.saturating_mul(self.factor))
                 }
             },
         };

@@ -403,3 +403,61 @@ fn random_corruptions_never_panic() {
         }
     }
 }
+
+#[test]
+fn a_binary_camera_declaring_a_huge_size_is_refused_before_anything_is_allocated() {
+    // One PINHOLE camera (model id 1), 3200000000 × 240000000, four parameters.
+    let mut bytes = 1u64.to_le_bytes().to_vec();
+    bytes.extend(1i32.to_le_bytes());
+    bytes.extend(1i32.to_le_bytes());
+    bytes.extend(3_200_000_000u64.to_le_bytes());
+    bytes.extend(240_000_000u64.to_le_bytes());
+    for p in [55.4f64, 55.4, 32.0, 24.0] {
+        bytes.extend(p.to_le_bytes());
+    }
+    let err = splatseg_scene::colmap::parse_cameras_bin(&bytes, std::path::Path::new("sparse/0/cameras.bin"))
+        .expect_err("refused")
+        .to_string();
+    assert!(err.contains("camera 1 is 3200000000x240000000"), "{err}");
+    assert!(err.contains("2^28") && err.ends_with("sparse/0/cameras.bin"), "{err}");
+}
+
+#[test]
+fn a_ply_declaring_more_gaussians_than_the_cap_is_refused_by_its_header() {
+    let header = "ply\nformat ascii 1.0\nelement vertex 200000000\nproperty float x\nproperty float y\n\
+                  property float z\nproperty float f_dc_0\nproperty float f_dc_1\nproperty float f_dc_2\n\
+                  property float opacity\nproperty float scale_0\nproperty float scale_1\nproperty float scale_2\n\
+                  property float rot_0\nproperty float rot_1\nproperty float rot_2\nproperty float rot_3\nend_header\n";
+    let err = splatseg_scene::ply::parse_ply_bytes(header.as_bytes()).expect_err("refused");
+    assert!(err.contains("200000000 Gaussians declared") && err.contains("2^27"), "{err}");
+}
+
+#[test]
+fn a_label_png_declaring_more_pixels_than_the_cap_is_refused_before_decoding() {
+    // A valid 1×1 16-bit grey PNG, then its IHDR patched to 20000 × 20000 (CRC fixed up).
+    let mut png = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut png, 1, 1);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_depth(png::BitDepth::Sixteen);
+        encoder.write_header().expect("header").write_image_data(&[0, 7]).expect("data");
+    }
+    png[16..20].copy_from_slice(&20_000u32.to_be_bytes());
+    png[20..24].copy_from_slice(&20_000u32.to_be_bytes());
+    let crc = crc32(&png[12..29]);
+    png[29..33].copy_from_slice(&crc.to_be_bytes());
+    let err = splatseg_scene::labels::parse_label_png(&png).expect_err("refused");
+    assert!(err.contains("20000x20000") && err.contains("2^28"), "{err}");
+}
+
+/// CRC-32 (ISO-HDLC, as PNG chunks use).
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = 0xffff_ffffu32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 { (crc >> 1) ^ 0xedb8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}

@@ -21,10 +21,12 @@ use std::path::Path;
 
 /// Reads `cameras.bin`, `images.bin` and `points3D.bin` from `dir`.
 pub fn read_model_binary(dir: &Path) -> SceneResult<ColmapModel> {
+    let (cameras, images, points) =
+        (dir.join("cameras.bin"), dir.join("images.bin"), dir.join("points3D.bin"));
     Ok(ColmapModel {
-        cameras: read_cameras(&dir.join("cameras.bin"))?,
-        images: read_images(&dir.join("images.bin"))?,
-        points: read_points(&dir.join("points3D.bin"))?,
+        cameras: parse_cameras_bin(&read_file(&cameras)?, &cameras)?,
+        images: parse_images_bin(&read_file(&images)?, &images)?,
+        points: parse_points_bin(&read_file(&points)?, &points)?,
     })
 }
 
@@ -160,9 +162,9 @@ fn read_file(path: &Path) -> SceneResult<Vec<u8>> {
     std::fs::read(path).map_err(|e| SceneError::io("cannot read", path, e))
 }
 
-fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
-    let bytes = read_file(path)?;
-    let mut r = Reader::new(&bytes, path, "COLMAP cameras.bin");
+/// Parses the bytes of a `cameras.bin` file; `path` is only named in errors.
+pub fn parse_cameras_bin(bytes: &[u8], path: &Path) -> SceneResult<Vec<ColmapCamera>> {
+    let mut r = Reader::new(bytes, path, "COLMAP cameras.bin");
     let n = r.count("number of cameras", 24)?;
     let mut cameras = Vec::with_capacity(n);
     for i in 0..n {
@@ -187,6 +189,8 @@ fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
                 .ok_or_else(|| r.invalid(format!("camera {id} has an invalid {what} {v}")))
         };
         let (width, height) = (size(width, "width")?, size(height, "height")?);
+        crate::limits::check_pixels(&format!("camera {id}"), width as u64, height as u64)
+            .map_err(|reason| r.invalid(reason))?;
         let params =
             (0..model.num_params()).map(|_| r.f64("camera parameter")).collect::<SceneResult<Vec<_>>>()?;
         cameras.push(ColmapCamera { id, model, width, height, params });
@@ -195,9 +199,9 @@ fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
     Ok(cameras)
 }
 
-fn read_images(path: &Path) -> SceneResult<Vec<ColmapImage>> {
-    let bytes = read_file(path)?;
-    let mut r = Reader::new(&bytes, path, "COLMAP images.bin");
+/// Parses the bytes of a `images.bin` file; `path` is only named in errors.
+pub fn parse_images_bin(bytes: &[u8], path: &Path) -> SceneResult<Vec<ColmapImage>> {
+    let mut r = Reader::new(bytes, path, "COLMAP images.bin");
     // id + qvec + tvec + camera id + NUL + point count.
     let n = r.count("number of images", 4 + 56 + 4 + 1 + 8)?;
     let mut images = Vec::with_capacity(n);
@@ -244,9 +248,9 @@ fn read_name(r: &mut Reader) -> SceneResult<String> {
     Ok(name)
 }
 
-fn read_points(path: &Path) -> SceneResult<Vec<SparsePoint>> {
-    let bytes = read_file(path)?;
-    let mut r = Reader::new(&bytes, path, "COLMAP points3D.bin");
+/// Parses the bytes of a `points3D.bin` file; `path` is only named in errors.
+pub fn parse_points_bin(bytes: &[u8], path: &Path) -> SceneResult<Vec<SparsePoint>> {
+    let mut r = Reader::new(bytes, path, "COLMAP points3D.bin");
     let n = r.count("number of points", 8 + 24 + 3 + 8 + 8)?;
     let mut points = Vec::with_capacity(n);
     for i in 0..n {

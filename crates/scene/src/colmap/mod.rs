@@ -12,9 +12,11 @@ mod binary;
 mod model;
 mod text;
 
-pub use binary::{read_model_binary, write_model_binary};
+pub use binary::{
+    parse_cameras_bin, parse_images_bin, parse_points_bin, read_model_binary, write_model_binary,
+};
 pub use model::{ColmapCamera, ColmapImage, ColmapModel};
-pub use text::{read_model_text, write_model_text};
+pub use text::{parse_cameras_txt, parse_images_txt, parse_points_txt, read_model_text, write_model_text};
 
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};

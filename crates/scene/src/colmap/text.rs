@@ -17,10 +17,12 @@ use std::str::FromStr;
 
 /// Reads `cameras.txt`, `images.txt` and `points3D.txt` from `dir`.
 pub fn read_model_text(dir: &Path) -> SceneResult<ColmapModel> {
+    let (cameras, images, points) =
+        (dir.join("cameras.txt"), dir.join("images.txt"), dir.join("points3D.txt"));
     Ok(ColmapModel {
-        cameras: read_cameras(&dir.join("cameras.txt"))?,
-        images: read_images(&dir.join("images.txt"))?,
-        points: read_points(&dir.join("points3D.txt"))?,
+        cameras: parse_cameras_txt(&read_text(&cameras)?, &cameras)?,
+        images: parse_images_txt(&read_text(&images)?, &images)?,
+        points: parse_points_txt(&read_text(&points)?, &points)?,
     })
 }
 
@@ -100,11 +102,11 @@ fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
-fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
+/// Parses the text of a `cameras.txt` file; `path` is only named in errors.
+pub fn parse_cameras_txt(text: &str, path: &Path) -> SceneResult<Vec<ColmapCamera>> {
     const FORMAT: &str = "COLMAP cameras.txt";
-    let text = read_text(path)?;
     let mut cameras = Vec::new();
-    for (line_no, line) in data_lines(&text) {
+    for (line_no, line) in data_lines(text) {
         let mut f = Fields::new(line, line_no, path, FORMAT);
         let id: u32 = f.parse("CAMERA_ID")?;
         let name = f.next_token().ok_or_else(|| f.invalid("missing MODEL"))?;
@@ -117,6 +119,8 @@ fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
         if width == 0 || height == 0 {
             return Err(f.invalid(format!("camera {id} has size {width}x{height}")));
         }
+        crate::limits::check_pixels(&format!("camera {id}"), width as u64, height as u64)
+            .map_err(|reason| f.invalid(reason))?;
         let params: Vec<f64> = f.rest_as("PARAMS")?;
         if params.len() != model.num_params() {
             return Err(f.invalid(format!(
@@ -133,9 +137,9 @@ fn read_cameras(path: &Path) -> SceneResult<Vec<ColmapCamera>> {
     Ok(cameras)
 }
 
-fn read_images(path: &Path) -> SceneResult<Vec<ColmapImage>> {
+/// Parses the text of a `images.txt` file; `path` is only named in errors.
+pub fn parse_images_txt(text: &str, path: &Path) -> SceneResult<Vec<ColmapImage>> {
     const FORMAT: &str = "COLMAP images.txt";
-    let text = read_text(path)?;
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim()));
     let mut images = Vec::new();
     while let Some((line_no, line)) = lines.next() {
@@ -183,11 +187,11 @@ fn read_keypoints(f: &mut Fields, image_id: u32) -> SceneResult<Vec<Keypoint>> {
     Ok(keypoints)
 }
 
-fn read_points(path: &Path) -> SceneResult<Vec<SparsePoint>> {
+/// Parses the text of a `points3D.txt` file; `path` is only named in errors.
+pub fn parse_points_txt(text: &str, path: &Path) -> SceneResult<Vec<SparsePoint>> {
     const FORMAT: &str = "COLMAP points3D.txt";
-    let text = read_text(path)?;
     let mut points = Vec::new();
-    for (line_no, line) in data_lines(&text) {
+    for (line_no, line) in data_lines(text) {
         let mut f = Fields::new(line, line_no, path, FORMAT);
         let id: u64 = f.parse("POINT3D_ID")?;
         let xyz = DVec3::new(f.f64("X")?, f.f64("Y")?, f.f64("Z")?);

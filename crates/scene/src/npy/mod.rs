@@ -195,22 +195,30 @@ pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> SceneResult<
 /// the entry name without `.npy`. Entries that are not `.npy` files are ignored.
 pub fn read_npz(path: &Path) -> SceneResult<BTreeMap<String, NpyArray>> {
     let file = std::fs::File::open(path).map_err(|e| SceneError::io("cannot open", path, e))?;
-    let mut archive = zip::ZipArchive::new(std::io::BufReader::new(file))
-        .map_err(|e| SceneError::invalid(NPZ, path, format!("not a readable zip archive ({e})")))?;
+    npz_entries(std::io::BufReader::new(file)).map_err(|reason| SceneError::invalid(NPZ, path, reason))
+}
+
+/// [`read_npz`] on the bytes of a whole `.npz` file; the error is a reason without the file name.
+pub fn parse_npz(bytes: &[u8]) -> Result<BTreeMap<String, NpyArray>, String> {
+    npz_entries(std::io::Cursor::new(bytes))
+}
+
+/// Room reserved up front for one entry, whatever size its zip header claims; a larger entry
+/// still reads (the buffer grows with the data actually inflated).
+const NPZ_ENTRY_RESERVE: u64 = 64 << 20;
+
+fn npz_entries(reader: impl Read + std::io::Seek) -> Result<BTreeMap<String, NpyArray>, String> {
+    let mut archive =
+        zip::ZipArchive::new(reader).map_err(|e| format!("not a readable zip archive ({e})"))?;
     let mut arrays = BTreeMap::new();
     for i in 0..archive.len() {
-        let mut entry = archive
-            .by_index(i)
-            .map_err(|e| SceneError::invalid(NPZ, path, format!("cannot read zip entry {i} ({e})")))?;
+        let mut entry = archive.by_index(i).map_err(|e| format!("cannot read zip entry {i} ({e})"))?;
         let Some(key) = entry.name().strip_suffix(".npy").map(str::to_string) else {
             continue;
         };
-        let mut bytes = Vec::with_capacity(entry.size().min(1 << 30) as usize);
-        entry
-            .read_to_end(&mut bytes)
-            .map_err(|e| SceneError::invalid(NPZ, path, format!("cannot read entry {key}.npy ({e})")))?;
-        let array = parse_npy(&bytes)
-            .map_err(|reason| SceneError::invalid(NPZ, path, format!("entry {key}.npy: {reason}")))?;
+        let mut bytes = Vec::with_capacity(entry.size().min(NPZ_ENTRY_RESERVE) as usize);
+        entry.read_to_end(&mut bytes).map_err(|e| format!("cannot read entry {key}.npy ({e})"))?;
+        let array = parse_npy(&bytes).map_err(|reason| format!("entry {key}.npy: {reason}"))?;
         arrays.insert(key, array);
     }
     Ok(arrays)

@@ -18,8 +18,79 @@ const ROWS_PER_READ: usize = 64 * 1024;
 /// Reads a 3DGS PLY file (binary little/big-endian or ASCII) and validates it
 /// ([`Gaussians::validate`]). Errors name the file and what is wrong (truncation, malformed
 /// header, missing properties, non-finite values with the property and first bad index).
-/// Binary bodies are streamed in chunks straight into the output arrays.
+/// Binary bodies are streamed in chunks straight into the output arrays. [`read_ply_rows`]
+/// reads a file with some non-finite Gaussians instead of refusing it.
 pub fn read_ply(path: &Path) -> SceneResult<Gaussians> {
+    let g = read_ply_rows(path)?.gaussians;
+    g.validate().map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
+    Ok(g)
+}
+
+/// Every row of a 3DGS PLY, and which of them hold a non-finite value.
+#[derive(Clone, Debug)]
+pub struct PlyRows {
+    /// Every Gaussian of the file, in file order, non-finite values included.
+    pub gaussians: Gaussians,
+    /// `[k]` ascending indices of the Gaussians with a non-finite value
+    /// ([`Gaussians::non_finite_rows`]).
+    pub non_finite: Vec<usize>,
+}
+
+impl PlyRows {
+    fn new(gaussians: Gaussians) -> Self {
+        let non_finite = gaussians.non_finite_rows();
+        PlyRows { gaussians, non_finite }
+    }
+
+    /// `[N - k]` ascending indices of the finite Gaussians.
+    pub fn finite_rows(&self) -> Vec<usize> {
+        let mut skipped = self.non_finite.iter().peekable();
+        (0..self.gaussians.len())
+            .filter(|i| {
+                if skipped.peek() == Some(&i) {
+                    skipped.next();
+                    false
+                } else {
+                    true
+                }
+            })
+            .collect()
+    }
+
+    /// The finite Gaussians, in file order (the set itself when every row is finite).
+    pub fn into_finite(self) -> Gaussians {
+        if self.non_finite.is_empty() {
+            self.gaussians
+        } else {
+            self.gaussians.select(&self.finite_rows())
+        }
+    }
+
+    /// One line for the user when some rows are non-finite: how many, the first bad value,
+    /// what is done with them (`consequence`, e.g. "they are labelled -1") and the file;
+    /// `None` when every row is finite.
+    pub fn skip_warning(&self, path: &Path, consequence: &str) -> Option<String> {
+        let first = self.gaussians.first_non_finite()?;
+        Some(format!(
+            "skipping {} of {} Gaussians with non-finite values (first: {first}); {consequence}: {}",
+            self.non_finite.len(),
+            self.gaussians.len(),
+            path.display()
+        ))
+    }
+
+    /// The error [`read_ply`] gives for a file with non-finite rows, or `Ok` when there are none.
+    pub fn refuse_non_finite(&self, path: &Path) -> SceneResult<()> {
+        match self.gaussians.first_non_finite() {
+            Some(reason) => Err(SceneError::invalid(FORMAT, path, reason)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Reads a 3DGS PLY like [`read_ply`], but keeps Gaussians with non-finite values and lists
+/// them ([`PlyRows::non_finite`]); every other check is the same.
+pub fn read_ply_rows(path: &Path) -> SceneResult<PlyRows> {
     let invalid = |reason: String| SceneError::invalid(FORMAT, path, reason);
     let io = |e| SceneError::io("cannot read", path, e);
     let mut file = File::open(path).map_err(io)?;
@@ -29,7 +100,7 @@ pub fn read_ply(path: &Path) -> SceneResult<Gaussians> {
     let header = parse_header(&prefix).map_err(invalid)?;
     if header.format == BodyFormat::Ascii {
         let bytes = std::fs::read(path).map_err(io)?;
-        return parse_ply_bytes(&bytes).map_err(invalid);
+        return parse_ply_bytes_rows(&bytes).map_err(invalid);
     }
     let (vertex_index, layout) = vertex_layout(&header).map_err(invalid)?;
     let body_len = usize::try_from(file_len).unwrap_or(usize::MAX) - header.body_offset;
@@ -45,12 +116,19 @@ pub fn read_ply(path: &Path) -> SceneResult<Gaussians> {
         StreamError::Io(e) => io(e),
         StreamError::Invalid(reason) => invalid(reason),
     })?;
-    g.validate().map_err(invalid)?;
-    Ok(g)
+    g.validate_structure().map_err(invalid)?;
+    Ok(PlyRows::new(g))
 }
 
 /// Parses the bytes of a whole 3DGS PLY file; see [`read_ply`]. The error says what is wrong.
 pub fn parse_ply_bytes(bytes: &[u8]) -> Result<Gaussians, String> {
+    let g = parse_ply_bytes_rows(bytes)?.gaussians;
+    g.validate()?;
+    Ok(g)
+}
+
+/// [`read_ply_rows`] on the bytes of a whole file (the fuzz targets' entry point).
+pub fn parse_ply_bytes_rows(bytes: &[u8]) -> Result<PlyRows, String> {
     let header = parse_header(bytes)?;
     let (vertex_index, layout) = vertex_layout(&header)?;
     let body = &bytes[header.body_offset..];
@@ -70,8 +148,8 @@ pub fn parse_ply_bytes(bytes: &[u8]) -> Result<Gaussians, String> {
             decode_with(&layout, n, |out| decode_range::<false>(&layout, &rows, out, 0))?
         }
     };
-    g.validate()?;
-    Ok(g)
+    g.validate_structure()?;
+    Ok(PlyRows::new(g))
 }
 
 /// Finds the vertex element, rejects list properties, and maps the vertex properties.
@@ -94,6 +172,7 @@ fn vertex_layout(header: &Header) -> Result<(usize, VertexLayout), String> {
             });
         }
     }
+    crate::limits::check_gaussians(header.elements[vertex_index].count as u64)?;
     let properties = &header.elements[vertex_index].properties;
     if properties.iter().any(|p| p.name == "packed_position") {
         return Err("this is a compressed PLY (SuperSplat / gsplat 'ply_compressed': packed_position, \

@@ -21,6 +21,14 @@ const ROWS_PER_WRITE: usize = 64 * 1024;
 /// scale_0..2 rot_0..3 [object_id] [feat_*]` then the extras in their order with their types.
 /// Fails (naming the file, writing nothing) if [`Gaussians::validate`] does.
 pub fn write_ply(path: &Path, g: &Gaussians) -> SceneResult<()> {
+    g.validate().map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
+    write_ply_rows(path, g)
+}
+
+/// [`write_ply`] for a set that may hold non-finite Gaussians (what [`super::read_ply_rows`]
+/// read): they are written as they are, so the output keeps every row of its input. Every
+/// other check of [`Gaussians::validate`] still applies.
+pub fn write_ply_rows(path: &Path, g: &Gaussians) -> SceneResult<()> {
     let plan = RowPlan::new(g).map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
     write_atomic(path, |w| {
         w.write_all(plan.header.as_bytes())?;
@@ -37,6 +45,7 @@ pub fn write_ply(path: &Path, g: &Gaussians) -> SceneResult<()> {
 
 /// The bytes of the file [`write_ply`] writes. The error says what is wrong with `g`.
 pub fn to_ply_bytes(g: &Gaussians) -> Result<Vec<u8>, String> {
+    g.validate()?;
     let plan = RowPlan::new(g)?;
     let mut bytes = vec![0u8; plan.header.len() + g.len() * plan.stride];
     let (head, body) = bytes.split_at_mut(plan.header.len());
@@ -53,9 +62,9 @@ struct RowPlan {
 }
 
 impl RowPlan {
-    /// Validates `g` and plans its rows.
+    /// Validates `g`'s structure (not its values) and plans its rows.
     fn new(g: &Gaussians) -> Result<RowPlan, String> {
-        g.validate()?;
+        g.validate_structure()?;
         let extra_types: Vec<ScalarType> = g
             .extra
             .iter()

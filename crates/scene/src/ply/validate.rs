@@ -35,6 +35,13 @@ impl Gaussians {
     /// extras have distinct, non-reserved, whitespace-free names, a known PLY type and values
     /// that type can hold. Called by [`crate::ply::read_ply`] and [`crate::ply::write_ply`].
     pub fn validate(&self) -> Result<(), String> {
+        self.validate_structure()?;
+        self.check_finite_values(3 * self.rest_per_channel())
+    }
+
+    /// [`Gaussians::validate`] without the finite-value check: what a set with some non-finite
+    /// Gaussians ([`Gaussians::non_finite_rows`]) must still satisfy to be read or written.
+    pub fn validate_structure(&self) -> Result<(), String> {
         let n = self.len();
         if self.sh_degree > 3 {
             return Err(format!("SH degree {} is not in 0..=3", self.sh_degree));
@@ -70,8 +77,33 @@ impl Gaussians {
                 ));
             }
         }
-        self.check_finite_values(k3)?;
         self.check_extras()
+    }
+
+    /// `[k]` ascending indices of the Gaussians holding a non-finite value (NaN, ±Inf) in a
+    /// property splatseg interprets (position, normal, colour, opacity, scale, rotation,
+    /// feature); extras are not looked at. Needs [`Gaussians::validate_structure`] to hold.
+    pub fn non_finite_rows(&self) -> Vec<usize> {
+        let k3 = 3 * self.rest_per_channel();
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        (0..self.len())
+            .filter(|&i| {
+                !(finite(&self.means[i])
+                    && self.normals.as_ref().is_none_or(|n| finite(&n[i]))
+                    && finite(&self.sh_dc[i])
+                    && finite(&self.sh_rest[i * k3..(i + 1) * k3])
+                    && self.raw_opacities[i].is_finite()
+                    && finite(&self.log_scales[i])
+                    && finite(&self.rotations[i])
+                    && self.features.as_ref().is_none_or(|f| finite(&f.values[i * f.dim..(i + 1) * f.dim])))
+            })
+            .collect()
+    }
+
+    /// The first non-finite value as [`Gaussians::validate`] reports it (property and
+    /// Gaussian index), or `None` when every value is finite.
+    pub fn first_non_finite(&self) -> Option<String> {
+        self.check_finite_values(3 * self.rest_per_channel()).err()
     }
 
     fn check_finite_values(&self, k3: usize) -> Result<(), String> {

@@ -46,7 +46,13 @@ pub fn read_sam_json_for_image(path: &Path, width: u32, height: u32) -> SceneRes
 /// [`read_sam_json`] with an optional expected `(width, height)`.
 pub(super) fn read_json_sized(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io("cannot read", path, e))?;
-    let raw: Vec<RawMask> = serde_json::from_str(&text)
+    parse_sam_json(&text, path, expected)
+}
+
+/// Parses the text of a SAM mask JSON file (see [`read_sam_json`]), with an optional expected
+/// `(width, height)`; `path` is only named in errors and warnings. The fuzz targets' entry point.
+pub fn parse_sam_json(text: &str, path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
+    let raw: Vec<RawMask> = serde_json::from_str(text)
         .map_err(|e| SceneError::invalid(FORMAT, path, format!("expected a JSON list of masks: {e}")))?;
     let total = raw.len();
     let mut disagreeing = 0;

@@ -52,7 +52,18 @@ pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> Sce
         return Err(SceneError::missing("SAM metadata.csv", csv_path));
     }
     let text = std::fs::read_to_string(&csv_path).map_err(|e| SceneError::io("cannot read", &csv_path, e))?;
-    let invalid = |reason: String| SceneError::invalid(FORMAT, &csv_path, reason);
+    parse_metadata_csv(&text, &csv_path, |id| read_binary_png(&dir.join(format!("{id}.png")), expected))
+}
+
+/// Parses the text of a SAM `metadata.csv` (see [`read_sam_png_folder`]); `mask_of(id)` gives
+/// the mask of the row with that `id` (the folder reader decodes `<id>.png`). `csv_path` is only
+/// named in errors and warnings. The fuzz targets' entry point.
+pub fn parse_metadata_csv(
+    text: &str,
+    csv_path: &Path,
+    mut mask_of: impl FnMut(&str) -> SceneResult<Plane<bool>>,
+) -> SceneResult<Vec<SamMask>> {
+    let invalid = |reason: String| SceneError::invalid(FORMAT, csv_path, reason);
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or_else(|| invalid("the file is empty".to_string()))?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
@@ -79,8 +90,10 @@ pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> Sce
             })
         };
         let id = fields[column[0].unwrap_or(0)];
-        let png = dir.join(format!("{id}.png"));
-        let mut mask = SamMask::from_rle(Rle::encode(&read_binary_png(&png, expected)?));
+        if id.is_empty() || id.contains(['/', '\\']) || id == ".." {
+            return Err(invalid(format!("line {line_no}: id '{id}' is not a plain file name")));
+        }
+        let mut mask = SamMask::from_rle(Rle::encode(&mask_of(id)?));
         let area = value(1)?;
         let bbox = match (value(2)?, value(3)?, value(4)?, value(5)?) {
             (Some(x), Some(y), Some(w), Some(h)) => Some([x, y, w, h]),
@@ -104,7 +117,7 @@ pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> Sce
         masks.push(mask);
     }
     check_same_size(&masks).map_err(invalid)?;
-    warn_recomputed(disagreeing, masks.len(), &csv_path);
+    warn_recomputed(disagreeing, masks.len(), csv_path);
     Ok(masks)
 }
 

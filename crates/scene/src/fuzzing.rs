@@ -1,0 +1,131 @@
+//! One entry point per reader of user data, taking the raw bytes of a file: what the fuzz
+//! targets (`fuzz/fuzz_targets/*.rs`, run with `cargo +nightly fuzz`) and the corpus replay test
+//! (`tests/fuzz_corpus_replay.rs`, stable) both call, so a corpus file replays exactly what the
+//! fuzzer ran. Each parses and drops the result: an `Err` is the right answer to bad bytes; a
+//! panic, an abort or an allocation beyond the caps of [`crate::limits`] is a bug.
+//!
+//! The readers these call are the ones the path-based readers use after reading the file, so
+//! no parser is duplicated for fuzzing.
+
+use crate::plane::Plane;
+use std::path::Path;
+
+/// A fuzz target: the name of its corpus folder (`fuzz/corpus/<name>/`) and its entry point.
+pub type Target = (&'static str, fn(&[u8]));
+
+/// Every target.
+pub const TARGETS: [Target; 10] = [
+    ("ply", ply),
+    ("colmap_bin", colmap_bin),
+    ("colmap_txt", colmap_txt),
+    ("transforms_json", transforms_json),
+    ("sam_json", sam_json),
+    ("sam_metadata_csv", sam_metadata_csv),
+    ("npy", npy),
+    ("npz", npz),
+    ("label_png", label_png),
+    ("rle_string", rle_string),
+];
+
+/// Masks at most this large are decoded as well as parsed (bigger ones are valid but slow
+/// down the fuzzer without reaching new code).
+const DECODE_PIXELS: u64 = 1 << 20;
+
+/// A 3DGS PLY (binary little- or big-endian, or ASCII, as its header says): read keeping
+/// non-finite rows, then the finite rows taken out and validated as `run` does.
+pub fn ply(data: &[u8]) {
+    if let Ok(rows) = crate::ply::parse_ply_bytes_rows(data) {
+        let finite = rows.into_finite();
+        if let Err(reason) = finite.validate() {
+            panic!("the finite rows of a PLY that read must validate: {reason}");
+        }
+    }
+}
+
+/// A COLMAP binary model file; the first byte chooses which (0 `cameras.bin`, 1 `images.bin`,
+/// 2 `points3D.bin`, modulo 3), the rest is the file.
+pub fn colmap_bin(data: &[u8]) {
+    let Some((&which, bytes)) = data.split_first() else { return };
+    let path = Path::new("fuzz.bin");
+    match which % 3 {
+        0 => drop(crate::colmap::parse_cameras_bin(bytes, path)),
+        1 => drop(crate::colmap::parse_images_bin(bytes, path)),
+        _ => drop(crate::colmap::parse_points_bin(bytes, path)),
+    }
+}
+
+/// A COLMAP text model file; the first byte chooses which as for [`colmap_bin`]. Bytes that
+/// are not UTF-8 are refused before parsing, as reading the file does.
+pub fn colmap_txt(data: &[u8]) {
+    let Some((&which, bytes)) = data.split_first() else { return };
+    let Ok(text) = std::str::from_utf8(bytes) else { return };
+    let path = Path::new("fuzz.txt");
+    match which % 3 {
+        0 => drop(crate::colmap::parse_cameras_txt(text, path)),
+        1 => drop(crate::colmap::parse_images_txt(text, path)),
+        _ => drop(crate::colmap::parse_points_txt(text, path)),
+    }
+}
+
+/// A NeRF/Blender or instant-ngp `transforms.json`.
+pub fn transforms_json(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    drop(crate::transforms::parse_transforms_json(text, Path::new("transforms.json")));
+}
+
+/// SAM's mask JSON (COCO RLE strings, uncompressed counts or binary masks); small masks are
+/// decoded too.
+pub fn sam_json(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    if let Ok(masks) = crate::sam::parse_sam_json(text, Path::new("masks.json"), None) {
+        for mask in masks {
+            let rle = &mask.segmentation;
+            if rle.height as u64 * rle.width as u64 <= DECODE_PIXELS {
+                if let Err(reason) = rle.decode() {
+                    panic!("a mask that parsed must decode: {reason}");
+                }
+            }
+        }
+    }
+}
+
+/// SAM's `metadata.csv`; every row's mask is a fixed 4 × 3 mask.
+pub fn sam_metadata_csv(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let mask = |_: &str| Ok(Plane::filled(4, 3, true));
+    drop(crate::sam::parse_metadata_csv(text, Path::new("metadata.csv"), mask));
+}
+
+/// A NumPy `.npy` file.
+pub fn npy(data: &[u8]) {
+    drop(crate::npy::parse_npy(data));
+}
+
+/// A NumPy `.npz` archive.
+pub fn npz(data: &[u8]) {
+    drop(crate::npy::parse_npz(data));
+}
+
+/// A label-map PNG.
+pub fn label_png(data: &[u8]) {
+    drop(crate::labels::parse_label_png(data));
+}
+
+/// A COCO RLE `counts` string: the first 4 bytes are the declared height and width (2 bytes
+/// each, little-endian), the rest is the string.
+pub fn rle_string(data: &[u8]) {
+    if data.len() < 4 {
+        return;
+    }
+    let height = u16::from_le_bytes([data[0], data[1]]) as u32;
+    let width = u16::from_le_bytes([data[2], data[3]]) as u32;
+    let Ok(text) = std::str::from_utf8(&data[4..]) else { return };
+    if let Ok(rle) = crate::rle::Rle::from_coco_string(height, width, text) {
+        if height as u64 * width as u64 <= DECODE_PIXELS {
+            let mask =
+                rle.decode().unwrap_or_else(|reason| panic!("an RLE that parsed must decode: {reason}"));
+            let again = crate::rle::Rle::encode(&mask).decode();
+            assert_eq!(again.as_ref(), Ok(&mask), "encode then decode must give the mask back");
+        }
+    }
+}

@@ -1,0 +1,34 @@
+//! Reading a 3DGS PLY for a command: Gaussians with a non-finite value (NaN, ±Inf — 3DGS
+//! trainers leave a few behind) are skipped with one warning per file, or refused with
+//! `--strict`.
+
+use splatseg_scene::ply::{read_ply_rows, PlyRows};
+use splatseg_scene::Gaussians;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+static STRICT: AtomicBool = AtomicBool::new(false);
+
+/// Sets whether non-finite Gaussians are refused (`--strict`) rather than skipped.
+pub fn set_strict(strict: bool) {
+    STRICT.store(strict, Ordering::Relaxed);
+}
+
+/// Every row of the PLY at `path` with the non-finite ones listed. With `--strict` a file with
+/// non-finite values is an error naming the first one; otherwise one warning says how many rows
+/// are skipped and `consequence` (what happens to them in the outputs).
+pub fn read_rows(path: &Path, consequence: &str) -> anyhow::Result<PlyRows> {
+    let rows = read_ply_rows(path)?;
+    if STRICT.load(Ordering::Relaxed) {
+        rows.refuse_non_finite(path)?;
+    } else if let Some(warning) = rows.skip_warning(path, consequence) {
+        tracing::warn!("{warning} (--strict refuses such files)");
+    }
+    Ok(rows)
+}
+
+/// The finite Gaussians of the PLY at `path`, in file order (see [`read_rows`]); the skipped
+/// rows are left out of whatever the command writes.
+pub fn read_finite(path: &Path) -> anyhow::Result<Gaussians> {
+    Ok(read_rows(path, "they are left out")?.into_finite())
+}

@@ -1,0 +1,119 @@
+//! One writer per output folder. `OUT/.splatseg.lock` is held with an exclusive, non-blocking
+//! `flock` for as long as a command writes into `OUT`: a second `run` / `cues` / `train` on the
+//! same `--out` is refused with an error naming the holder's pid. The kernel drops the lock
+//! when its process ends, however it ends (SIGKILL included), so a lock left by a killed run
+//! never blocks the next one; the file itself stays (emptied on a clean exit).
+
+use anyhow::{bail, Context};
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Seek, Write};
+use std::path::Path;
+
+/// The lock file's name inside an output folder.
+pub const LOCK_FILE: &str = ".splatseg.lock";
+
+/// Holds the lock on an output folder until dropped.
+#[derive(Debug)]
+pub struct OutputLock {
+    file: File,
+}
+
+impl Drop for OutputLock {
+    fn drop(&mut self) {
+        // Empty the file while still holding the lock; closing the file releases it.
+        let _ = self.file.set_len(0);
+    }
+}
+
+/// Takes the lock on `out` (created if needed) for `command`, or fails at once when another
+/// process holds it.
+pub fn lock_output(out: &Path, command: &str) -> anyhow::Result<OutputLock> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
+    let path = out.join(LOCK_FILE);
+    let mut file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .with_context(|| format!("cannot open the lock file {}", path.display()))?;
+    if !try_lock_exclusive(&file).with_context(|| format!("cannot lock {}", path.display()))? {
+        let mut holder = String::new();
+        let _ = file.read_to_string(&mut holder);
+        let holder = holder.trim();
+        let holder = if holder.is_empty() { "another process".to_string() } else { holder.to_string() };
+        bail!(
+            "the output folder is in use by {holder}: two runs must not write the same --out at once \
+             (wait for it to finish or choose another --out): {}",
+            out.display()
+        );
+    }
+    file.set_len(0)
+        .and_then(|_| file.rewind())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    write!(file, "splatseg {command} (pid {})", std::process::id())
+        .and_then(|_| file.flush())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    remove_stale_temp_files(out);
+    Ok(OutputLock { file })
+}
+
+/// Removes the temporary files (`.tmp*`, see `splatseg_scene::atomic`) a killed writer left in
+/// `dir` and its sub-folders; safe because the caller holds the lock. Failures are ignored (the
+/// files are only clutter: outputs are renamed into place whole).
+fn remove_stale_temp_files(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let is_temp = entry.file_name().to_string_lossy().starts_with(".tmp");
+        match entry.file_type() {
+            Ok(t) if t.is_dir() => remove_stale_temp_files(&path),
+            Ok(t) if t.is_file() && is_temp => {
+                tracing::debug!("removing {}, left by an interrupted run", path.display());
+                let _ = std::fs::remove_file(&path);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// `flock(LOCK_EX | LOCK_NB)`: `Ok(false)` when another open file description holds it.
+#[cfg(unix)]
+fn try_lock_exclusive(file: &File) -> std::io::Result<bool> {
+    use std::os::unix::io::AsRawFd;
+    // SAFETY: `flock` only reads the descriptor, which `file` keeps open for the call.
+    let result = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+    if result == 0 {
+        return Ok(true);
+    }
+    let error = std::io::Error::last_os_error();
+    if error.kind() == std::io::ErrorKind::WouldBlock {
+        Ok(false)
+    } else {
+        Err(error)
+    }
+}
+
+/// Elsewhere no lock is taken (the file still records the last writer).
+#[cfg(not(unix))]
+fn try_lock_exclusive(_file: &File) -> std::io::Result<bool> {
+    Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_second_lock_on_the_same_folder_is_refused_until_the_first_is_dropped() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let first = lock_output(tmp.path(), "run").expect("first lock");
+        let err = lock_output(tmp.path(), "train").expect_err("second lock must fail").to_string();
+        assert!(err.contains(&format!("splatseg run (pid {})", std::process::id())), "{err}");
+        assert!(err.contains("same --out"), "{err}");
+        drop(first);
+        let _again = lock_output(tmp.path(), "train").expect("lock after release");
+        assert!(tmp.path().join(LOCK_FILE).is_file());
+    }
+}
