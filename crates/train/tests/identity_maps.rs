@@ -4,7 +4,8 @@
 //! reaches its rim, so the 3D terms keep it wrong; the cross-entropy of the rendered identity maps
 //! against the label maps pulls it back.
 
-use splatseg_render::RenderCamera;
+mod common;
+
 use splatseg_synth::{generate, SynthConfig, SynthScene};
 use splatseg_train::{train, ReadBack, TrainConfig, TrainView, Trained};
 
@@ -20,20 +21,8 @@ fn scene() -> SynthScene {
     generate(&config).expect("synthetic scene")
 }
 
-/// Training views with the ground-truth instance maps as their label maps (what `run`'s final maps
-/// approximate).
 fn views(s: &SynthScene) -> Vec<TrainView> {
-    s.scene
-        .views
-        .iter()
-        .zip(&s.views)
-        .map(|(view, synth)| TrainView {
-            name: synth.stem.clone(),
-            camera: RenderCamera::from_scene(s.scene.camera(view), &view.world_from_cam),
-            image: synth.image.data.iter().flat_map(|p| p.map(|c| f32::from(c) / 255.0)).collect(),
-            labels: Some(synth.gt_instance.data.clone()),
-        })
-        .collect()
+    common::synthetic_views(s, true)
 }
 
 /// Indices of the `count` Gaussians of object `id` nearest to its Gaussian `seed`.

@@ -1,7 +1,8 @@
 //! Training on the synthetic scene (ground truth known): the photometric stage recovers appearance
 //! that was wiped, and the joint stage turns noisy, partly missing lifted ids into a cleaner labelling.
 
-use splatseg_render::RenderCamera;
+mod common;
+
 use splatseg_synth::{generate, SynthConfig, SynthScene};
 use splatseg_train::{evaluate_views, train, TrainConfig, TrainView};
 
@@ -18,17 +19,7 @@ fn scene(seed: u64) -> SynthScene {
 }
 
 fn views(s: &SynthScene) -> Vec<TrainView> {
-    s.scene
-        .views
-        .iter()
-        .zip(&s.views)
-        .map(|(view, synth)| TrainView {
-            name: synth.stem.clone(),
-            camera: RenderCamera::from_scene(s.scene.camera(view), &view.world_from_cam),
-            image: synth.image.data.iter().flat_map(|p| p.map(|c| f32::from(c) / 255.0)).collect(),
-            labels: None,
-        })
-        .collect()
+    common::synthetic_views(s, false)
 }
 
 fn mean_psnr(s: &splatseg_scene::Gaussians, views: &[TrainView]) -> f64 {
