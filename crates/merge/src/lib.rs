@@ -16,7 +16,7 @@ mod merge;
 pub mod score;
 pub mod study;
 
-pub use config::{BoundaryStatistic, MergeConfig, Profile, ReleasedCodeParams};
+pub use config::{BoundaryStatistic, DepthGapAt, MergeConfig, Profile, ReleasedCodeParams};
 pub use cues::{build_view_inputs, CueRequest};
 pub use error::{MergeError, MergeResultOf};
 pub use merge::{merge_view, Decision, MergeLog, MergeResult, RegionSummary, ViewInputs};

@@ -236,6 +236,7 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
     let n = inputs.regions.count();
     let labels = &inputs.regions.labels;
     let maps = BoundaryMaps {
+        depth: &inputs.depth,
         edges: &inputs.edges,
         depth_gradient: &inputs.depth_gradient,
         metric_depth: inputs.metric_depth.as_ref(),

@@ -7,7 +7,7 @@ use splatseg_cues::{
     depth_gradient, log_edges, regions_from_sam_masks, MaskInput, RegionDescriptors, RegionOptions,
     RegionSource, Regions,
 };
-use splatseg_merge::{merge_view, MergeConfig, Outcome, Profile, ViewInputs};
+use splatseg_merge::{merge_view, DepthGapAt, MergeConfig, Outcome, Profile, ViewInputs};
 use splatseg_scene::Plane;
 
 const W: usize = 80;
@@ -256,12 +256,14 @@ fn the_relative_metric_gate_separates_what_normalised_depth_cannot() {
         |x, _| if x < 40 { 0.33 } else { 0.43 },
     );
     v.metric_depth = Some(plane(|x, _| if x < 40 { 4.0 } else { 4.6 }));
-    let r = merge_view(&v, &MergeConfig::default()).unwrap();
+    // The depth-step gate would stop this pair first (∇D peaks on the contact): off here.
+    let config = MergeConfig { max_depth_boundary: None, ..MergeConfig::default() };
+    let r = merge_view(&v, &config).unwrap();
     let d = &r.log.decisions[0];
     assert_eq!(d.outcome, Outcome::RelativeDepthGate);
     assert!((d.terms.relative_depth_gap.unwrap() - 0.15).abs() < 1e-3);
     v.metric_depth = None;
-    let d = merge_view(&v, &MergeConfig::default()).unwrap().log.decisions[0].clone();
+    let d = merge_view(&v, &config).unwrap().log.decisions[0].clone();
     assert!(!matches!(d.outcome, Outcome::RelativeDepthGate | Outcome::DepthGate), "{:?}", d.outcome);
 }
 
@@ -283,8 +285,11 @@ fn the_maximum_on_the_boundary_is_too_noisy_for_a_faint_stripe() {
         _ => 0.6,
     };
     let v = view(split_object, &[HALF_A, HALF_B, BACKGROUND], grey, object_depth);
-    let max =
-        MergeConfig { boundary_statistic: splatseg_merge::BoundaryStatistic::Max, ..MergeConfig::default() };
+    let max = MergeConfig {
+        boundary_statistic: splatseg_merge::BoundaryStatistic::Max,
+        max_depth_boundary: None,
+        ..MergeConfig::default()
+    };
     let r = merge_view(&v, &max).unwrap();
     let d = r.log.decisions.iter().find(|d| (d.a, d.b) == (1, 2)).unwrap();
     assert_eq!(d.outcome, Outcome::BelowThreshold);
@@ -302,4 +307,74 @@ fn views_without_regions_or_with_one_region_pass_through() {
     assert_eq!(r.regions.len(), 1);
     assert_eq!(r.regions[0].area, (W * H) as u64);
     assert_eq!(r.regions[0].bbox_px, [0, 0, W as u32 - 1, H as u32 - 1]);
+}
+
+/// A floor split by its texture into a near and a far half (labels 1 and 2, depth a ramp from
+/// 0.1 to 0.7 across the image, so the halves' mean depths differ by 0.3) above a far
+/// background band (label 3, depth 1.0).
+fn ramp_floor() -> ViewInputs {
+    view(
+        |x, y| match (x < 40, y < 45) {
+            (_, false) => 3,
+            (true, true) => 1,
+            (false, true) => 2,
+        },
+        &[[1.0, 0.0, 0.0], [1.0, 0.02, 0.0], [0.0, 1.0, 0.2]],
+        |x, y| {
+            if y >= 45 {
+                0.1
+            } else if x < 40 {
+                0.6
+            } else {
+                0.62
+            }
+        },
+        |x, y| if y >= 45 { 1.0 } else { 0.1 + 0.6 * x as f32 / W as f32 },
+    )
+}
+
+#[test]
+fn a_floor_split_by_its_texture_merges_when_depth_is_compared_at_the_contact() {
+    let v = ramp_floor();
+    let r = merge_view(&v, &MergeConfig::default()).unwrap();
+    let d = r.log.decisions.iter().find(|d| (d.a, d.b) == (1, 2)).expect("the halves are evaluated");
+    assert!(d.terms.depth_gap < 0.05, "contact gap {}", d.terms.depth_gap);
+    assert!(r.log.decisions.iter().any(|d| (d.a, d.b) == (1, 2) && d.merged));
+    assert_eq!(r.regions.len(), 2, "the floor and the background");
+    // The formula as printed compares the halves' means (0.25 vs 0.55) and splits the floor.
+    let means = MergeConfig { depth_gap_at: DepthGapAt::RegionMeans, ..MergeConfig::default() };
+    let r = merge_view(&v, &means).unwrap();
+    let d = r.log.decisions.iter().find(|d| (d.a, d.b) == (1, 2)).expect("the halves are evaluated");
+    assert_eq!(d.outcome, Outcome::DepthGate);
+    assert_eq!(r.regions.len(), 3);
+}
+
+#[test]
+fn a_depth_step_on_the_contact_stops_a_merge_the_contact_gap_misses() {
+    // Two identical-looking halves (labels 1, 2) whose depth steps from 0.40 to 0.48 at x = 40,
+    // above a far background band (label 3, depth 1.0): the contact medians differ by less
+    // than τ_depth and the score passes, but ∇D on the contact is well above a smooth surface's.
+    let v = view(
+        |x, y| match (x < 40, y < 45) {
+            (_, false) => 3,
+            (true, true) => 1,
+            (false, true) => 2,
+        },
+        &[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.2]],
+        |_, y| if y >= 45 { 0.1 } else { 1.0 },
+        |x, y| match (x < 40, y < 45) {
+            (_, false) => 1.0,
+            (true, true) => 0.40,
+            (false, true) => 0.48,
+        },
+    );
+    let pair = |r: &splatseg_merge::MergeResult| {
+        r.log.decisions.iter().find(|d| (d.a, d.b) == (1, 2)).expect("the halves are evaluated").clone()
+    };
+    let d = pair(&merge_view(&v, &MergeConfig::default()).unwrap());
+    assert!(d.terms.depth_gap < 0.15, "contact gap {}", d.terms.depth_gap);
+    assert!(d.terms.score > 0.85, "{:?}", d.terms);
+    assert_eq!(d.outcome, Outcome::DepthStep, "{:?}", d.terms);
+    let off = MergeConfig { max_depth_boundary: None, ..MergeConfig::default() };
+    assert_eq!(pair(&merge_view(&v, &off).unwrap()).outcome, Outcome::Accepted);
 }

@@ -79,12 +79,45 @@ fn the_white_on_white_pair_is_stopped_by_the_depth_gates() {
     let views = study_views(&scene, RegionOptions::default());
     let decisions = keep_apart_decisions(&views, &MergeConfig::default()).unwrap();
     assert!(decisions.len() >= 10);
-    assert!(decisions.iter().all(|d| !d.decision.merged && d.decision.outcome != Outcome::Accepted));
-    // Where the normalised gate lets a pair through, the relative metric gate stops it.
+    assert!(decisions.iter().all(|d| !d.decision.merged), "{decisions:?}");
+    // A pair is accepted at all only where neither depth map shows a step at the contact (one
+    // such evaluation in view 7: a sliver at the same depth, never executed).
+    for d in decisions.iter().filter(|d| d.decision.outcome == Outcome::Accepted) {
+        let t = d.decision.terms;
+        assert!(t.depth_gap < 0.01 && t.relative_depth_gap.is_some_and(|g| g < 0.01), "{d:?}");
+    }
+    // Where the ground-truth depth steps at the contact (> 10 %), a depth gate stops the pair.
     for d in &decisions {
         let t = d.decision.terms;
-        if t.depth_gap < 0.15 && t.contact >= 0.01 {
-            assert_eq!(d.decision.outcome, Outcome::RelativeDepthGate, "{d:?}");
+        if t.relative_depth_gap.is_some_and(|g| g > 0.1) && t.contact >= 0.01 {
+            assert!(
+                matches!(
+                    d.decision.outcome,
+                    Outcome::RelativeDepthGate | Outcome::DepthStep | Outcome::DepthGate
+                ),
+                "{d:?}"
+            );
         }
     }
+}
+
+/// The paper's gate compares region means and splits floors and walls whose halves lie at
+/// different depths; comparing at the contact merges them, and the depth-step gate keeps
+/// what it must apart (measured: 14.5 masks/view and mIoU 0.946 with region means, 14.4 and
+/// 0.956 at the contact with the step gate).
+#[test]
+fn comparing_depth_at_the_contact_beats_region_means_on_the_scene() {
+    let scene = scene();
+    let views = study_views(&scene, RegionOptions::default());
+    let means = MergeConfig {
+        depth_gap_at: splatseg_merge::DepthGapAt::RegionMeans,
+        max_depth_boundary: None,
+        ..MergeConfig::default()
+    };
+    let before = merged_row("region means", &views, &means, &miou).unwrap();
+    let after = merged_row("contact", &views, &MergeConfig::default(), &miou).unwrap();
+    eprintln!("{before:?}\n{after:?}");
+    assert!(after.miou > before.miou + 0.005, "{before:?} vs {after:?}");
+    assert!(after.masks_per_view <= before.masks_per_view, "{before:?} vs {after:?}");
+    assert!(after.pair_merged_views <= before.pair_merged_views);
 }
