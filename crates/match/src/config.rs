@@ -22,6 +22,16 @@ pub struct MatchConfig {
     /// With supporting 3D overlap, the descriptor gate is lowered from `tau_match` to this (the
     /// same object may look different from far-apart views), but not removed.
     pub tau_match_with_3d: f32,
+    /// Fragments ([`crate::fragments`]): two masks of one view join when at least this many
+    /// other views hold both of them inside one mask ...
+    pub min_fragment_views: u32,
+    /// ... and those views are at least this share of the views that hold each of them inside
+    /// some mask (values above 1 switch fragment joins off). Measured on the reduced stress
+    /// suite (tuning seeds 0, 1): 0.75 joined touching objects that the merge had put in one
+    /// mask in most views (touching class IoU 0.80 → 0.70); 0.9 keeps them (0.80) and still
+    /// cuts ids / GT from 1.37 to 1.33 (mean mIoU 0.861 → 0.862, 3D label accuracy 0.833 →
+    /// 0.820). Not in the paper.
+    pub fragment_majority: f32,
     /// Upper bound on Gaussian view pairs counted for 3D evidence; Gaussians are subsampled with a
     /// fixed stride above it (keeps matching fast on million-Gaussian scenes).
     pub max_pair_samples: u64,
@@ -35,6 +45,8 @@ impl Default for MatchConfig {
             tau_overlap: 0.5,
             tau_reject: 0.2,
             tau_match_with_3d: 0.5,
+            min_fragment_views: 2,
+            fragment_majority: 0.9,
             max_pair_samples: 40_000_000,
         }
     }

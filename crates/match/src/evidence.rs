@@ -55,6 +55,11 @@ impl Evidence {
         self.covisible[mask * self.n_views + view]
     }
 
+    /// Every pair with shared Gaussians: `(i, j, |S_i ∩ S_j|)`, `i < j` (in no particular order).
+    pub fn shared_pairs(&self) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
+        self.shared.iter().map(|(&k, &n)| ((k >> 32) as u32, k as u32, n))
+    }
+
     /// `|S_i ∩ S_j|` for global mask indices `i`, `j`.
     pub fn shared(&self, i: usize, j: usize) -> u32 {
         let (lo, hi) = if i < j { (i, j) } else { (j, i) };

@@ -8,9 +8,11 @@
 //!    - it has no 3D support and cos > `tau_match` (tier 1, the paper's rule).
 //!
 //!    A pair with support and overlap < `tau_reject` becomes a cannot-link instead.
-//! 3. Edges are sorted (tier, score descending, then mask indices) and fed to a union-find that
+//! 3. With 3D evidence, masks of one view that other views see inside one mask are joined
+//!    first, as fragments of one object ([`crate::fragments`]).
+//! 4. Edges are sorted (tier, score descending, then mask indices) and fed to a union-find that
 //!    refuses to join clusters holding masks of the same view or spanning a cannot-link.
-//! 4. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
+//! 5. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
 //!    gets an identity feature: the area-weighted mean of its masks' unit descriptors,
 //!    re-normalised.
 
@@ -18,6 +20,7 @@ use crate::cluster::{ConstrainedUnionFind, JoinOutcome};
 use crate::config::MatchConfig;
 use crate::error::{MatchError, MatchResult};
 use crate::evidence::{gather_evidence, mask_offsets, Evidence};
+use crate::fragments::fragment_pairs;
 use crate::input::MatchInput;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -59,6 +62,8 @@ pub struct MatchStats {
     pub cannot_links: usize,
     /// Edges that joined two clusters.
     pub joins: usize,
+    /// Masks of one view joined as fragments of one object ([`crate::fragments`]).
+    pub fragment_joins: usize,
     /// Edges refused because both clusters hold a mask of one view.
     pub refused_same_view: usize,
     /// Edges refused because of a cannot-link.
@@ -165,6 +170,14 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
             stats.cannot_links += 1;
         }
         edges.extend(e);
+    }
+    if let Some(e) = &evidence {
+        let similar = |i: usize, j: usize| dim == 0 || cosine(&unit, dim, i, j) >= config.tau_match;
+        for (i, j) in fragment_pairs(e, &view_of_mask, &offsets, similar, config) {
+            if uf.union_fragments(i, j) == JoinOutcome::Joined {
+                stats.fragment_joins += 1;
+            }
+        }
     }
     edges.sort_by(|x, y| {
         x.tier.cmp(&y.tier).then(y.score.total_cmp(&x.score)).then(x.i.cmp(&y.i)).then(x.j.cmp(&y.j))

@@ -182,3 +182,49 @@ fn inconsistent_inputs_are_errors() {
     let nan = MatchInput { dim: 2, views: vec![view(&[[f32::NAN, 0.0]])], observations: None };
     assert!(matches!(match_masks(&nan, &MatchConfig::default()), Err(MatchError::NonFinite { .. })));
 }
+
+/// Object O is Gaussians 0..100, object P 100..200. View 0 holds O in two fragments (masks 1:
+/// 0..50, 2: 50..100) and P in mask 3; `whole` views hold O in mask 1 and P in mask 2; a
+/// `merged` view holds both in mask 1.
+fn fragment_scene(whole: usize, merged: usize) -> MatchInput {
+    let masks = |n: usize| ViewMasks { features: Vec::new(), areas_px: vec![100; n] };
+    let mut views = vec![masks(3)];
+    let mut observations = vec![observed(&[(0, 50, 1), (50, 50, 2), (100, 100, 3)])];
+    for _ in 0..whole {
+        views.push(masks(2));
+        observations.push(observed(&[(0, 100, 1), (100, 100, 2)]));
+    }
+    for _ in 0..merged {
+        views.push(masks(1));
+        observations.push(observed(&[(0, 200, 1)]));
+    }
+    MatchInput { dim: 0, views, observations: Some(observations) }
+}
+
+#[test]
+fn fragments_that_other_views_see_in_one_mask_share_an_id() {
+    // No descriptors at all (dim 0): only the 3D evidence joins. Without fragment joins, view
+    // 0's second fragment could join nothing (each cluster holds one mask per view).
+    let input = fragment_scene(3, 0);
+    let m = match_masks(&input, &MatchConfig::default()).unwrap();
+    assert_eq!(m.stats.fragment_joins, 1);
+    assert_eq!(m.global_of_label[0][1], m.global_of_label[0][2], "{:?}", m.global_of_label);
+    assert_eq!(m.global_of_label[0][1], m.global_of_label[1][1]);
+    assert_ne!(m.global_of_label[0][3], m.global_of_label[0][1]);
+    assert_eq!(m.n_objects, 2);
+    let off = MatchConfig { fragment_majority: 1.5, ..MatchConfig::default() };
+    let m = match_masks(&input, &off).unwrap();
+    assert_eq!(m.stats.fragment_joins, 0);
+    assert_ne!(m.global_of_label[0][1], m.global_of_label[0][2]);
+}
+
+#[test]
+fn one_view_that_merged_two_objects_does_not_make_them_fragments() {
+    // P and O are one mask in one view only; three views see them apart.
+    let input = fragment_scene(3, 1);
+    let m = match_masks(&input, &MatchConfig::default()).unwrap();
+    assert_ne!(m.global_of_label[0][1], m.global_of_label[0][3]);
+    assert_ne!(m.global_of_label[0][2], m.global_of_label[0][3]);
+    // O's fragments are still joined (together in all four views).
+    assert_eq!(m.global_of_label[0][1], m.global_of_label[0][2]);
+}
