@@ -211,7 +211,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options =
         LoadOptions { resolution: args.resolution, split: args.split.clone(), ..LoadOptions::default() };
     let scene = load_scene(&args.scene, &options)?;
-    let _lock = crate::pipeline::lock::lock_output(&args.out, "cues")?;
+    let _lock = splatseg_pipeline::lock::lock_output(&args.out, "cues")?;
     let views: Vec<&View> = scene.views.iter().take(args.max_views.unwrap_or(usize::MAX)).collect();
     let mut cues: Vec<Box<dyn Cue>> = Vec::new();
     if let Some(path) = &args.sam {

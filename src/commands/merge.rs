@@ -15,7 +15,7 @@ use splatseg_scene::{Gaussians, Plane, Scene, View};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::pipeline::read_view_mask_inputs;
+use splatseg_pipeline::read_view_mask_inputs;
 
 /// What the `--depth` maps hold.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -242,7 +242,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.gaussians.clone().or_else(|| Some(args.scene.join("gaussians.ply")).filter(|p| p.is_file()));
     let gaussians = match &ply {
         Some(p) if args.depth.is_none() || args.metric_depth.is_none() => {
-            Some(super::ply_input::read_finite(p)?)
+            Some(splatseg_pipeline::ply_input::read_finite(p)?)
         }
         _ => None,
     };

@@ -1,9 +1,9 @@
 //! `splatseg run`: the whole pipeline on a scene with SAM masks (see `crate::pipeline`).
 
-use crate::pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use splatseg_cues::DepthKind;
+use splatseg_pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use std::path::PathBuf;
 
 /// Run cues → merge → match → lift (→ eval with --gt) on a scene and write per-view label maps

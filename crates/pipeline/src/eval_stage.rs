@@ -2,7 +2,7 @@
 //! → lifted), in memory with the eval crate.
 
 use super::inputs::GroundTruth;
-use anyhow::{bail, Context};
+use crate::error::{bail, Context};
 use rayon::prelude::*;
 use splatseg_eval::{label_accuracy_3d, EvalConfig, EvalReport, Metrics, NamedMetrics, ViewCounts};
 use splatseg_scene::{Plane, Scene};
@@ -23,7 +23,7 @@ pub fn evaluate(
     stages: &[StageMaps],
     object_ids: Option<&[i32]>,
     config: &EvalConfig,
-) -> anyhow::Result<EvalReport> {
+) -> crate::Result<EvalReport> {
     let gt_files = splatseg_eval::list_label_maps(&gt.maps_dir)?;
     if let Some(stem) = gt_files.keys().find(|s| scene.view_by_stem(s).is_none()) {
         bail!(
@@ -50,9 +50,9 @@ pub fn evaluate(
                         .with_context(|| format!("ground truth {}", path.display())),
                     None => Ok(ViewCounts::without_prediction(stem, &gt_map, config)),
                 })
-                .collect::<anyhow::Result<Vec<_>>>()
+                .collect::<crate::Result<Vec<_>>>()
         })
-        .collect::<anyhow::Result<_>>()?;
+        .collect::<crate::Result<_>>()?;
     let mut sets = Vec::new();
     for (k, stage) in stages.iter().enumerate() {
         let per_view: Vec<ViewCounts> = counts.iter().map(|c| c[k].clone()).collect();

@@ -12,6 +12,7 @@
 
 mod cache;
 pub mod config;
+mod error;
 mod eval_stage;
 pub mod identity_study;
 mod inputs;
@@ -20,13 +21,15 @@ pub mod lock;
 mod mask_input;
 mod merge_stage;
 mod outputs;
+pub mod ply_input;
 #[cfg(test)]
 mod tests;
 pub mod train_stage;
 
-use anyhow::{bail, Context};
+use crate::error::bail;
 use cache::{read_json, write_json, KeyHasher};
 pub use config::PipelineConfig;
+pub use error::{Context, PipelineError, Result};
 use eval_stage::{evaluate, offset_local_maps, StageMaps};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
@@ -112,10 +115,19 @@ impl RunSummary {
     }
 }
 
+/// True once the caller asked for no progress bars (the binary's `--quiet`).
+static PROGRESS_HIDDEN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Hides (or shows again) the stages' progress bars; they are drawn on stderr only when it is a
+/// terminal in any case.
+pub fn set_progress_hidden(hidden: bool) {
+    PROGRESS_HIDDEN.store(hidden, std::sync::atomic::Ordering::Relaxed);
+}
+
 /// A progress bar over `len` items (hidden when stderr is not a terminal, and with `--quiet`).
 pub(crate) fn progress(len: usize, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len as u64);
-    if crate::commands::logging::quiet() {
+    if PROGRESS_HIDDEN.load(std::sync::atomic::Ordering::Relaxed) {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     if let Ok(style) = ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}") {
@@ -140,7 +152,7 @@ struct RunCache {
 }
 
 /// Runs the whole pipeline (see the module docs for the outputs).
-pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
+pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let _lock = lock::lock_output(&config.out, "run")?;
     let load = LoadOptions::default();
     let scene = splatseg_scene::load_scene(&config.scene, &load)?;
@@ -250,7 +262,7 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
     let merged: Vec<Option<MergedView>> = (0..scene.views.len())
         .into_par_iter()
         .progress_with(bar.clone())
-        .map(|v| -> anyhow::Result<Option<MergedView>> {
+        .map(|v| -> crate::Result<Option<MergedView>> {
             if !has_masks[v] {
                 return Ok(None);
             }
@@ -273,7 +285,7 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
             let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key };
             merge_one(&ctx, view, &depth).map(Some)
         })
-        .collect::<anyhow::Result<_>>()?;
+        .collect::<crate::Result<_>>()?;
     bar.finish_and_clear();
     let cached_views = merged.iter().flatten().filter(|m| m.cached).count();
     let count_regions = |f: &dyn Fn(&MergedView) -> usize| merged.iter().flatten().map(f).sum::<usize>();

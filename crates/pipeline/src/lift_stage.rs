@@ -53,7 +53,7 @@ pub fn match_views(
     merged: &[Option<MergedView>],
     visibility: Option<&[ViewVisibility]>,
     config: &MatchConfig,
-) -> anyhow::Result<Matching> {
+) -> crate::Result<Matching> {
     let dim = merged
         .iter()
         .flatten()
@@ -115,7 +115,7 @@ pub fn lift_and_render(
     matched: &[Option<Plane<u32>>],
     matching: &Matching,
     config: &LiftConfig,
-) -> anyhow::Result<LiftOutput> {
+) -> crate::Result<LiftOutput> {
     let (vis, maps): (Vec<ViewVisibility>, Vec<Plane<u32>>) = visibility
         .iter()
         .zip(matched)

@@ -4,7 +4,7 @@
 //! when its process ends, however it ends (SIGKILL included), so a lock left by a killed run
 //! never blocks the next one; the file itself stays (emptied on a clean exit).
 
-use anyhow::{bail, Context};
+use crate::error::{bail, Context};
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, Write};
 use std::path::Path;
@@ -27,7 +27,7 @@ impl Drop for OutputLock {
 
 /// Takes the lock on `out` (created if needed) for `command`, or fails at once when another
 /// process holds it.
-pub fn lock_output(out: &Path, command: &str) -> anyhow::Result<OutputLock> {
+pub fn lock_output(out: &Path, command: &str) -> crate::Result<OutputLock> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create the output folder {}", out.display()))?;
     let path = out.join(LOCK_FILE);

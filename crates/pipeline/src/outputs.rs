@@ -1,7 +1,7 @@
 //! What `run` writes: `masks/`, `overlays/`, `gaussians.ply`, `report.md`, `metrics.json`.
 
 use super::RunSummary;
-use anyhow::Context;
+use crate::error::Context;
 use rayon::prelude::*;
 use splatseg_scene::gaussians::FeatureBlock;
 use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
@@ -39,8 +39,8 @@ pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<&Featur
 }
 
 /// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` per view.
-pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u32>]) -> anyhow::Result<()> {
-    scene.views.par_iter().zip(maps).try_for_each(|(view, map)| -> anyhow::Result<()> {
+pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u32>]) -> crate::Result<()> {
+    scene.views.par_iter().zip(maps).try_for_each(|(view, map)| -> crate::Result<()> {
         write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
         let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
         let path = out.join("overlays").join(format!("{}.png", view.stem));
@@ -50,7 +50,7 @@ pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u
 }
 
 /// Writes `report.md`.
-pub fn write_report(out: &Path, scene: &Scene, summary: &RunSummary) -> anyhow::Result<()> {
+pub fn write_report(out: &Path, scene: &Scene, summary: &RunSummary) -> crate::Result<()> {
     let mut md = String::from("# splatseg run\n\n");
     let _ = writeln!(md, "Scene: `{}` ({} views).\n", scene.root.display(), scene.views.len());
     let _ = writeln!(md, "| stage | result |\n| --- | --- |");

@@ -125,7 +125,7 @@ fn masks_for_unknown_views_are_an_error() {
     copy_dir(&scene.join("sam"), &masks);
     std::fs::copy(masks.join("view_000.json"), masks.join("holiday_042.json")).expect("copy");
     let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("unknown view"));
+    let err = run_pipeline(&config).expect_err("unknown view").report();
     assert!(err.contains("holiday_042") && err.contains("does not have"), "{err}");
 }
 
@@ -143,7 +143,7 @@ fn masks_of_the_wrong_size_are_an_error() {
     )
     .expect("write");
     let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
+    let err = run_pipeline(&config).expect_err("wrong size").report();
     assert!(err.contains("[40, 50]") && err.contains("view_001.json"), "{err}");
 }
 
@@ -160,7 +160,7 @@ fn ground_truth_of_the_wrong_size_is_an_error() {
     )
     .expect("write");
     let config = RunConfig { gt: Some(gt), ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
+    let err = run_pipeline(&config).expect_err("wrong size").report();
     assert!(err.contains("view_002"), "{err}");
 }
 
@@ -174,7 +174,7 @@ fn a_ply_with_too_few_gaussians_is_an_error() {
     let ply = tmp.path().join("half.ply");
     splatseg_scene::ply::write_ply(&ply, &g.select(&half)).expect("write");
     let config = RunConfig { gaussians: Some(ply), ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("too few Gaussians"));
+    let err = run_pipeline(&config).expect_err("too few Gaussians").report();
     assert!(err.contains("fewer Gaussians") && err.contains("half.ply"), "{err}");
 }
 
