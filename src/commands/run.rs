@@ -15,7 +15,9 @@ use std::path::PathBuf;
 /// rendered from the Gaussians.
 ///
 /// Each stage's results are cached in OUT/cache keyed by the inputs and settings, so a rerun
-/// resumes where it can.
+/// resumes where it can. After `splatseg merge --shard K/N` ran for every K with the same
+/// arguments and --out (a cluster job array), run does only the global steps (matching,
+/// lifting) and names any shard whose results are missing.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
     /// Scene folder (COLMAP `sparse/0` + `images/`, or transforms.json).

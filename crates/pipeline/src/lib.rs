@@ -1,5 +1,14 @@
 //! The end-to-end pipeline behind `splatseg run` (and `demo`): cues → merge → match → lift →
-//! (eval when ground truth is given), with per-stage caching in `OUT/cache/`.
+//! (eval when ground truth is given), with per-stage caching in `OUT/cache/`. A library, so the
+//! binary, the viewer's server or a binding can call it:
+//!
+//! - [`run_pipeline`] runs the whole pipeline ([`RunConfig`] → [`RunSummary`]);
+//! - [`merge_shard`] runs the per-view merge stage over one [`Shard`] `K/N` of the views (any
+//!   number of shards at once, as separate processes); a later [`run_pipeline`] on the same
+//!   output folder does only the global steps;
+//! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids).
+//!
+//! Errors are [`PipelineError`]; [`PipelineError::report`] prints the chain of causes.
 //!
 //! ```text
 //! OUT/masks/<stem>.png      final per-view label maps, 16-bit global ids, 0 = none
@@ -21,7 +30,10 @@ pub mod lock;
 mod mask_input;
 mod merge_stage;
 mod outputs;
+mod per_view;
 pub mod ply_input;
+mod results;
+pub mod shard;
 #[cfg(test)]
 mod tests;
 pub mod train_stage;
@@ -33,13 +45,13 @@ pub use error::{Context, PipelineError, Result};
 use eval_stage::{evaluate, offset_local_maps, StageMaps};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
-use merge_stage::{merge_one, MergeContext, MergedView, ViewDepth};
+use merge_stage::MergedView;
+pub use per_view::{merge_shard, ShardSummary};
 use rayon::prelude::*;
+pub use results::RunOutputs;
 use serde::{Deserialize, Serialize};
-use splatseg_cues::{
-    ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
-    FeatureGrids, NpyDepthSource,
-};
+pub use shard::Shard;
+use splatseg_cues::DepthKind;
 use splatseg_eval::EvalReport;
 use splatseg_lift::{LiftStats, PosedCamera, PreparedGaussians};
 use splatseg_match::MatchStats;
@@ -229,35 +241,12 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .map(|(v, p)| PosedCamera { camera: scene.camera(v), world_from_cam: p })
         .collect();
     let rendered = prepared.as_ref().map(|p| lift_stage::surface_depths(p, &cams, &pc.lift));
-    let ply_key = match &ply_path {
-        // Only what the rendered depth depends on, so lift-only changes keep the merge cache.
-        Some(p) => {
-            KeyHasher::default().file(p)?.json(&(pc.lift.surface_transmittance, pc.lift.near)).finish()
-        }
-        None => String::new(),
-    };
+    let ply_key = per_view::ply_key(ply_path.as_deref(), &pc.lift)?;
 
-    // Merge, per view in parallel.
-    let npy_depth =
-        config.depth.as_ref().map(|dir| NpyDepthSource { dir: dir.clone(), kind: config.depth_kind });
-    let dense = config
-        .features
-        .as_ref()
-        .map(|dir| DenseFeatureDescriptors { grids: FeatureGrids::Folder(dir.clone()) });
-    let descriptors: &dyn DescriptorSource = match &dense {
-        Some(d) => d,
-        None => &ColourTextureDescriptors,
-    };
-    let ctx = MergeContext {
-        scene: &scene,
-        load_options: &load,
-        masks_dir: &config.masks,
-        features_dir: config.features.as_deref(),
-        descriptors,
-        config: &pc.merge,
-        region_options: pc.regions,
-        cache_dir: cache_dir.join("merge"),
-    };
+    // Merge, per view in parallel; after `merge --shard K/N` runs, every view from its shard.
+    let sources = per_view::MergeSources::new(config, &ply_key);
+    let ctx = sources.context(&scene, &load, config);
+    let sharded = shard::expected_shards(&config.out, "merge")?;
     let bar = progress(scene.views.len(), "merge");
     let merged: Vec<Option<MergedView>> = (0..scene.views.len())
         .into_par_iter()
@@ -266,24 +255,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
             if !has_masks[v] {
                 return Ok(None);
             }
-            let view = &scene.views[v];
-            let camera = scene.camera(view);
-            let metric = rendered.as_ref().map(|r| r[v].map(|&z| if z.is_finite() { z } else { 0.0 }));
-            let (depth, key) = match &npy_depth {
-                Some(src) => (
-                    src.depth(&view.stem, camera.width as usize, camera.height as usize)?,
-                    format!("npy:{:?}:{}", src.kind, ply_key),
-                ),
-                None => match &metric {
-                    Some(m) => (
-                        DepthMap { values: m.clone(), kind: DepthKind::MetricZ },
-                        format!("rendered:{ply_key}"),
-                    ),
-                    None => bail!("no depth for view `{}`", view.stem),
-                },
-            };
-            let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key };
-            merge_one(&ctx, view, &depth).map(Some)
+            let metric = rendered.as_ref().map(|r| per_view::finite_depth(&r[v]));
+            match sharded {
+                Some(count) => sources.cached(&ctx, v, metric, Shard { index: v % count, count }).map(Some),
+                None => sources.merge(&ctx, v, metric).map(Some),
+            }
         })
         .collect::<crate::Result<_>>()?;
     bar.finish_and_clear();

@@ -97,6 +97,15 @@ fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> crate
     Ok(masks.unwrap_or_default())
 }
 
+/// The merge of one view from the cache, when an entry made from the same inputs and settings
+/// is there.
+pub fn merge_cached(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::Result<Option<MergedView>> {
+    let camera = ctx.scene.camera(view);
+    let size = (camera.width as usize, camera.height as usize);
+    let key = view_key(ctx, view, &depth.key)?;
+    Ok(read_cached(ctx, &view.stem, &key, size))
+}
+
 /// Merges one view (or reads it from the cache).
 pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::Result<MergedView> {
     let camera = ctx.scene.camera(view);

@@ -256,3 +256,28 @@ fn train_stage_after_the_pipeline_improves_3d_ids_and_keeps_2d_quality() {
     );
     assert!(joint.consistency > 0.93, "consistency {:.3}", joint.consistency);
 }
+
+/// The library's read side gives back what the run wrote and returned.
+#[test]
+fn run_outputs_read_back_what_the_run_returned() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    synth(&scene, &SynthConfig { seed: 2, views: 3, width: 160, height: 120, ..SynthConfig::default() });
+    let out = tmp.path().join("out");
+    let config = RunConfig { gt: None, ..run_config(&scene, &out) };
+    let summary = run_pipeline(&config).expect("pipeline runs");
+    let read = crate::RunOutputs::open(&out).expect("finished run");
+    assert_eq!(read.summary.final_objects, summary.final_objects);
+    assert_eq!(read.summary.merged_masks, summary.merged_masks);
+    let ids = read.object_ids().expect("labelled PLY");
+    assert_eq!(Some(ids.len()), summary.gaussians);
+    let stems: Vec<String> = std::fs::read_dir(out.join("masks"))
+        .expect("masks")
+        .flatten()
+        .map(|e| e.path().file_stem().expect("stem").to_string_lossy().to_string())
+        .collect();
+    let first = read.label_map(&stems[0]).expect("label map");
+    assert!(first.data.iter().any(|&id| id > 0), "objects in the map");
+    let err = crate::RunOutputs::open(tmp.path()).expect_err("no run there").report();
+    assert!(err.contains("metrics.json"), "{err}");
+}
