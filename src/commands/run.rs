@@ -61,6 +61,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write the wall time and peak resident memory of every stage to this JSON file (Linux:
+    /// each stage's own peak, from /proc/self/status VmHWM); `splatseg bench scale` uses it.
+    #[arg(long)]
+    pub profile: Option<PathBuf>,
 }
 
 /// Cue folders computed in-process by the models given on the command line.
@@ -116,9 +120,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gaussians: args.gaussians,
         gt: args.gt,
         pipeline,
-        out: args.out,
+        out: args.out.clone(),
     };
     let summary = run_pipeline(&config)?;
+    if let Some(path) = &args.profile {
+        let json = serde_json::to_vec_pretty(&summary.stages)?;
+        splatseg_scene::atomic::write_bytes_atomic(path, &json)
+            .with_context(|| format!("writing the stage profile {}", path.display()))?;
+    }
     if summary.resumed {
         println!("outputs in {} are up to date (nothing recomputed)", summary.out.display());
     } else if summary.cached_views > 0 {

@@ -2,7 +2,6 @@
 
 use super::RunSummary;
 use crate::error::Context;
-use rayon::prelude::*;
 use splatseg_scene::gaussians::FeatureBlock;
 use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
@@ -38,15 +37,21 @@ pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<&Featur
     g
 }
 
-/// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` per view.
-pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u32>]) -> crate::Result<()> {
-    scene.views.par_iter().zip(maps).try_for_each(|(view, map)| -> crate::Result<()> {
-        write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
-        let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
-        let path = out.join("overlays").join(format!("{}.png", view.stem));
-        write_png_rgb(&path, &overlay(&image, map, 0.5))?;
-        Ok(())
-    })
+/// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` of view `v`
+/// (`map`: `[H, W]` final ids).
+pub fn write_view_maps(
+    out: &Path,
+    scene: &Scene,
+    load: &LoadOptions,
+    v: usize,
+    map: &Plane<u32>,
+) -> crate::Result<()> {
+    let view = &scene.views[v];
+    write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
+    let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
+    let path = out.join("overlays").join(format!("{}.png", view.stem));
+    write_png_rgb(&path, &overlay(&image, map, 0.5))?;
+    Ok(())
 }
 
 /// Writes `report.md`.
