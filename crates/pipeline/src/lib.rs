@@ -257,7 +257,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let ctx = sources.context(&scene, &load, config);
     let sharded = shard::expected_shards(&config.out, "merge")?;
     let bar = progress(scene.views.len(), "merge");
-    let views: Vec<Option<ViewResult>> = (0..scene.views.len())
+    let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
         .into_par_iter()
         .progress_with(bar.clone())
         .map(|v| -> crate::Result<Option<ViewResult>> {
@@ -303,11 +303,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
 
     // Match, lift, render back.
     profiler.next("match");
-    let matching = lift_stage::match_views(&views, prepared.is_some(), &pc.matching)?;
+    let matching = lift_stage::match_views(&mut views, prepared.is_some(), &pc.matching)?;
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
     profiler.next("lift and render back");
-    let lifted = match &prepared {
-        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &merged_map, &pc.lift)?),
+    let mut lifted = match &prepared {
+        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &mut views, &matching, &merged_map, &pc.lift)?),
         None => None,
     };
     let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {
@@ -374,8 +374,9 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         (Some(rows), Some(l)) => Some(outputs::ids_of_every_row(rows, &l.lifted.object_ids)),
         _ => None,
     };
-    if let (Some(rows), Some(ids), Some(l), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
-        let g = outputs::labelled_rows(rows, ids, l.lifted.fused_features.as_ref());
+    let fused = lifted.as_mut().and_then(|l| l.lifted.fused_features.take());
+    if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
+        let g = outputs::labelled_rows(rows, ids, fused);
         let out_ply = config.out.join("gaussians.ply");
         splatseg_scene::ply::write_ply_rows(&out_ply, &g)
             .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;

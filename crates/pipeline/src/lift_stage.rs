@@ -62,9 +62,10 @@ fn row_map(labels: Vec<u32>) -> Plane<u32> {
 }
 
 /// Matches the merged masks of all views. Views without masks (`None`) take no part; with
-/// `with_3d`, the Gaussians each mask sees are the 3D evidence.
+/// `with_3d`, the Gaussians each mask sees are the 3D evidence (moved into the matcher's input
+/// and back, not copied).
 pub fn match_views(
-    views: &[Option<ViewResult>],
+    views: &mut [Option<ViewResult>],
     with_3d: bool,
     config: &MatchConfig,
 ) -> crate::Result<Matching> {
@@ -87,16 +88,27 @@ pub fn match_views(
         .collect();
     let observations = with_3d.then(|| {
         views
-            .iter()
-            .map(|m| match m.as_ref().and_then(|m| m.visibility.as_ref().map(|v| (v, &m.local_labels))) {
-                Some((v, labels)) => {
-                    ViewObservations { gaussians: v.gaussians.clone(), labels: labels.clone() }
-                }
+            .iter_mut()
+            .map(|m| match m.as_mut().and_then(|m| m.visibility.as_mut().map(|v| (v, &mut m.local_labels))) {
+                Some((v, labels)) => ViewObservations {
+                    gaussians: std::mem::take(&mut v.gaussians),
+                    labels: std::mem::take(labels),
+                },
                 None => ViewObservations::default(),
             })
-            .collect()
+            .collect::<Vec<_>>()
     });
-    Ok(match_masks(&MatchInput { dim, views: masks, observations }, config)?)
+    let input = MatchInput { dim, views: masks, observations };
+    let matching = match_masks(&input, config);
+    for (m, obs) in views.iter_mut().zip(input.observations.into_iter().flatten()) {
+        if let Some((v, labels)) =
+            m.as_mut().and_then(|m| m.visibility.as_mut().map(|v| (v, &mut m.local_labels)))
+        {
+            v.gaussians = obs.gaussians;
+            *labels = obs.labels;
+        }
+    }
+    Ok(matching?)
 }
 
 /// A label map as runs of equal values in row-major order: `[n_runs]` (value, length).
@@ -159,39 +171,41 @@ impl LiftOutput {
 
 /// Lifts the matched labels of the views with masks onto the Gaussians, renders every view back
 /// (snapping the rendered ids onto the merged regions read back by `merged_map(v)` with
-/// `final_maps = "snapped"`), drops specks and numbers the ids by first appearance.
+/// `final_maps = "snapped"`), drops specks and numbers the ids by first appearance. The views'
+/// visible Gaussians and labels are consumed (moved, not copied).
 pub fn lift_and_render(
     prepared: &PreparedGaussians,
     cams: &[PosedCamera],
-    views: &[Option<ViewResult>],
+    views: &mut [Option<ViewResult>],
     matching: &Matching,
     merged_map: &(dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
     config: &LiftConfig,
 ) -> crate::Result<LiftOutput> {
-    let with_masks: Vec<(&ViewVisibility, &[u32], &[u32])> = views
+    let mut vis: Vec<ViewVisibility> = Vec::new();
+    let mut labels: Vec<Vec<u32>> = Vec::new();
+    let mut tables: Vec<&[u32]> = Vec::new();
+    for (m, table) in views.iter_mut().zip(&matching.global_of_label) {
+        if let Some(m) = m.as_mut() {
+            if let Some(v) = m.visibility.take() {
+                vis.push(v);
+                labels.push(std::mem::take(&mut m.local_labels));
+                tables.push(table);
+            }
+        }
+    }
+    let matched: Vec<Plane<u32>> = labels
         .iter()
-        .zip(&matching.global_of_label)
-        .filter_map(|(m, table)| {
-            let m = m.as_ref()?;
-            Some((m.visibility.as_ref()?, &m.local_labels[..], &table[..]))
-        })
-        .collect();
-    let vis: Vec<ViewVisibility> = with_masks.iter().map(|(v, _, _)| (*v).clone()).collect();
-    let matched: Vec<Plane<u32>> = with_masks
-        .iter()
-        .map(|(_, labels, table)| {
-            row_map(labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect())
-        })
+        .zip(&tables)
+        .map(|(l, table)| row_map(l.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect()))
         .collect();
     let features = ObjectFeatures { dim: matching.dim, values: &matching.object_features };
     let mut lifted = lift_labels(prepared.len(), &vis, &matched, features, config)?;
-    drop((vis, matched));
-    let local_maps: Vec<Plane<u32>> =
-        with_masks.iter().map(|(_, labels, _)| row_map(labels.to_vec())).collect();
-    let local: Vec<(&ViewVisibility, &Plane<u32>)> =
-        with_masks.iter().map(|(v, _, _)| *v).zip(&local_maps).collect();
+    drop(matched);
+    let local_maps: Vec<Plane<u32>> = labels.into_iter().map(row_map).collect();
+    let local: Vec<(&ViewVisibility, &Plane<u32>)> = vis.iter().zip(&local_maps).collect();
     let joins = join_touching_objects(prepared, &mut lifted, features, &local, config);
-    drop(local_maps);
+    drop(local);
+    drop((vis, local_maps));
     tracing::info!("joined {joins} pairs of touching look-alike objects");
     let votes = render_votes(&lifted, config);
     let bar = progress(cams.len(), "render label maps");

@@ -23,16 +23,21 @@ pub fn ids_of_every_row(rows: &PlyRows, finite_ids: &[i32]) -> Vec<i32> {
 /// The input rows with `object_id` = `ids` (`[N]`) and, when lifting fused them, `feat_*` from
 /// `finite_features` (`[N - k, D]`, one per finite row; zeros for the skipped rows); otherwise the
 /// input's own `feat_*` stay.
-pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<&FeatureBlock>) -> Gaussians {
+pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<FeatureBlock>) -> Gaussians {
     let finite = rows.finite_rows();
     let mut g = rows.gaussians;
     g.object_ids = Some(ids.to_vec());
-    if let Some(f) = finite_features {
-        let mut values = vec![0.0; g.len() * f.dim];
-        for (k, &row) in finite.iter().enumerate() {
-            values[row * f.dim..(row + 1) * f.dim].copy_from_slice(&f.values[k * f.dim..(k + 1) * f.dim]);
+    match finite_features {
+        // Every row is finite: the block is already one row per Gaussian, in order (moved, not copied).
+        Some(f) if finite.len() == g.len() => g.features = Some(f),
+        Some(f) => {
+            let mut values = vec![0.0; g.len() * f.dim];
+            for (k, &row) in finite.iter().enumerate() {
+                values[row * f.dim..(row + 1) * f.dim].copy_from_slice(&f.values[k * f.dim..(k + 1) * f.dim]);
+            }
+            g.features = Some(FeatureBlock { dim: f.dim, values });
         }
-        g.features = Some(FeatureBlock { dim: f.dim, values });
+        None => {}
     }
     g
 }
