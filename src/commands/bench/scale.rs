@@ -14,7 +14,7 @@ pub const LONG_ABOUT: &str = "Measure `splatseg run` on a synthetic capture of N
 Writes the capture once into DIR/scene-<N>v-<W>x<H>-<G>g-s<seed>/ (a `rooms` scene with SAM JSON masks, \
 `.npy` features and depth, as a user brings them; reused when it is there), then runs `splatseg run` on it \
 in a child process with a fresh output folder, and prints the wall time and peak resident memory of the whole \
-run (the child's maximum RSS) and of each stage (from its --profile: VmHWM reset at each stage).
+run and of each stage (from its --profile: VmHWM reset at each stage; the run's peak is the largest).
 
 The scene has min(N, --distinct-views) distinct views; beyond that, views repeat the distinct ones (same \
 image, masks, cues and pose under a new name), so a 1,000-view capture costs the disk of 100. The Gaussians \
@@ -95,6 +95,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let mb = st.peak_rss_bytes.map_or("–".into(), |b| format!("{:.0}", b as f64 / 1048576.0));
         println!("| {} | {:.2} | {mb} |", st.stage, st.seconds);
     }
+    // The child resets its peak at every stage (and with it the kernel's maximum RSS of the
+    // process), so the whole run's peak is the largest of the stages' and the child's.
+    let peak = stages.iter().filter_map(|s| s.peak_rss_bytes).chain(peak).max();
     let peak_mb = peak.map_or("–".into(), |b| format!("{:.0}", b as f64 / 1048576.0));
     println!("| **whole run** (child process) | **{seconds:.2}** | **{peak_mb}** |");
     println!("\nrow: | {} | {w}×{h} | {} | {seconds:.1} | {peak_mb} |", args.views, args.gaussians);
