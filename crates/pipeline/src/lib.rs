@@ -57,7 +57,7 @@ pub use shard::Shard;
 use splatseg_cues::DepthKind;
 use splatseg_eval::EvalReport;
 use splatseg_eval::ViewCounts;
-use splatseg_lift::{view_surface_depth, view_visibility, LiftStats, PosedCamera, PreparedGaussians};
+use splatseg_lift::{LiftStats, PosedCamera, PreparedGaussians};
 use splatseg_match::MatchStats;
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::Plane;
@@ -238,9 +238,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         }
     }
 
-    // Per view, one view at a time on each thread (bounded memory): depth from the Gaussians,
-    // merge (or its cache, or the shard that made it), visibility; only compact results are kept,
-    // the merged maps stay in OUT/cache/merge.
+    // Per view, one view at a time on each thread (bounded memory), see `per_view::PerView`.
     profiler.next("prepare Gaussians");
     let prepared = gaussians.as_ref().map(|g| PreparedGaussians::new(g)).transpose()?;
     drop(gaussians);
@@ -256,49 +254,26 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let sources = per_view::MergeSources::new(config, &ply_key);
     let ctx = sources.context(&scene, &load, config);
     let sharded = shard::expected_shards(&config.out, "merge")?;
+    let per_view = per_view::PerView {
+        prepared: prepared.as_ref(),
+        cams: &cams,
+        sources: &sources,
+        ctx: &ctx,
+        sharded,
+        lift: &pc.lift,
+    };
     let bar = progress(scene.views.len(), "merge");
     let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
         .into_par_iter()
         .progress_with(bar.clone())
-        .map(|v| -> crate::Result<Option<ViewResult>> {
-            if !has_masks[v] {
-                return Ok(None);
-            }
-            let c = &cams[v];
-            let depth =
-                prepared.as_ref().map(|p| view_surface_depth(p, c.camera, c.world_from_cam, &pc.lift));
-            let metric = depth.as_ref().map(per_view::finite_depth);
-            let merged = match sharded {
-                Some(count) => sources.cached(&ctx, v, metric, Shard { index: v % count, count })?,
-                None => sources.merge(&ctx, v, metric)?,
-            };
-            let visibility = match (&prepared, &depth) {
-                (Some(p), Some(d)) => Some(view_visibility(p, c.camera, c.world_from_cam, Some(d), &pc.lift)),
-                _ => None,
-            };
-            let (visibility, local_labels) = ViewResult::compact(visibility, &merged.merged);
-            Ok(Some(ViewResult {
-                raw_max: merged.raw.data.iter().copied().max().unwrap_or(0),
-                merged_max: merged.merged.data.iter().copied().max().unwrap_or(0),
-                regions: merged.regions,
-                cached: merged.cached,
-                visibility,
-                local_labels,
-            }))
-        })
+        .map(|v| has_masks[v].then(|| per_view.result(v)).transpose())
         .collect::<crate::Result<_>>()?;
     bar.finish_and_clear();
     let cached_views = views.iter().flatten().filter(|m| m.cached).count();
     let raw_masks = views.iter().flatten().map(|m| m.raw_max as usize).sum::<usize>();
     let merged_masks = views.iter().flatten().map(|m| m.regions.len()).sum::<usize>();
     tracing::info!("merged {raw_masks} regions into {merged_masks} ({cached_views} views from the cache)");
-    let merge_cache = cache_dir.join("merge");
-    let cached_map = |v: usize, kind: &str| -> crate::Result<Plane<u32>> {
-        let path = merge_cache.join(format!("{}.{kind}.png", scene.views[v].stem));
-        let map = splatseg_scene::labels::read_label_png(&path)
-            .with_context(|| format!("reading back the merge of view `{}`", scene.views[v].stem))?;
-        Ok(map)
-    };
+    let cached_map = |v: usize, kind: &str| ctx.cached_map(&scene.views[v].stem, kind);
     let merged_map = |v: usize| cached_map(v, "merged");
 
     // Match, lift, render back.

@@ -52,6 +52,14 @@ pub struct MergeContext<'a> {
     pub cache_dir: PathBuf,
 }
 
+impl MergeContext<'_> {
+    /// `[H, W]` map `kind` (`raw` or `merged`) of view `stem`, read back from the merge cache.
+    pub fn cached_map(&self, stem: &str, kind: &str) -> crate::Result<Plane<u32>> {
+        let path = self.cache_dir.join(format!("{stem}.{kind}.png"));
+        read_label_png(&path).with_context(|| format!("reading back the merge of view `{stem}`"))
+    }
+}
+
 /// The depth inputs of one view.
 pub struct ViewDepth<'a> {
     /// Depth for the merge cues.

@@ -3,6 +3,7 @@
 
 use crate::cache::KeyHasher;
 use crate::error::{bail, Context};
+use crate::lift_stage::ViewResult;
 use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
 use crate::shard::{write_manifest, Shard, ShardManifest};
 use crate::{inputs, lock, RunConfig};
@@ -12,7 +13,7 @@ use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{view_surface_depth, LiftConfig, PreparedGaussians};
+use splatseg_lift::{view_surface_depth, view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -131,6 +132,51 @@ impl MergeSources {
                 ctx.cache_dir.display()
             ),
         }
+    }
+}
+
+/// What `run` does per view, one view at a time on each thread: surface depth from the
+/// Gaussians, the merge (computed, from the cache, or — after `merge --shard` — from the shard
+/// that made it), visibility; only the compact [`ViewResult`] is kept, the merged maps stay in
+/// `OUT/cache/merge/`.
+pub struct PerView<'a> {
+    /// The Gaussians, when there are some.
+    pub prepared: Option<&'a PreparedGaussians>,
+    /// `[n_views]` cameras.
+    pub cams: &'a [PosedCamera<'a>],
+    /// Depth and descriptor sources.
+    pub sources: &'a MergeSources,
+    /// What every view's merge shares.
+    pub ctx: &'a MergeContext<'a>,
+    /// The shard count, when the merges come from shards.
+    pub sharded: Option<usize>,
+    /// Lift settings (surface depth, visibility).
+    pub lift: &'a LiftConfig,
+}
+
+impl PerView<'_> {
+    /// The compact result of view `v` (which has masks).
+    pub fn result(&self, v: usize) -> crate::Result<ViewResult> {
+        let c = &self.cams[v];
+        let depth = self.prepared.map(|p| view_surface_depth(p, c.camera, c.world_from_cam, self.lift));
+        let metric = depth.as_ref().map(finite_depth);
+        let merged = match self.sharded {
+            Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count })?,
+            None => self.sources.merge(self.ctx, v, metric)?,
+        };
+        let visibility = match (self.prepared, &depth) {
+            (Some(p), Some(d)) => Some(view_visibility(p, c.camera, c.world_from_cam, Some(d), self.lift)),
+            _ => None,
+        };
+        let (visibility, local_labels) = ViewResult::compact(visibility, &merged.merged);
+        Ok(ViewResult {
+            raw_max: merged.raw.data.iter().copied().max().unwrap_or(0),
+            merged_max: merged.merged.data.iter().copied().max().unwrap_or(0),
+            regions: merged.regions,
+            cached: merged.cached,
+            visibility,
+            local_labels,
+        })
     }
 }
 
