@@ -2,12 +2,11 @@
 use clap::Parser;
 
 mod commands;
-mod pipeline;
 
 fn main() -> std::process::ExitCode {
     let cli = commands::Cli::parse();
     commands::logging::init(cli.quiet, cli.verbose);
-    commands::ply_input::set_strict(cli.strict);
+    splatseg_pipeline::ply_input::set_strict(cli.strict);
     match commands::run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {

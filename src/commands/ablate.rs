@@ -1,6 +1,5 @@
 //! `splatseg ablate`: the merge stage's ablation and sensitivity tables on a synthetic scene.
 
-use crate::pipeline::mask_inputs;
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use rayon::prelude::*;
@@ -13,6 +12,7 @@ use splatseg_merge::study::{
     StudyRow, StudyView,
 };
 use splatseg_merge::{build_view_inputs, BoundaryStatistic, CueRequest, MergeConfig, Profile};
+use splatseg_pipeline::mask_inputs;
 use splatseg_render::{render, RenderCamera, RenderRequest};
 use splatseg_scene::Plane;
 use splatseg_synth::{generate, SynthConfig, SynthScene};

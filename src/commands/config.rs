@@ -1,8 +1,8 @@
 //! `splatseg config`: print the default settings as a TOML file to edit and pass with `--config`.
 
-use crate::pipeline::PipelineConfig;
 use anyhow::Context;
 use clap::Args as ClapArgs;
+use splatseg_pipeline::PipelineConfig;
 use std::path::PathBuf;
 
 /// Print every setting of `splatseg run` with its default value, as TOML.

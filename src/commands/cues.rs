@@ -62,6 +62,11 @@ pub struct Args {
     /// Only the first N views.
     #[arg(long)]
     pub max_views: Option<usize>,
+    /// Shard `K/N` (0 ≤ K < N): only the views `v` with `v mod N = K` (after --max-views). Shards
+    /// may run at once on the same --out (a Slurm job array, a Kubernetes indexed Job); together
+    /// they write exactly what one unsharded run writes.
+    #[arg(long)]
+    pub shard: Option<splatseg_pipeline::Shard>,
 }
 
 impl Args {
@@ -82,6 +87,7 @@ impl Args {
             resolution: 1,
             split: "train".to_string(),
             max_views: None,
+            shard: None,
         }
     }
 }
@@ -211,8 +217,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options =
         LoadOptions { resolution: args.resolution, split: args.split.clone(), ..LoadOptions::default() };
     let scene = load_scene(&args.scene, &options)?;
-    let _lock = crate::pipeline::lock::lock_output(&args.out, "cues")?;
-    let views: Vec<&View> = scene.views.iter().take(args.max_views.unwrap_or(usize::MAX)).collect();
+    let _lock = match args.shard {
+        Some(_) => splatseg_pipeline::lock::lock_output_shared(&args.out, "cues")?,
+        None => splatseg_pipeline::lock::lock_output(&args.out, "cues")?,
+    };
+    let shard = args.shard.unwrap_or(splatseg_pipeline::Shard::ALL);
+    let views: Vec<&View> = scene
+        .views
+        .iter()
+        .take(args.max_views.unwrap_or(usize::MAX))
+        .enumerate()
+        .filter(|(v, _)| shard.contains(*v))
+        .map(|(_, view)| view)
+        .collect();
     let mut cues: Vec<Box<dyn Cue>> = Vec::new();
     if let Some(path) = &args.sam {
         let model = Sam::load(path)?;

@@ -1,10 +1,10 @@
 //! `splatseg demo`: the whole pipeline on the embedded synthetic scene, end to end.
 
-use crate::pipeline::train_stage::{run_training, TrainRun};
-use crate::pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use splatseg_cues::DepthKind;
+use splatseg_pipeline::train_stage::{run_training, TrainRun};
+use splatseg_pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use std::path::PathBuf;
 
 /// Generate the synthetic benchmark scene (with ground truth), run every pipeline stage on it and
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map(|s| s.metrics.clone())
             .context("the pipeline's report has no `lifted` metrics")?;
         if args.identity_study {
-            let table = crate::pipeline::identity_study::identity_study(
+            let table = splatseg_pipeline::identity_study::identity_study(
                 &scene_dir,
                 &result.out,
                 &lifted,

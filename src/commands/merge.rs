@@ -15,7 +15,7 @@ use splatseg_scene::{Gaussians, Plane, Scene, View};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::pipeline::read_view_mask_inputs;
+use splatseg_pipeline::{merge_shard, read_view_mask_inputs, PipelineConfig, RunConfig, Shard};
 
 /// What the `--depth` maps hold.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -33,6 +33,12 @@ pub enum DepthMeaning {
 /// Writes per view `OUT/masks/<stem>.png` (16-bit label map, 0 = unlabelled),
 /// `OUT/overlays/<stem>.png` and `OUT/merge/<stem>.json` (regions before/after and every merge
 /// decision with its score terms and the rule that decided it).
+///
+/// With `--shard K/N` it runs `run`'s per-view merge stage instead, on the views `v` with
+/// `v mod N = K`: the per-view results go to `OUT/cache/merge/` (what `splatseg run` reads), and
+/// `--config` is then `run`'s pipeline TOML. Start the N shards anywhere they see the same folders
+/// (a Slurm job array, a Kubernetes indexed Job, Ray tasks), then `splatseg run` with the same
+/// arguments and `--out` does only the global steps (matching, lifting); it names any missing shard.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
     /// Scene folder (COLMAP or transforms.json).
@@ -66,6 +72,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Shard `K/N` (0 ≤ K < N) of `run`'s merge stage: only the views `v` with `v mod N = K`, into
+    /// OUT/cache/merge for a later `splatseg run --out OUT` (e.g. `--shard $SLURM_ARRAY_TASK_ID/8`).
+    #[arg(long)]
+    pub shard: Option<Shard>,
 }
 
 /// `OUT/merge/<stem>.json`.
@@ -218,8 +228,45 @@ fn merge_one(
     Ok(ViewOutcome { before: result.log.regions_before, after: result.log.regions_after })
 }
 
+/// `--shard K/N`: `run`'s merge stage on one shard of the views.
+fn run_shard(args: Args, shard: Shard) -> anyhow::Result<()> {
+    if args.metric_depth.is_some() || args.resolution != 1 {
+        bail!("--shard runs `run`'s merge stage, which takes neither --metric-depth nor --resolution");
+    }
+    let pipeline = match &args.config {
+        Some(path) => PipelineConfig::from_file(path)?,
+        None => PipelineConfig::default(),
+    };
+    let config = RunConfig {
+        scene: args.scene,
+        masks: args.masks,
+        features: args.features,
+        depth: args.depth,
+        depth_kind: match args.depth_kind {
+            DepthMeaning::Inverse => DepthKind::InverseRelative,
+            DepthMeaning::Metric => DepthKind::MetricZ,
+        },
+        gaussians: args.gaussians,
+        gt: None,
+        pipeline,
+        out: args.out,
+    };
+    let summary = merge_shard(&config, shard)?;
+    println!(
+        "shard {shard}: {} of {} views merged ({} from the cache) into {}",
+        summary.merged,
+        summary.views,
+        summary.cached,
+        config.out.join("cache").join("merge").display()
+    );
+    Ok(())
+}
+
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(shard) = args.shard {
+        return run_shard(args, shard);
+    }
     let started = Instant::now();
     let config = read_config(args.config.as_deref())?;
     config.validate()?;
@@ -242,7 +289,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.gaussians.clone().or_else(|| Some(args.scene.join("gaussians.ply")).filter(|p| p.is_file()));
     let gaussians = match &ply {
         Some(p) if args.depth.is_none() || args.metric_depth.is_none() => {
-            Some(super::ply_input::read_finite(p)?)
+            Some(splatseg_pipeline::ply_input::read_finite(p)?)
         }
         _ => None,
     };

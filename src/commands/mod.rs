@@ -13,7 +13,6 @@ pub mod info;
 pub mod logging;
 pub mod merge;
 pub mod objects;
-pub mod ply_input;
 pub mod recolor;
 pub mod remove;
 pub mod render;

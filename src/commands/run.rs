@@ -1,9 +1,9 @@
 //! `splatseg run`: the whole pipeline on a scene with SAM masks (see `crate::pipeline`).
 
-use crate::pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use splatseg_cues::DepthKind;
+use splatseg_pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use std::path::PathBuf;
 
 /// Run cues → merge → match → lift (→ eval with --gt) on a scene and write per-view label maps
@@ -15,7 +15,9 @@ use std::path::PathBuf;
 /// rendered from the Gaussians.
 ///
 /// Each stage's results are cached in OUT/cache keyed by the inputs and settings, so a rerun
-/// resumes where it can.
+/// resumes where it can. After `splatseg merge --shard K/N` ran for every K with the same
+/// arguments and --out (a cluster job array), run does only the global steps (matching,
+/// lifting) and names any shard whose results are missing.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
     /// Scene folder (COLMAP `sparse/0` + `images/`, or transforms.json).
@@ -59,6 +61,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write the wall time and peak resident memory of every stage to this JSON file (Linux:
+    /// each stage's own peak, from /proc/self/status VmHWM); `splatseg bench scale` uses it.
+    #[arg(long)]
+    pub profile: Option<PathBuf>,
 }
 
 /// Cue folders computed in-process by the models given on the command line.
@@ -114,9 +120,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gaussians: args.gaussians,
         gt: args.gt,
         pipeline,
-        out: args.out,
+        out: args.out.clone(),
     };
     let summary = run_pipeline(&config)?;
+    if let Some(path) = &args.profile {
+        let json = serde_json::to_vec_pretty(&summary.stages)?;
+        splatseg_scene::atomic::write_bytes_atomic(path, &json)
+            .with_context(|| format!("writing the stage profile {}", path.display()))?;
+    }
     if summary.resumed {
         println!("outputs in {} are up to date (nothing recomputed)", summary.out.display());
     } else if summary.cached_views > 0 {

@@ -1,9 +1,9 @@
 //! `splatseg train`: 3DGS training on the CPU, and the paper's joint optimisation of object features.
 
-use crate::pipeline::train_stage::{run_training, InitOptions, TrainRun};
-use crate::pipeline::PipelineConfig;
 use anyhow::Context;
 use clap::Args as ClapArgs;
+use splatseg_pipeline::train_stage::{run_training, InitOptions, TrainRun};
+use splatseg_pipeline::PipelineConfig;
 use std::path::PathBuf;
 
 /// Train (or fine-tune) a scene's Gaussians on its images with splatseg's CPU rasteriser.

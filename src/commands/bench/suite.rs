@@ -2,10 +2,10 @@
 //! (`synth` → `run` with features, Gaussians and ground truth), and the distributions over
 //! many scenes (per metric, per family, per failure class).
 
-use crate::pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use anyhow::Context;
 use serde::Serialize;
 use splatseg_cues::DepthKind;
+use splatseg_pipeline::{run_pipeline, PipelineConfig, RunConfig};
 use splatseg_synth::{generate, write, FailureClass, Family, SynthConfig};
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! terms only against the 3D terms plus the 2D identity maps (each read-back), next to the lifted ids,
 //! as one Markdown table (the numbers in `BENCHMARKS.md`).
 
-use anyhow::Context;
+use crate::error::Context;
 use splatseg_eval::{evaluate_folders, label_accuracy_3d, read_gaussian_ids_npy, Metrics};
 use splatseg_train::{ReadBack, TrainConfig};
 use std::path::Path;
@@ -27,11 +27,11 @@ pub fn identity_study(
     lifted: &Metrics,
     out: &Path,
     config: &TrainConfig,
-) -> anyhow::Result<String> {
+) -> crate::Result<String> {
     let eval = PipelineConfig::default().eval;
     let gt_maps = scene_dir.join("gt").join("instance");
     let gt_ids = read_gaussian_ids_npy(&scene_dir.join("gt").join("gaussian_ids.npy"))?;
-    let train = |identity_maps: bool, dir: &str| -> anyhow::Result<TrainSummary> {
+    let train = |identity_maps: bool, dir: &str| -> crate::Result<TrainSummary> {
         let mut config = config.clone();
         config.joint.identity_maps = identity_maps;
         run_training(&TrainRun {
@@ -45,7 +45,7 @@ pub fn identity_study(
         })
         .with_context(|| format!("training {dir}"))
     };
-    let score = |masks: &Path, ids: &[i32]| -> anyhow::Result<Metrics> {
+    let score = |masks: &Path, ids: &[i32]| -> crate::Result<Metrics> {
         let mut m = evaluate_folders(&gt_maps, masks, &eval)?;
         m.label_accuracy_3d = Some(label_accuracy_3d(&gt_ids, ids)?);
         Ok(m)

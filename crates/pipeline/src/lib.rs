@@ -1,5 +1,14 @@
 //! The end-to-end pipeline behind `splatseg run` (and `demo`): cues → merge → match → lift →
-//! (eval when ground truth is given), with per-stage caching in `OUT/cache/`.
+//! (eval when ground truth is given), with per-stage caching in `OUT/cache/`. A library, so the
+//! binary, the viewer's server or a binding can call it:
+//!
+//! - [`run_pipeline`] runs the whole pipeline ([`RunConfig`] → [`RunSummary`]);
+//! - [`merge_shard`] runs the per-view merge stage over one [`Shard`] `K/N` of the views (any
+//!   number of shards at once, as separate processes); a later [`run_pipeline`] on the same
+//!   output folder does only the global steps;
+//! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids).
+//!
+//! Errors are [`PipelineError`]; [`PipelineError::report`] prints the chain of causes.
 //!
 //! ```text
 //! OUT/masks/<stem>.png      final per-view label maps, 16-bit global ids, 0 = none
@@ -12,6 +21,7 @@
 
 mod cache;
 pub mod config;
+mod error;
 mod eval_stage;
 pub mod identity_study;
 mod inputs;
@@ -20,24 +30,33 @@ pub mod lock;
 mod mask_input;
 mod merge_stage;
 mod outputs;
+mod per_view;
+pub mod ply_input;
+pub mod profile;
+mod results;
+pub mod shard;
 #[cfg(test)]
 mod tests;
 pub mod train_stage;
 
-use anyhow::{bail, Context};
+use crate::error::bail;
 use cache::{read_json, write_json, KeyHasher};
 pub use config::PipelineConfig;
-use eval_stage::{evaluate, offset_local_maps, StageMaps};
+pub use error::{Context, PipelineError, Result};
+use eval_stage::{eval_views, evaluate, local_offsets, offset_map, view_counts};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
+use lift_stage::ViewResult;
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
-use merge_stage::{merge_one, MergeContext, MergedView, ViewDepth};
+pub use per_view::{merge_shard, ShardSummary};
+use profile::Profiler;
+pub use profile::{peak_rss_bytes, StageProfile};
 use rayon::prelude::*;
+pub use results::RunOutputs;
 use serde::{Deserialize, Serialize};
-use splatseg_cues::{
-    ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
-    FeatureGrids, NpyDepthSource,
-};
+pub use shard::Shard;
+use splatseg_cues::DepthKind;
 use splatseg_eval::EvalReport;
+use splatseg_eval::ViewCounts;
 use splatseg_lift::{LiftStats, PosedCamera, PreparedGaussians};
 use splatseg_match::MatchStats;
 use splatseg_scene::load::LoadOptions;
@@ -99,6 +118,9 @@ pub struct RunSummary {
     /// The whole run came from the cache (not written either).
     #[serde(skip)]
     pub resumed: bool,
+    /// Wall time and peak memory per stage of this invocation (not written either).
+    #[serde(skip)]
+    pub stages: Vec<StageProfile>,
 }
 
 impl RunSummary {
@@ -112,10 +134,19 @@ impl RunSummary {
     }
 }
 
+/// True once the caller asked for no progress bars (the binary's `--quiet`).
+static PROGRESS_HIDDEN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Hides (or shows again) the stages' progress bars; they are drawn on stderr only when it is a
+/// terminal in any case.
+pub fn set_progress_hidden(hidden: bool) {
+    PROGRESS_HIDDEN.store(hidden, std::sync::atomic::Ordering::Relaxed);
+}
+
 /// A progress bar over `len` items (hidden when stderr is not a terminal, and with `--quiet`).
 pub(crate) fn progress(len: usize, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len as u64);
-    if crate::commands::logging::quiet() {
+    if PROGRESS_HIDDEN.load(std::sync::atomic::Ordering::Relaxed) {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     if let Ok(style) = ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}") {
@@ -140,8 +171,9 @@ struct RunCache {
 }
 
 /// Runs the whole pipeline (see the module docs for the outputs).
-pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
+pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let _lock = lock::lock_output(&config.out, "run")?;
+    let mut profiler = Profiler::start("load inputs");
     let load = LoadOptions::default();
     let scene = splatseg_scene::load_scene(&config.scene, &load)?;
     for w in &scene.warnings {
@@ -206,7 +238,8 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
         }
     }
 
-    // Depth and visibility from the Gaussians.
+    // Per view, one view at a time on each thread (bounded memory), see `per_view::PerView`.
+    profiler.next("prepare Gaussians");
     let prepared = gaussians.as_ref().map(|g| PreparedGaussians::new(g)).transpose()?;
     drop(gaussians);
     let poses: Vec<_> = scene.views.iter().map(|v| v.world_from_cam).collect();
@@ -216,132 +249,119 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
         .zip(&poses)
         .map(|(v, p)| PosedCamera { camera: scene.camera(v), world_from_cam: p })
         .collect();
-    let rendered = prepared.as_ref().map(|p| lift_stage::surface_depths(p, &cams, &pc.lift));
-    let ply_key = match &ply_path {
-        // Only what the rendered depth depends on, so lift-only changes keep the merge cache.
-        Some(p) => {
-            KeyHasher::default().file(p)?.json(&(pc.lift.surface_transmittance, pc.lift.near)).finish()
-        }
-        None => String::new(),
-    };
-
-    // Merge, per view in parallel.
-    let npy_depth =
-        config.depth.as_ref().map(|dir| NpyDepthSource { dir: dir.clone(), kind: config.depth_kind });
-    let dense = config
-        .features
-        .as_ref()
-        .map(|dir| DenseFeatureDescriptors { grids: FeatureGrids::Folder(dir.clone()) });
-    let descriptors: &dyn DescriptorSource = match &dense {
-        Some(d) => d,
-        None => &ColourTextureDescriptors,
-    };
-    let ctx = MergeContext {
-        scene: &scene,
-        load_options: &load,
-        masks_dir: &config.masks,
-        features_dir: config.features.as_deref(),
-        descriptors,
-        config: &pc.merge,
-        region_options: pc.regions,
-        cache_dir: cache_dir.join("merge"),
+    let ply_key = per_view::ply_key(ply_path.as_deref(), &pc.lift)?;
+    profiler.next("per view: depth, merge, visibility");
+    let sources = per_view::MergeSources::new(config, &ply_key);
+    let ctx = sources.context(&scene, &load, config);
+    let sharded = shard::expected_shards(&config.out, "merge")?;
+    let per_view = per_view::PerView {
+        prepared: prepared.as_ref(),
+        cams: &cams,
+        sources: &sources,
+        ctx: &ctx,
+        sharded,
+        lift: &pc.lift,
     };
     let bar = progress(scene.views.len(), "merge");
-    let merged: Vec<Option<MergedView>> = (0..scene.views.len())
+    let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
         .into_par_iter()
         .progress_with(bar.clone())
-        .map(|v| -> anyhow::Result<Option<MergedView>> {
-            if !has_masks[v] {
-                return Ok(None);
-            }
-            let view = &scene.views[v];
-            let camera = scene.camera(view);
-            let metric = rendered.as_ref().map(|r| r[v].map(|&z| if z.is_finite() { z } else { 0.0 }));
-            let (depth, key) = match &npy_depth {
-                Some(src) => (
-                    src.depth(&view.stem, camera.width as usize, camera.height as usize)?,
-                    format!("npy:{:?}:{}", src.kind, ply_key),
-                ),
-                None => match &metric {
-                    Some(m) => (
-                        DepthMap { values: m.clone(), kind: DepthKind::MetricZ },
-                        format!("rendered:{ply_key}"),
-                    ),
-                    None => bail!("no depth for view `{}`", view.stem),
-                },
-            };
-            let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key };
-            merge_one(&ctx, view, &depth).map(Some)
-        })
-        .collect::<anyhow::Result<_>>()?;
+        .map(|v| has_masks[v].then(|| per_view.result(v)).transpose())
+        .collect::<crate::Result<_>>()?;
     bar.finish_and_clear();
-    let cached_views = merged.iter().flatten().filter(|m| m.cached).count();
-    let count_regions = |f: &dyn Fn(&MergedView) -> usize| merged.iter().flatten().map(f).sum::<usize>();
-    let raw_masks = count_regions(&|m| m.raw.data.iter().copied().max().unwrap_or(0) as usize);
-    let merged_masks = count_regions(&|m| m.regions.len());
+    let cached_views = views.iter().flatten().filter(|m| m.cached).count();
+    let raw_masks = views.iter().flatten().map(|m| m.raw_max as usize).sum::<usize>();
+    let merged_masks = views.iter().flatten().map(|m| m.regions.len()).sum::<usize>();
     tracing::info!("merged {raw_masks} regions into {merged_masks} ({cached_views} views from the cache)");
+    let cached_map = |v: usize, kind: &str| ctx.cached_map(&scene.views[v].stem, kind);
+    let merged_map = |v: usize| cached_map(v, "merged");
 
     // Match, lift, render back.
-    let visibility = match (&prepared, &rendered) {
-        (Some(p), Some(d)) => Some(lift_stage::visibilities(p, &cams, d, &pc.lift)),
-        _ => None,
-    };
-    let matching = lift_stage::match_views(&merged, visibility.as_deref(), &pc.matching)?;
+    profiler.next("match");
+    let matching = lift_stage::match_views(&mut views, prepared.is_some(), &pc.matching)?;
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
-    let matched = lift_stage::matched_maps(&merged, &matching);
-    let (final_maps, lifted) = match (&prepared, &visibility) {
-        (Some(p), Some(vis)) => {
-            let out = lift_stage::lift_and_render(p, &cams, vis, &merged, &matched, &matching, &pc.lift)?;
-            (out.maps, Some(out.lifted))
+    profiler.next("lift and render back");
+    let mut lifted = match &prepared {
+        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &mut views, &matching, &merged_map, &pc.lift)?),
+        None => None,
+    };
+    let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {
+        if views[v].is_none() {
+            return Ok(None);
         }
-        _ => {
-            let maps = matched
-                .iter()
-                .zip(&scene.views)
-                .map(|(m, v)| {
-                    let c = scene.camera(v);
-                    m.clone().unwrap_or_else(|| Plane::filled(c.width as usize, c.height as usize, 0))
-                })
-                .collect();
-            (maps, None)
-        }
+        let table = &matching.global_of_label[v];
+        Ok(Some(merged_map(v)?.map(|&l| table.get(l as usize).copied().unwrap_or(0))))
     };
 
-    // Outputs.
-    outputs::write_maps(&config.out, &scene, &load, &final_maps)?;
+    // Outputs and scores, one view at a time on each thread.
+    profiler.next("outputs and eval");
+    let eval = gt.as_ref().map(|g| eval_views(&scene, g)).transpose()?;
+    let raw_offsets =
+        local_offsets(&views.iter().map(|m| m.as_ref().map_or(0, |m| m.raw_max)).collect::<Vec<_>>());
+    let merged_offsets =
+        local_offsets(&views.iter().map(|m| m.as_ref().map_or(0, |m| m.merged_max)).collect::<Vec<_>>());
+    let stage_names: &[&str] = if lifted.is_some() {
+        &["raw", "merged", "matched", "lifted"]
+    } else {
+        &["raw", "merged", "matched"]
+    };
+    let bar = progress(scene.views.len(), "write label maps");
+    let per_view: Vec<(Vec<u32>, Option<Vec<ViewCounts>>)> = (0..scene.views.len())
+        .into_par_iter()
+        .progress_with(bar.clone())
+        .map(|v| -> crate::Result<(Vec<u32>, Option<Vec<ViewCounts>>)> {
+            let view = &scene.views[v];
+            let matched = matched_map(v)?;
+            let final_map = match &lifted {
+                Some(l) => l.final_map(v),
+                None => matched.clone().unwrap_or_else(|| {
+                    let c = scene.camera(view);
+                    Plane::filled(c.width as usize, c.height as usize, 0)
+                }),
+            };
+            outputs::write_view_maps(&config.out, &scene, &load, v, &final_map)?;
+            let mut ids: Vec<u32> = final_map.data.iter().copied().filter(|&x| x > 0).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let counts = match &eval {
+                Some(e) => {
+                    let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {
+                        Ok(match views[v] {
+                            Some(_) => Some(offset_map(&cached_map(v, kind)?, base)),
+                            None => None,
+                        })
+                    };
+                    let mut maps =
+                        vec![local("raw", raw_offsets[v])?, local("merged", merged_offsets[v])?, matched];
+                    if lifted.is_some() {
+                        maps.push(Some(final_map));
+                    }
+                    view_counts(&scene, e, v, &maps, &pc.eval)?
+                }
+                None => None,
+            };
+            Ok((ids, counts))
+        })
+        .collect::<crate::Result<_>>()?;
+    bar.finish_and_clear();
     // `[N]` ids of every input row (-1 for the non-finite rows that were skipped).
     let row_ids = match (&ply_rows, &lifted) {
-        (Some(rows), Some(l)) => Some(outputs::ids_of_every_row(rows, &l.object_ids)),
+        (Some(rows), Some(l)) => Some(outputs::ids_of_every_row(rows, &l.lifted.object_ids)),
         _ => None,
     };
-    if let (Some(rows), Some(ids), Some(l), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
-        let g = outputs::labelled_rows(rows, ids, l.fused_features.as_ref());
+    let fused = lifted.as_mut().and_then(|l| l.lifted.fused_features.take());
+    if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
+        let g = outputs::labelled_rows(rows, ids, fused);
         let out_ply = config.out.join("gaussians.ply");
         splatseg_scene::ply::write_ply_rows(&out_ply, &g)
             .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
     }
-    let mut final_ids: Vec<u32> =
-        final_maps.iter().flat_map(|m| m.data.iter().copied()).filter(|&x| x > 0).collect();
-    final_ids.sort_unstable();
-    final_ids.dedup();
+    let final_ids: std::collections::BTreeSet<u32> =
+        per_view.iter().flat_map(|(ids, _)| ids.iter().copied()).collect();
     let report = match &gt {
         Some(gt) => {
-            let raw: Vec<Option<Plane<u32>>> =
-                merged.iter().map(|m| m.as_ref().map(|m| m.raw.clone())).collect();
-            let merged_maps: Vec<Option<Plane<u32>>> =
-                merged.iter().map(|m| m.as_ref().map(|m| m.merged.clone())).collect();
-            let (raw, merged_maps) = (offset_local_maps(&raw), offset_local_maps(&merged_maps));
-            let final_opt: Vec<Option<Plane<u32>>> = final_maps.iter().cloned().map(Some).collect();
-            let mut stages = vec![
-                StageMaps { name: "raw", maps: &raw },
-                StageMaps { name: "merged", maps: &merged_maps },
-                StageMaps { name: "matched", maps: &matched },
-            ];
-            if lifted.is_some() {
-                stages.push(StageMaps { name: "lifted", maps: &final_opt });
-            }
-            let ids = row_ids.as_deref();
-            Some(evaluate(&scene, gt, &stages, ids, &pc.eval)?)
+            let counts: Vec<Vec<ViewCounts>> = per_view.into_iter().filter_map(|(_, c)| c).collect();
+            Some(evaluate(stage_names, &counts, gt, row_ids.as_deref(), &pc.eval)?)
         }
         None => None,
     };
@@ -355,13 +375,14 @@ pub fn run_pipeline(config: &RunConfig) -> anyhow::Result<RunSummary> {
         matched_objects: matching.n_objects,
         final_objects: final_ids.len(),
         match_stats: matching.stats.clone(),
-        lift_stats: lifted.as_ref().map(|l| l.stats.clone()),
+        lift_stats: lifted.as_ref().map(|l| l.lifted.stats.clone()),
         report,
         cached_views,
         resumed: false,
+        stages: Vec::new(),
     };
     write_json(&config.out.join("metrics.json"), &summary)?;
     outputs::write_report(&config.out, &scene, &summary)?;
     write_json(&cache_dir.join("run.json"), &RunCache { key: run_key, summary: summary.clone() })?;
-    Ok(summary)
+    Ok(RunSummary { stages: profiler.finish(), ..summary })
 }

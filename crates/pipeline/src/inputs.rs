@@ -1,7 +1,7 @@
 //! Loading and checking what `run` reads: the scene, the SAM mask folder, the Gaussians and the
 //! optional ground truth. Every inconsistency is an error naming the file or folder.
 
-use anyhow::{bail, Context};
+use crate::error::{bail, Context};
 use splatseg_scene::ply::PlyRows;
 use splatseg_scene::{Gaussians, Scene};
 use std::borrow::Cow;
@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 /// Stems that have masks in `dir` (`<stem>.json` files or `<stem>/metadata.csv` folders).
-pub fn mask_stems(dir: &Path) -> anyhow::Result<BTreeSet<String>> {
+pub fn mask_stems(dir: &Path) -> crate::Result<BTreeSet<String>> {
     let entries =
         std::fs::read_dir(dir).with_context(|| format!("cannot list the mask folder {}", dir.display()))?;
     let mut stems = BTreeSet::new();
@@ -30,7 +30,7 @@ pub fn mask_stems(dir: &Path) -> anyhow::Result<BTreeSet<String>> {
 }
 
 /// Per scene view: whether it has masks. Masks for views the scene does not have are an error.
-pub fn views_with_masks(scene: &Scene, dir: &Path) -> anyhow::Result<Vec<bool>> {
+pub fn views_with_masks(scene: &Scene, dir: &Path) -> crate::Result<Vec<bool>> {
     let stems = mask_stems(dir)?;
     let known: BTreeSet<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
     let unknown: Vec<&str> = stems.iter().map(String::as_str).filter(|s| !known.contains(s)).collect();
@@ -62,8 +62,8 @@ pub fn gaussians_path(scene_dir: &Path, explicit: Option<&Path>) -> Option<PathB
 
 /// Reads the PLY at `path`: every row, with the non-finite ones listed (skipped with one
 /// warning, or refused with `--strict`).
-pub fn read_gaussians(path: &Path) -> anyhow::Result<PlyRows> {
-    let rows = crate::commands::ply_input::read_rows(path, "they are labelled -1 in gaussians.ply")?;
+pub fn read_gaussians(path: &Path) -> crate::Result<PlyRows> {
+    let rows = crate::ply_input::read_rows(path, "they are labelled -1 in gaussians.ply")?;
     if rows.gaussians.len() == rows.non_finite.len() {
         bail!("the PLY holds no Gaussians with finite values: {}", path.display());
     }
@@ -95,7 +95,7 @@ pub fn ground_truth(
     dir: &Path,
     n_gaussians: Option<usize>,
     ply: Option<&Path>,
-) -> anyhow::Result<GroundTruth> {
+) -> crate::Result<GroundTruth> {
     if !dir.is_dir() {
         bail!("ground-truth folder not found: {}", dir.display());
     }

@@ -1,7 +1,7 @@
 //! The `--config` TOML file: [`PipelineConfig`], one table per stage. Kept free of the rest of
-//! the binary so the fuzz target `fuzz/fuzz_targets/config_toml.rs` can include this file.
+//! the crate so the fuzz target `fuzz/fuzz_targets/config_toml.rs` can call it cheaply.
 
-use anyhow::Context;
+use crate::error::Context;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::RegionOptions;
 use splatseg_eval::EvalConfig;
@@ -31,7 +31,7 @@ pub struct PipelineConfig {
 
 impl PipelineConfig {
     /// Reads a TOML config file.
-    pub fn from_file(path: &Path) -> anyhow::Result<Self> {
+    pub fn from_file(path: &Path) -> crate::Result<Self> {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
         Self::from_toml(&text, path)
@@ -39,7 +39,7 @@ impl PipelineConfig {
 
     /// Parses the text of a TOML config file and checks the settings that have rules
     /// (`[merge]`, `[train]`); `path` is only named in errors.
-    pub fn from_toml(text: &str, path: &Path) -> anyhow::Result<Self> {
+    pub fn from_toml(text: &str, path: &Path) -> crate::Result<Self> {
         let config: Self =
             toml::from_str(text).with_context(|| format!("invalid pipeline config: {}", path.display()))?;
         config.merge.validate().with_context(|| format!("invalid [merge] settings: {}", path.display()))?;
@@ -56,7 +56,7 @@ mod tests {
     /// file may panic, and the seed (the `splatseg config` output) must parse.
     #[test]
     fn the_config_fuzz_corpus_replays_and_the_seed_parses() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/config_toml");
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/config_toml");
         let mut files: Vec<_> = std::fs::read_dir(&dir)
             .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
             .map(|e| e.expect("entry").path())

@@ -4,7 +4,7 @@
 //! when its process ends, however it ends (SIGKILL included), so a lock left by a killed run
 //! never blocks the next one; the file itself stays (emptied on a clean exit).
 
-use anyhow::{bail, Context};
+use crate::error::{bail, Context};
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, Write};
 use std::path::Path;
@@ -16,18 +16,22 @@ pub const LOCK_FILE: &str = ".splatseg.lock";
 #[derive(Debug)]
 pub struct OutputLock {
     file: File,
+    /// Held by one shard among others: the file is left as it is.
+    shared: bool,
 }
 
 impl Drop for OutputLock {
     fn drop(&mut self) {
         // Empty the file while still holding the lock; closing the file releases it.
-        let _ = self.file.set_len(0);
+        if !self.shared {
+            let _ = self.file.set_len(0);
+        }
     }
 }
 
 /// Takes the lock on `out` (created if needed) for `command`, or fails at once when another
 /// process holds it.
-pub fn lock_output(out: &Path, command: &str) -> anyhow::Result<OutputLock> {
+pub fn lock_output(out: &Path, command: &str) -> crate::Result<OutputLock> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create the output folder {}", out.display()))?;
     let path = out.join(LOCK_FILE);
@@ -38,7 +42,7 @@ pub fn lock_output(out: &Path, command: &str) -> anyhow::Result<OutputLock> {
         .truncate(false)
         .open(&path)
         .with_context(|| format!("cannot open the lock file {}", path.display()))?;
-    if !try_lock_exclusive(&file).with_context(|| format!("cannot lock {}", path.display()))? {
+    if !try_lock(&file, true).with_context(|| format!("cannot lock {}", path.display()))? {
         let mut holder = String::new();
         let _ = file.read_to_string(&mut holder);
         let holder = holder.trim();
@@ -56,7 +60,36 @@ pub fn lock_output(out: &Path, command: &str) -> anyhow::Result<OutputLock> {
         .and_then(|_| file.flush())
         .with_context(|| format!("cannot write {}", path.display()))?;
     remove_stale_temp_files(out);
-    Ok(OutputLock { file })
+    Ok(OutputLock { file, shared: false })
+}
+
+/// Takes a *shared* lock on `out` for one shard of a per-view stage (`merge --shard K/N`,
+/// `cues --shard K/N`): any number of shards write their own per-view files into `out` at once
+/// (each file written whole, then renamed), while a `run` (exclusive) is refused until they end,
+/// and a shard is refused while a `run` writes. No temporary files are removed (other shards'
+/// writes may be in flight).
+pub fn lock_output_shared(out: &Path, command: &str) -> crate::Result<OutputLock> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
+    let path = out.join(LOCK_FILE);
+    let file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .with_context(|| format!("cannot open the lock file {}", path.display()))?;
+    if !try_lock(&file, false).with_context(|| format!("cannot lock {}", path.display()))? {
+        let mut holder = String::new();
+        let _ = (&file).read_to_string(&mut holder);
+        let holder = holder.trim();
+        let holder = if holder.is_empty() { "another process".to_string() } else { holder.to_string() };
+        bail!(
+            "the output folder is in use by {holder}: `{command}` shards wait for it to finish: {}",
+            out.display()
+        );
+    }
+    Ok(OutputLock { file, shared: true })
 }
 
 /// Removes the temporary files (`.tmp*`, see `splatseg_scene::atomic`) a killed writer left in
@@ -78,12 +111,14 @@ fn remove_stale_temp_files(dir: &Path) {
     }
 }
 
-/// `flock(LOCK_EX | LOCK_NB)`: `Ok(false)` when another open file description holds it.
+/// `flock(LOCK_EX | LOCK_NB)` (or `LOCK_SH` when not `exclusive`): `Ok(false)` when another open
+/// file description holds a lock that conflicts.
 #[cfg(unix)]
-fn try_lock_exclusive(file: &File) -> std::io::Result<bool> {
+fn try_lock(file: &File, exclusive: bool) -> std::io::Result<bool> {
     use std::os::unix::io::AsRawFd;
+    let mode = if exclusive { libc::LOCK_EX } else { libc::LOCK_SH };
     // SAFETY: `flock` only reads the descriptor, which `file` keeps open for the call.
-    let result = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+    let result = unsafe { libc::flock(file.as_raw_fd(), mode | libc::LOCK_NB) };
     if result == 0 {
         return Ok(true);
     }
@@ -97,7 +132,7 @@ fn try_lock_exclusive(file: &File) -> std::io::Result<bool> {
 
 /// Elsewhere no lock is taken (the file still records the last writer).
 #[cfg(not(unix))]
-fn try_lock_exclusive(_file: &File) -> std::io::Result<bool> {
+fn try_lock(_file: &File, _exclusive: bool) -> std::io::Result<bool> {
     Ok(true)
 }
 
@@ -113,7 +148,19 @@ mod tests {
         assert!(err.contains(&format!("splatseg run (pid {})", std::process::id())), "{err}");
         assert!(err.contains("same --out"), "{err}");
         drop(first);
-        let _again = lock_output(tmp.path(), "train").expect("lock after release");
+        let again = lock_output(tmp.path(), "train").expect("lock after release");
         assert!(tmp.path().join(LOCK_FILE).is_file());
+        lock_output_shared(tmp.path(), "merge").expect_err("a shard waits for the run");
+        drop(again);
+    }
+
+    #[test]
+    fn shards_share_the_folder_and_a_run_waits_for_them() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let a = lock_output_shared(tmp.path(), "merge").expect("first shard");
+        let b = lock_output_shared(tmp.path(), "merge").expect("second shard");
+        lock_output(tmp.path(), "run").expect_err("run waits for the shards");
+        drop((a, b));
+        lock_output(tmp.path(), "run").expect("run after the shards");
     }
 }

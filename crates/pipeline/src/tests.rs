@@ -125,7 +125,7 @@ fn masks_for_unknown_views_are_an_error() {
     copy_dir(&scene.join("sam"), &masks);
     std::fs::copy(masks.join("view_000.json"), masks.join("holiday_042.json")).expect("copy");
     let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("unknown view"));
+    let err = run_pipeline(&config).expect_err("unknown view").report();
     assert!(err.contains("holiday_042") && err.contains("does not have"), "{err}");
 }
 
@@ -143,7 +143,7 @@ fn masks_of_the_wrong_size_are_an_error() {
     )
     .expect("write");
     let config = RunConfig { masks, ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
+    let err = run_pipeline(&config).expect_err("wrong size").report();
     assert!(err.contains("[40, 50]") && err.contains("view_001.json"), "{err}");
 }
 
@@ -160,7 +160,7 @@ fn ground_truth_of_the_wrong_size_is_an_error() {
     )
     .expect("write");
     let config = RunConfig { gt: Some(gt), ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("wrong size"));
+    let err = run_pipeline(&config).expect_err("wrong size").report();
     assert!(err.contains("view_002"), "{err}");
 }
 
@@ -174,7 +174,7 @@ fn a_ply_with_too_few_gaussians_is_an_error() {
     let ply = tmp.path().join("half.ply");
     splatseg_scene::ply::write_ply(&ply, &g.select(&half)).expect("write");
     let config = RunConfig { gaussians: Some(ply), ..run_config(&scene, &tmp.path().join("out")) };
-    let err = format!("{:#}", run_pipeline(&config).expect_err("too few Gaussians"));
+    let err = run_pipeline(&config).expect_err("too few Gaussians").report();
     assert!(err.contains("fewer Gaussians") && err.contains("half.ply"), "{err}");
 }
 
@@ -255,4 +255,29 @@ fn train_stage_after_the_pipeline_improves_3d_ids_and_keeps_2d_quality() {
         lifted.miou
     );
     assert!(joint.consistency > 0.93, "consistency {:.3}", joint.consistency);
+}
+
+/// The library's read side gives back what the run wrote and returned.
+#[test]
+fn run_outputs_read_back_what_the_run_returned() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    synth(&scene, &SynthConfig { seed: 2, views: 3, width: 160, height: 120, ..SynthConfig::default() });
+    let out = tmp.path().join("out");
+    let config = RunConfig { gt: None, ..run_config(&scene, &out) };
+    let summary = run_pipeline(&config).expect("pipeline runs");
+    let read = crate::RunOutputs::open(&out).expect("finished run");
+    assert_eq!(read.summary.final_objects, summary.final_objects);
+    assert_eq!(read.summary.merged_masks, summary.merged_masks);
+    let ids = read.object_ids().expect("labelled PLY");
+    assert_eq!(Some(ids.len()), summary.gaussians);
+    let stems: Vec<String> = std::fs::read_dir(out.join("masks"))
+        .expect("masks")
+        .flatten()
+        .map(|e| e.path().file_stem().expect("stem").to_string_lossy().to_string())
+        .collect();
+    let first = read.label_map(&stems[0]).expect("label map");
+    assert!(first.data.iter().any(|&id| id > 0), "objects in the map");
+    let err = crate::RunOutputs::open(tmp.path()).expect_err("no run there").report();
+    assert!(err.contains("metrics.json"), "{err}");
 }

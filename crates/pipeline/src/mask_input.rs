@@ -1,7 +1,7 @@
 //! SAM masks as merge inputs, shared by `splatseg merge` and the pipeline's merge stage: each mask's
 //! declared size checked against the image before decoding, row runs built from the COCO counts.
 
-use anyhow::Context;
+use crate::error::Context;
 use splatseg_cues::regions::MaskInput;
 use splatseg_scene::sam::SamMask;
 use std::path::{Path, PathBuf};
@@ -17,15 +17,19 @@ pub fn read_view_mask_inputs(
     stem: &str,
     width: usize,
     height: usize,
-) -> anyhow::Result<Option<Vec<MaskInput>>> {
+) -> crate::Result<Option<Vec<MaskInput>>> {
     let too_big = || format!("image of view `{stem}` is {width}×{height}, too large for SAM masks");
-    let size = (u32::try_from(width).with_context(too_big)?, u32::try_from(height).with_context(too_big)?);
+    let size =
+        (u32::try_from(width).ok().with_context(too_big)?, u32::try_from(height).ok().with_context(too_big)?);
     let Some(masks) = splatseg_scene::sam::read_view_masks_for_image(dir, stem, size.0, size.1)? else {
         return Ok(None);
     };
-    mask_inputs(&masks, width, height)
-        .map(Some)
-        .map_err(|e| anyhow::anyhow!("SAM masks of view `{stem}`, {e}: {}", mask_source(dir, stem).display()))
+    mask_inputs(&masks, width, height).map(Some).map_err(|e| {
+        crate::PipelineError::Invalid(format!(
+            "SAM masks of view `{stem}`, {e}: {}",
+            mask_source(dir, stem).display()
+        ))
+    })
 }
 
 /// `masks` (each `width × height`) as merge inputs, their row runs built from the COCO counts

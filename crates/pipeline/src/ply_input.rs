@@ -17,7 +17,7 @@ pub fn set_strict(strict: bool) {
 /// Every row of the PLY at `path` with the non-finite ones listed. With `--strict` a file with
 /// non-finite values is an error naming the first one; otherwise one warning says how many rows
 /// are skipped and `consequence` (what happens to them in the outputs).
-pub fn read_rows(path: &Path, consequence: &str) -> anyhow::Result<PlyRows> {
+pub fn read_rows(path: &Path, consequence: &str) -> crate::Result<PlyRows> {
     let rows = read_ply_rows(path)?;
     if STRICT.load(Ordering::Relaxed) {
         rows.refuse_non_finite(path)?;
@@ -29,6 +29,6 @@ pub fn read_rows(path: &Path, consequence: &str) -> anyhow::Result<PlyRows> {
 
 /// The finite Gaussians of the PLY at `path`, in file order (see [`read_rows`]); the skipped
 /// rows are left out of whatever the command writes.
-pub fn read_finite(path: &Path) -> anyhow::Result<Gaussians> {
+pub fn read_finite(path: &Path) -> crate::Result<Gaussians> {
     Ok(read_rows(path, "they are left out")?.into_finite())
 }

@@ -3,7 +3,7 @@
 
 use super::cache::{read_json, write_json, KeyHasher};
 use super::read_view_mask_inputs;
-use anyhow::Context;
+use crate::error::Context;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions};
 use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, RegionSummary};
@@ -52,6 +52,14 @@ pub struct MergeContext<'a> {
     pub cache_dir: PathBuf,
 }
 
+impl MergeContext<'_> {
+    /// `[H, W]` map `kind` (`raw` or `merged`) of view `stem`, read back from the merge cache.
+    pub fn cached_map(&self, stem: &str, kind: &str) -> crate::Result<Plane<u32>> {
+        let path = self.cache_dir.join(format!("{stem}.{kind}.png"));
+        read_label_png(&path).with_context(|| format!("reading back the merge of view `{stem}`"))
+    }
+}
+
 /// The depth inputs of one view.
 pub struct ViewDepth<'a> {
     /// Depth for the merge cues.
@@ -63,7 +71,7 @@ pub struct ViewDepth<'a> {
 }
 
 /// The cache key of one view's merge.
-fn view_key(ctx: &MergeContext, view: &View, depth_key: &str) -> anyhow::Result<String> {
+fn view_key(ctx: &MergeContext, view: &View, depth_key: &str) -> crate::Result<String> {
     let mut h = KeyHasher::default();
     h.text("merge-v1").text(&view.stem).json(ctx.config).json(&ctx.region_options).text(depth_key);
     h.folder_entry(ctx.masks_dir, &view.stem)?;
@@ -92,13 +100,22 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
 /// The SAM masks of `view` as merge inputs (none when it has no masks), each checked against
 /// the `width × height` image before it is decoded and turned into row runs straight from its
 /// COCO counts (see [`super::read_view_mask_inputs`]).
-fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> anyhow::Result<Vec<MaskInput>> {
+fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> crate::Result<Vec<MaskInput>> {
     let masks = read_view_mask_inputs(ctx.masks_dir, &view.stem, width as usize, height as usize)?;
     Ok(masks.unwrap_or_default())
 }
 
+/// The merge of one view from the cache, when an entry made from the same inputs and settings
+/// is there.
+pub fn merge_cached(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::Result<Option<MergedView>> {
+    let camera = ctx.scene.camera(view);
+    let size = (camera.width as usize, camera.height as usize);
+    let key = view_key(ctx, view, &depth.key)?;
+    Ok(read_cached(ctx, &view.stem, &key, size))
+}
+
 /// Merges one view (or reads it from the cache).
-pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> anyhow::Result<MergedView> {
+pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::Result<MergedView> {
     let camera = ctx.scene.camera(view);
     let size = (camera.width as usize, camera.height as usize);
     let key = view_key(ctx, view, &depth.key)?;
@@ -140,7 +157,7 @@ pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> anyhow::
 
 #[cfg(test)]
 mod tests {
-    use crate::pipeline::{mask_inputs, read_view_mask_inputs};
+    use crate::{mask_inputs, read_view_mask_inputs};
     use splatseg_cues::{regions_from_sam_masks, MaskInput, RegionOptions};
     use splatseg_scene::sam::{write_sam_json, write_sam_png_folder, SamMask};
     use splatseg_synth::SynthConfig;
@@ -207,14 +224,14 @@ mod tests {
         write_sam_png_folder(&folder, &view.sam_masks).expect("png folder");
         let bad = folder.join("2.png");
         image::GrayImage::new(80, 60).save(&bad).expect("small png");
-        let err = format!("{:#}", read_view_mask_inputs(tmp.path(), &view.stem, 160, 120).unwrap_err());
+        let err = read_view_mask_inputs(tmp.path(), &view.stem, 160, 120).unwrap_err().report();
         assert!(err.contains(&bad.display().to_string()), "{err}");
         assert!(err.contains("80") && err.contains("160"), "both sizes: {err}");
         assert!(!err.contains(".json"), "{err}");
 
         let json = tmp.path().join("other.json");
         write_sam_json(&json, &view.sam_masks).expect("json");
-        let err = format!("{:#}", read_view_mask_inputs(tmp.path(), "other", 160, 121).unwrap_err());
+        let err = read_view_mask_inputs(tmp.path(), "other", 160, 121).unwrap_err().report();
         assert!(err.contains(&json.display().to_string()), "{err}");
     }
 }

@@ -2,7 +2,7 @@
 //! settings it was computed from (a 64-bit FNV-1a hash over file contents and the stage's
 //! config as JSON); a rerun reuses an output whose key matches and recomputes it otherwise.
 
-use anyhow::Context;
+use crate::error::Context;
 use std::path::Path;
 
 /// An incremental FNV-1a 64-bit hash: stable across Rust versions and platforms (unlike std's
@@ -38,7 +38,7 @@ impl KeyHasher {
     }
 
     /// Adds a file's contents, or a marker when it does not exist.
-    pub fn file(&mut self, path: &Path) -> anyhow::Result<&mut Self> {
+    pub fn file(&mut self, path: &Path) -> crate::Result<&mut Self> {
         if path.is_file() {
             let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
             Ok(self.bytes(&bytes))
@@ -48,7 +48,7 @@ impl KeyHasher {
     }
 
     /// Adds every file of a folder (sorted by name, recursively), or a marker when absent.
-    pub fn folder_entry(&mut self, dir: &Path, stem: &str) -> anyhow::Result<&mut Self> {
+    pub fn folder_entry(&mut self, dir: &Path, stem: &str) -> crate::Result<&mut Self> {
         for ext in ["json", "npy", "npz"] {
             self.file(&dir.join(format!("{stem}.{ext}")))?;
         }
@@ -81,7 +81,7 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
 }
 
 /// Writes `value` as pretty JSON, atomically.
-pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> crate::Result<()> {
     let text = serde_json::to_string_pretty(value)?;
     splatseg_scene::atomic::write_bytes_atomic(path, text.as_bytes())?;
     Ok(())

@@ -1,7 +1,7 @@
 //! The train stage as `splatseg train` and `demo` run it: load the scene's images, hold out every
 //! `test_every`-th view, train, score PSNR / SSIM before and after, write the trained PLY.
 
-use anyhow::Context;
+use crate::error::{bail, Context};
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -151,7 +151,7 @@ struct MapViews {
 }
 
 /// Loads every view's image and camera, in scene order, and the starting Gaussians.
-fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> {
+fn load_inputs(run: &TrainRun, options: &LoadOptions) -> crate::Result<Inputs> {
     let scene_dir = &run.scene;
     let scene = load_scene(scene_dir, options)
         .with_context(|| format!("cannot load scene {}", scene_dir.display()))?;
@@ -171,7 +171,7 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> 
         .map(|(view, image)| {
             let camera = RenderCamera::from_scene(scene.camera(view), &view.world_from_cam);
             if (image.width(), image.height()) != (camera.width, camera.height) {
-                anyhow::bail!(
+                bail!(
                     "image of view {} is {}×{} but its camera is {}×{}",
                     view.name,
                     image.width(),
@@ -183,10 +183,10 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> anyhow::Result<Inputs> 
             let pixels = image.as_raw().iter().map(|&c| f32::from(c) / 255.0).collect();
             Ok(TrainView { name: view.stem.clone(), camera, image: pixels, labels: None })
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<crate::Result<Vec<_>>>()?;
     let init = &run.init;
     let gaussians = match (&run.gaussians, &scene.points) {
-        (Some(path), _) => crate::commands::ply_input::read_finite(path)?,
+        (Some(path), _) => crate::ply_input::read_finite(path)?,
         (None, Some(points)) if !points.is_empty() => {
             tracing::info!("initialising one Gaussian per sparse point ({})", points.len());
             let xyz: Vec<[f32; 3]> = points.iter().map(|p| p.xyz.to_array().map(|v| v as f32)).collect();
@@ -245,10 +245,10 @@ fn label_map_folder(run: &TrainRun, gaussians: &Gaussians) -> Option<PathBuf> {
 
 /// `[H, W]` global ids of view `stem` from `dir/<stem>.png`, resampled (nearest) to the camera's size
 /// when the map is at another resolution of the same frame.
-fn load_label_map(dir: &Path, stem: &str, camera: &RenderCamera) -> anyhow::Result<Vec<u32>> {
+fn load_label_map(dir: &Path, stem: &str, camera: &RenderCamera) -> crate::Result<Vec<u32>> {
     let path = dir.join(format!("{stem}.png"));
     if !path.is_file() {
-        anyhow::bail!(
+        bail!(
             "no label map for view {stem} (the identity maps need every training view's final label map from              `splatseg run`; pass --label-maps DIR or --no-identity-maps): {}",
             path.display()
         );
@@ -260,7 +260,7 @@ fn load_label_map(dir: &Path, stem: &str, camera: &RenderCamera) -> anyhow::Resu
     }
     let (sx, sy) = (map.width as f64 / w as f64, map.height as f64 / h as f64);
     if map.width < w || (sx / sy - 1.0).abs() > 0.02 {
-        anyhow::bail!(
+        bail!(
             "label map is {}×{} but the view is {w}×{h} (not the same frame at a coarser resolution): {}",
             map.width,
             map.height,
@@ -282,7 +282,7 @@ fn write_object_maps(
     gaussians: &Gaussians,
     views: &MapViews,
     overlays: bool,
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     let Some(ids) = gaussians.object_ids.as_deref() else { return Ok(()) };
     let prepared = PreparedGaussians::new(gaussians)?;
     let votes =
@@ -300,7 +300,7 @@ fn write_object_maps(
             if overlays {
                 write_png_rgb(&out.join("overlays").join(format!("{name}.png")), &overlay(image, &map, 0.5))?;
             }
-            anyhow::Ok(())
+            Ok::<_, crate::PipelineError>(())
         },
     )
 }
@@ -309,7 +309,7 @@ fn write_object_maps(
 /// after a joint stage, `object_features.npy` (`[N, D]`) and every view's label map rendered from the
 /// relabelled Gaussians (`masks/`, `overlays/`); the Gaussians of each `save_iterations` entry before the
 /// last go to `point_cloud/iteration_<N>/point_cloud.ply` (3DGS's layout).
-pub fn run_training(run: &TrainRun) -> anyhow::Result<TrainSummary> {
+pub fn run_training(run: &TrainRun) -> crate::Result<TrainSummary> {
     run.config.validate()?;
     let _lock = super::lock::lock_output(&run.out, "train")?;
     let options = LoadOptions {

@@ -1,8 +1,7 @@
 //! What `run` writes: `masks/`, `overlays/`, `gaussians.ply`, `report.md`, `metrics.json`.
 
 use super::RunSummary;
-use anyhow::Context;
-use rayon::prelude::*;
+use crate::error::Context;
 use splatseg_scene::gaussians::FeatureBlock;
 use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
@@ -24,33 +23,44 @@ pub fn ids_of_every_row(rows: &PlyRows, finite_ids: &[i32]) -> Vec<i32> {
 /// The input rows with `object_id` = `ids` (`[N]`) and, when lifting fused them, `feat_*` from
 /// `finite_features` (`[N - k, D]`, one per finite row; zeros for the skipped rows); otherwise the
 /// input's own `feat_*` stay.
-pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<&FeatureBlock>) -> Gaussians {
+pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<FeatureBlock>) -> Gaussians {
     let finite = rows.finite_rows();
     let mut g = rows.gaussians;
     g.object_ids = Some(ids.to_vec());
-    if let Some(f) = finite_features {
-        let mut values = vec![0.0; g.len() * f.dim];
-        for (k, &row) in finite.iter().enumerate() {
-            values[row * f.dim..(row + 1) * f.dim].copy_from_slice(&f.values[k * f.dim..(k + 1) * f.dim]);
+    match finite_features {
+        // Every row is finite: the block is already one row per Gaussian, in order (moved, not copied).
+        Some(f) if finite.len() == g.len() => g.features = Some(f),
+        Some(f) => {
+            let mut values = vec![0.0; g.len() * f.dim];
+            for (k, &row) in finite.iter().enumerate() {
+                values[row * f.dim..(row + 1) * f.dim].copy_from_slice(&f.values[k * f.dim..(k + 1) * f.dim]);
+            }
+            g.features = Some(FeatureBlock { dim: f.dim, values });
         }
-        g.features = Some(FeatureBlock { dim: f.dim, values });
+        None => {}
     }
     g
 }
 
-/// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` per view.
-pub fn write_maps(out: &Path, scene: &Scene, load: &LoadOptions, maps: &[Plane<u32>]) -> anyhow::Result<()> {
-    scene.views.par_iter().zip(maps).try_for_each(|(view, map)| -> anyhow::Result<()> {
-        write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
-        let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
-        let path = out.join("overlays").join(format!("{}.png", view.stem));
-        write_png_rgb(&path, &overlay(&image, map, 0.5))?;
-        Ok(())
-    })
+/// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` of view `v`
+/// (`map`: `[H, W]` final ids).
+pub fn write_view_maps(
+    out: &Path,
+    scene: &Scene,
+    load: &LoadOptions,
+    v: usize,
+    map: &Plane<u32>,
+) -> crate::Result<()> {
+    let view = &scene.views[v];
+    write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
+    let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
+    let path = out.join("overlays").join(format!("{}.png", view.stem));
+    write_png_rgb(&path, &overlay(&image, map, 0.5))?;
+    Ok(())
 }
 
 /// Writes `report.md`.
-pub fn write_report(out: &Path, scene: &Scene, summary: &RunSummary) -> anyhow::Result<()> {
+pub fn write_report(out: &Path, scene: &Scene, summary: &RunSummary) -> crate::Result<()> {
     let mut md = String::from("# splatseg run\n\n");
     let _ = writeln!(md, "Scene: `{}` ({} views).\n", scene.root.display(), scene.views.len());
     let _ = writeln!(md, "| stage | result |\n| --- | --- |");

@@ -1,0 +1,242 @@
+//! The per-view merge as `run` and the shards (`merge --shard K/N`) share it: one view's depth
+//! (from `--depth`, or rendered from the Gaussians), its cache key, and the merge itself.
+
+use crate::cache::KeyHasher;
+use crate::error::{bail, Context};
+use crate::lift_stage::ViewResult;
+use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
+use crate::shard::{write_manifest, Shard, ShardManifest};
+use crate::{inputs, lock, RunConfig};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use splatseg_cues::{
+    ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
+    FeatureGrids, NpyDepthSource,
+};
+use splatseg_lift::{view_surface_depth, view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
+use splatseg_scene::load::LoadOptions;
+use splatseg_scene::{Plane, Scene};
+use std::path::Path;
+
+/// The key of what rendered depth depends on (the PLY's contents and the surface settings), so
+/// lift-only changes keep the merge cache; empty without a PLY.
+pub fn ply_key(ply: Option<&Path>, lift: &LiftConfig) -> crate::Result<String> {
+    Ok(match ply {
+        Some(p) => KeyHasher::default().file(p)?.json(&(lift.surface_transmittance, lift.near)).finish(),
+        None => String::new(),
+    })
+}
+
+/// `[H, W]` metric z with non-finite values (no surface) as 0.
+pub fn finite_depth(z: &Plane<f32>) -> Plane<f32> {
+    z.map(|&z| if z.is_finite() { z } else { 0.0 })
+}
+
+/// Where each view's descriptors and depth come from.
+pub struct MergeSources {
+    npy_depth: Option<NpyDepthSource>,
+    dense: Option<DenseFeatureDescriptors>,
+    ply_key: String,
+}
+
+impl MergeSources {
+    /// The sources `config` names; `ply_key` from [`ply_key`].
+    pub fn new(config: &RunConfig, ply_key: &str) -> Self {
+        MergeSources {
+            npy_depth: config
+                .depth
+                .as_ref()
+                .map(|dir| NpyDepthSource { dir: dir.clone(), kind: config.depth_kind }),
+            dense: config
+                .features
+                .as_ref()
+                .map(|dir| DenseFeatureDescriptors { grids: FeatureGrids::Folder(dir.clone()) }),
+            ply_key: ply_key.to_string(),
+        }
+    }
+
+    /// What every view's merge shares.
+    pub fn context<'a>(
+        &'a self,
+        scene: &'a Scene,
+        load: &'a LoadOptions,
+        config: &'a RunConfig,
+    ) -> MergeContext<'a> {
+        let descriptors: &dyn DescriptorSource = match &self.dense {
+            Some(d) => d,
+            None => &ColourTextureDescriptors,
+        };
+        MergeContext {
+            scene,
+            load_options: load,
+            masks_dir: &config.masks,
+            features_dir: config.features.as_deref(),
+            descriptors,
+            config: &config.pipeline.merge,
+            region_options: config.pipeline.regions,
+            cache_dir: config.out.join("cache").join("merge"),
+        }
+    }
+
+    /// The depth of view `v` for its merge, with its cache key; `metric`: `[H, W]` z rendered
+    /// from the Gaussians, when there are some.
+    fn depth(
+        &self,
+        ctx: &MergeContext,
+        v: usize,
+        metric: Option<&Plane<f32>>,
+    ) -> crate::Result<(DepthMap, String)> {
+        let view = &ctx.scene.views[v];
+        let camera = ctx.scene.camera(view);
+        Ok(match (&self.npy_depth, metric) {
+            (Some(src), _) => (
+                src.depth(&view.stem, camera.width as usize, camera.height as usize)?,
+                format!("npy:{:?}:{}", src.kind, self.ply_key),
+            ),
+            (None, Some(m)) => (
+                DepthMap { values: m.clone(), kind: DepthKind::MetricZ },
+                format!("rendered:{}", self.ply_key),
+            ),
+            (None, None) => bail!("no depth for view `{}`", view.stem),
+        })
+    }
+
+    /// Merges view `v` (or reads it from the cache).
+    pub fn merge(
+        &self,
+        ctx: &MergeContext,
+        v: usize,
+        metric: Option<Plane<f32>>,
+    ) -> crate::Result<MergedView> {
+        let (depth, key) = self.depth(ctx, v, metric.as_ref())?;
+        merge_one(ctx, &ctx.scene.views[v], &ViewDepth { depth: &depth, metric: metric.as_ref(), key })
+    }
+
+    /// The merge of view `v` that `shard` wrote; an error naming the shard when it is missing or
+    /// was made from other inputs or settings.
+    pub fn cached(
+        &self,
+        ctx: &MergeContext,
+        v: usize,
+        metric: Option<Plane<f32>>,
+        shard: Shard,
+    ) -> crate::Result<MergedView> {
+        let (depth, key) = self.depth(ctx, v, metric.as_ref())?;
+        let view = &ctx.scene.views[v];
+        match merge_cached(ctx, view, &ViewDepth { depth: &depth, metric: metric.as_ref(), key })? {
+            Some(hit) => Ok(hit),
+            None => bail!(
+                "view `{}` has no merge results from shard {shard} made with these inputs and settings: \
+                 rerun `splatseg merge --shard {shard}` with the same arguments as this run: {}",
+                view.stem,
+                ctx.cache_dir.display()
+            ),
+        }
+    }
+}
+
+/// What `run` does per view, one view at a time on each thread: surface depth from the
+/// Gaussians, the merge (computed, from the cache, or — after `merge --shard` — from the shard
+/// that made it), visibility; only the compact [`ViewResult`] is kept, the merged maps stay in
+/// `OUT/cache/merge/`.
+pub struct PerView<'a> {
+    /// The Gaussians, when there are some.
+    pub prepared: Option<&'a PreparedGaussians>,
+    /// `[n_views]` cameras.
+    pub cams: &'a [PosedCamera<'a>],
+    /// Depth and descriptor sources.
+    pub sources: &'a MergeSources,
+    /// What every view's merge shares.
+    pub ctx: &'a MergeContext<'a>,
+    /// The shard count, when the merges come from shards.
+    pub sharded: Option<usize>,
+    /// Lift settings (surface depth, visibility).
+    pub lift: &'a LiftConfig,
+}
+
+impl PerView<'_> {
+    /// The compact result of view `v` (which has masks).
+    pub fn result(&self, v: usize) -> crate::Result<ViewResult> {
+        let c = &self.cams[v];
+        let depth = self.prepared.map(|p| view_surface_depth(p, c.camera, c.world_from_cam, self.lift));
+        let metric = depth.as_ref().map(finite_depth);
+        let merged = match self.sharded {
+            Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count })?,
+            None => self.sources.merge(self.ctx, v, metric)?,
+        };
+        let visibility = match (self.prepared, &depth) {
+            (Some(p), Some(d)) => Some(view_visibility(p, c.camera, c.world_from_cam, Some(d), self.lift)),
+            _ => None,
+        };
+        let (visibility, local_labels) = ViewResult::compact(visibility, &merged.merged);
+        Ok(ViewResult {
+            raw_max: merged.raw.data.iter().copied().max().unwrap_or(0),
+            merged_max: merged.merged.data.iter().copied().max().unwrap_or(0),
+            regions: merged.regions,
+            cached: merged.cached,
+            visibility,
+            local_labels,
+        })
+    }
+}
+
+/// What one shard of the merge stage did.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ShardSummary {
+    /// Which shard.
+    pub shard: Shard,
+    /// Views of the scene.
+    pub views: usize,
+    /// Views of this shard that had masks (merged or found in the cache).
+    pub merged: usize,
+    /// Of those, from the cache.
+    pub cached: usize,
+}
+
+/// Runs the per-view merge stage of `run` over the views of `shard` only, into `OUT/cache/merge`
+/// (exactly what `run` would compute for them), and records the shard as finished. Any number of
+/// shards may run at once on the same `OUT`; a later [`crate::run_pipeline`] on it finds every
+/// view's merge there and does only the global steps.
+pub fn merge_shard(config: &RunConfig, shard: Shard) -> crate::Result<ShardSummary> {
+    let _lock = lock::lock_output_shared(&config.out, "merge")?;
+    let load = LoadOptions::default();
+    let scene = splatseg_scene::load_scene(&config.scene, &load)?;
+    splatseg_scene::load::check_image_sizes(&scene, &load)?;
+    let has_masks = inputs::views_with_masks(&scene, &config.masks)?;
+    let ply_path = inputs::gaussians_path(&config.scene, config.gaussians.as_deref());
+    let ply_rows = ply_path.as_deref().map(inputs::read_gaussians).transpose()?;
+    let gaussians = ply_rows.as_ref().map(inputs::finite_gaussians);
+    if gaussians.is_none() && config.depth.is_none() {
+        bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
+    }
+    let prepared = gaussians.as_ref().map(|g| PreparedGaussians::new(g)).transpose()?;
+    drop(gaussians);
+    drop(ply_rows);
+    let lift = &config.pipeline.lift;
+    let ply_key = ply_key(ply_path.as_deref(), lift)?;
+    let sources = MergeSources::new(config, &ply_key);
+    let ctx = sources.context(&scene, &load, config);
+    let mine: Vec<usize> = (0..scene.views.len()).filter(|&v| shard.contains(v) && has_masks[v]).collect();
+    let bar = crate::progress(mine.len(), "merge shard");
+    let cached = mine
+        .par_iter()
+        .map(|&v| -> crate::Result<bool> {
+            let view = &scene.views[v];
+            let metric = prepared.as_ref().map(|p| {
+                finite_depth(&view_surface_depth(p, scene.camera(view), &view.world_from_cam, lift))
+            });
+            let merged = sources.merge(&ctx, v, metric).with_context(|| format!("shard {shard}"))?;
+            bar.inc(1);
+            Ok(merged.cached)
+        })
+        .collect::<crate::Result<Vec<bool>>>()?;
+    bar.finish_and_clear();
+    let views = mine.iter().map(|&v| scene.views[v].stem.clone()).collect();
+    write_manifest(&config.out, &ShardManifest { stage: "merge".into(), shard, views })?;
+    Ok(ShardSummary {
+        shard,
+        views: scene.views.len(),
+        merged: mine.len(),
+        cached: cached.iter().filter(|&&c| c).count(),
+    })
+}

@@ -1,0 +1,91 @@
+//! Wall time and peak resident memory per stage of a run (`splatseg run --profile FILE`,
+//! `splatseg bench scale`). On Linux the peak is the process's `VmHWM`, reset at the start of
+//! every stage (`/proc/self/clear_refs`), so each stage reports its own peak; elsewhere it is
+//! absent.
+
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// One stage's cost.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StageProfile {
+    /// Stage name.
+    pub stage: String,
+    /// Wall time, seconds.
+    pub seconds: f64,
+    /// Peak resident memory during the stage, bytes (Linux only).
+    pub peak_rss_bytes: Option<u64>,
+}
+
+/// Times stages one after another.
+pub struct Profiler {
+    stages: Vec<StageProfile>,
+    current: Option<(String, Instant)>,
+}
+
+impl Profiler {
+    /// Starts with `first`.
+    pub fn start(first: &str) -> Profiler {
+        let mut p = Profiler { stages: Vec::new(), current: None };
+        p.next(first);
+        p
+    }
+
+    /// Ends the current stage and starts `name`.
+    pub fn next(&mut self, name: &str) {
+        self.end();
+        reset_peak_rss();
+        self.current = Some((name.to_string(), Instant::now()));
+    }
+
+    fn end(&mut self) {
+        if let Some((stage, started)) = self.current.take() {
+            let seconds = started.elapsed().as_secs_f64();
+            let peak_rss_bytes = peak_rss_bytes();
+            tracing::debug!(
+                "stage {stage}: {seconds:.2} s, peak {} MB",
+                peak_rss_bytes.map_or("?".to_string(), |b| (b >> 20).to_string())
+            );
+            self.stages.push(StageProfile { stage, seconds, peak_rss_bytes });
+        }
+    }
+
+    /// Ends the current stage; every stage's cost.
+    pub fn finish(mut self) -> Vec<StageProfile> {
+        self.end();
+        self.stages
+    }
+}
+
+/// Resets the process's peak resident memory to its current value (Linux; ignored elsewhere).
+pub fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// The process's peak resident memory since start or the last reset (`VmHWM`), bytes.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stages_are_recorded_in_order_with_their_peaks() {
+        let mut p = Profiler::start("a");
+        let block = vec![1u8; 64 << 20];
+        std::hint::black_box(&block);
+        p.next("b");
+        drop(block);
+        let stages = p.finish();
+        assert_eq!(stages.iter().map(|s| s.stage.as_str()).collect::<Vec<_>>(), ["a", "b"]);
+        if let Some(a) = stages[0].peak_rss_bytes {
+            assert!(a >= 64 << 20, "stage a held 64 MB: {a}");
+        }
+        assert!(stages.iter().all(|s| s.seconds >= 0.0));
+    }
+}
