@@ -152,6 +152,14 @@ fn a_missing_shard_is_named_in_the_error() {
     assert!(!scene.out.join("metrics.json").exists(), "nothing written");
     scene.shards(3, &[1], 2);
     check(scene.run(2), "run once every shard is there");
+    // Settings the shards were not run with: the view and its shard are named, nothing is merged.
+    let config = scene.out.with_file_name("other.toml");
+    std::fs::write(&config, "[merge]\ntau_merge = 0.5\n").expect("config");
+    let output =
+        scene.command("run", &["--config", config.to_str().expect("utf-8")], 2).output().expect("run");
+    assert!(!output.status.success(), "run must refuse merges made with other settings");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("view `view_000`") && stderr.contains("shard 0/3"), "{stderr}");
 }
 
 #[test]

@@ -63,7 +63,8 @@ pub struct Args {
     /// 3DGS PLY for rendered depth (default: SCENE/gaussians.ply when present).
     #[arg(long)]
     pub gaussians: Option<PathBuf>,
-    /// Merge settings (TOML `MergeConfig`; `profile = "paper" | "literal" | "released-code"`).
+    /// Merge settings (TOML `MergeConfig`; `profile = "paper" | "literal" | "released-code"`). With
+    /// --shard: `run`'s pipeline TOML (`splatseg config`), the same file the later `run` gets.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Image down-scaling factor (1, 2, 4, 8) as 3DGS's `--resolution`.

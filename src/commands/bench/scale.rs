@@ -54,7 +54,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let name = format!("scene-{}v-{w}x{h}-{}g-s{}", args.views, args.gaussians, args.seed);
     let scene = args.dir.join(&name);
     let started = Instant::now();
-    if !scene.join("ready.json").is_file() {
+    let wanted = ready_marker(&args);
+    let ready = std::fs::read_to_string(scene.join("ready.json")).ok();
+    if ready.as_deref() != Some(wanted.as_str()) {
         write_capture(&args, &scene)?;
         println!("wrote the capture {} in {:.1} s", scene.display(), started.elapsed().as_secs_f64());
     }
@@ -182,9 +184,21 @@ fn write_capture(args: &Args, dir: &Path) -> anyhow::Result<()> {
             }
         }
     }
-    let ready = serde_json::json!({ "views": args.views, "distinct_views": distinct, "size": [w, h], "gaussians": args.gaussians });
-    splatseg_scene::atomic::write_bytes_atomic(&dir.join("ready.json"), ready.to_string().as_bytes())?;
+    splatseg_scene::atomic::write_bytes_atomic(&dir.join("ready.json"), ready_marker(args).as_bytes())?;
     Ok(())
+}
+
+/// What `DIR/<scene>/ready.json` holds once the capture for `args` is complete.
+fn ready_marker(args: &Args) -> String {
+    let distinct = args.views.min(args.distinct_views);
+    serde_json::json!({
+        "views": args.views,
+        "distinct_views": distinct,
+        "size": [args.size.0, args.size.1],
+        "gaussians": args.gaussians,
+        "seed": args.seed,
+    })
+    .to_string()
 }
 
 /// Subsamples the Gaussians evenly to `target`, or repeats them (each copy offset by a small,
