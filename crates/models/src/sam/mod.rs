@@ -9,6 +9,7 @@ pub mod amg;
 pub mod image_encoder;
 pub mod mask_decoder;
 pub mod masks;
+mod packed_decoder;
 pub mod prompt_encoder;
 pub mod rel_pos_attention;
 pub mod shared_decoder;
