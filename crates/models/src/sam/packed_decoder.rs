@@ -232,11 +232,22 @@ impl PackedDecoder {
         mlp_forward(&self.hypernets[output], mask_token)
     }
 
-    /// Low-resolution logits `[S, 4h, 4w]` (row-major) from the image tokens after the transformer
-    /// (`keys` `[h·w, D]`, rows = cells) and the `S` hypernetwork outputs (`hyper` `[S, D/8]`): the
-    /// two transposed convolutions (with norm and GELUs) and the product, a tile of cells at a time.
-    pub(super) fn upscale(&self, keys: &[f32], hyper: &[f32], (h, w): (usize, usize)) -> Vec<f32> {
-        let d = self.dim;
+    /// `[D, 4·c1]` weight and `[4·c1]` bias of the first transposed convolution (columns (dy, dx, c)).
+    pub(super) fn up1(&self) -> (&[f32], &[f32]) {
+        (&self.up1_weight, &self.up1_bias)
+    }
+
+    /// Low-resolution logits `[S, 4h, 4w]` (row-major) from the `S` hypernetwork outputs (`hyper`
+    /// `[S, D/8]`): the two transposed convolutions (with norm and GELUs) and the product, a tile of
+    /// cells at a time. `first_layer(cell0, cells, out)` writes the first transposed convolution's
+    /// output with its bias, `[cells, 4·c1]`, for the image tokens after the transformer of cells
+    /// `cell0..cell0 + cells` (rows = cells).
+    pub(super) fn upscale(
+        &self,
+        first_layer: impl Fn(usize, usize, &mut [f32]),
+        hyper: &[f32],
+        (h, w): (usize, usize),
+    ) -> Vec<f32> {
         let c1 = self.up1_bias.len() / 4;
         let c2 = self.up2_bias.len() / 4;
         let s = hyper.len() / c2;
@@ -249,18 +260,8 @@ impl PackedDecoder {
         for cell0 in (0..h * w).step_by(UPSCALE_TILE) {
             let cells = UPSCALE_TILE.min(h * w - cell0);
             let first = &mut first[..cells * 4 * c1];
-            matmul(
-                cells,
-                4 * c1,
-                d,
-                ViewMut::rows(first, 0, 4 * c1),
-                View::rows(keys, cell0 * d, d),
-                View::rows(&self.up1_weight, 0, 4 * c1),
-                false,
-                1.0,
-            );
-            for (sub, bias) in first.chunks_exact_mut(c1).zip(self.up1_bias.chunks_exact(c1).cycle()) {
-                sub.iter_mut().zip(bias).for_each(|(v, b)| *v += b);
+            first_layer(cell0, cells, first);
+            for sub in first.chunks_exact_mut(c1) {
                 self.up_norm.row(sub);
                 sub.iter_mut().for_each(gelu);
             }

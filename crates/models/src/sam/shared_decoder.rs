@@ -58,6 +58,16 @@ pub struct DecoderImage {
     queries_beta: Vec<f32>,
     /// Final token→image attention's `P·W_kᵀ`, no bias.
     final_pe_keys: Vec<f32>,
+    /// Upscaling: `W'` = the first transposed convolution `[D, 4·c1]` with its rows scaled by the last
+    /// block's norm γ₂, and `γ⊙(E + b_o)·W'` `[N, 4·c1]`.
+    up_weight: Vec<f32>,
+    up_shared: Vec<f32>,
+    /// `γ·W'`, `β·W' + b_o₂·W'` (first block's norm, second block's image→token output bias), `γ₂·W`,
+    /// `β₂·W + b` (last norm, the convolution's bias): `[4·c1]` each.
+    up_first_gamma: Vec<f32>,
+    up_first_const: Vec<f32>,
+    up_second_gamma: Vec<f32>,
+    up_second_const: Vec<f32>,
     /// Embedding grid (h, w).
     grid: (usize, usize),
 }
@@ -82,6 +92,18 @@ struct DecodedPrompt {
     queries: Vec<f32>,
     /// Image tokens after the last block, `[N, D]`.
     keys: Vec<f32>,
+    /// How the image tokens came about, for the upscaling path: each block's image→token weights
+    /// `A` `[N, H·T]` and output rows, and the row means and inverse standard deviations of its norm.
+    first_weights: Vec<f32>,
+    /// `γ⊙U₁` `[H·T, D]`.
+    first_scaled_rows: Vec<f32>,
+    first_mean: Vec<f32>,
+    first_inv_std: Vec<f32>,
+    second_weights: Vec<f32>,
+    /// `U₂` `[H·T, D]`.
+    second_rows: Vec<f32>,
+    second_mean: Vec<f32>,
+    second_inv_std: Vec<f32>,
 }
 
 /// A batch of prompts through the transformer, ready for the heads.
@@ -123,6 +145,16 @@ fn project(lin: &Linear, x: &[f32], rows: usize, with_bias: bool) -> Vec<f32> {
     out
 }
 
+/// `v·W` for `v` `[K]` and `W` `[K, M]` (row-major): `[M]`.
+fn vec_mat(v: &[f32], w: &[f32]) -> Vec<f32> {
+    let cols = w.len() / v.len().max(1);
+    let mut out = vec![0f32; cols];
+    for (row, &x) in w.chunks_exact(cols).zip(v) {
+        out.iter_mut().zip(row).for_each(|(o, r)| *o += x * r);
+    }
+    out
+}
+
 impl MaskDecoder {
     /// The prompt-independent part of the decoder for one image: `image` and `image_pe` `[D, h, w]` as
     /// in [`MaskDecoder::forward`].
@@ -158,6 +190,27 @@ impl MaskDecoder {
             let beta_part: Vec<f32> = lin.apply_to(beta).iter().zip(&lin.bias).map(|(x, b)| x + b).collect();
             (lin.apply_to(gamma), beta_part)
         };
+        let (up1_weight, up1_bias) = packed.up1();
+        let up_cols = up1_bias.len();
+        let gamma2 = &second.norm4.gamma;
+        let up_weight: Vec<f32> = up1_weight
+            .chunks_exact(up_cols)
+            .zip(gamma2)
+            .flat_map(|(row, g)| row.iter().map(move |w| w * g))
+            .collect();
+        let mut up_shared = vec![0f32; n * up_cols];
+        matmul(
+            n,
+            up_cols,
+            d,
+            ViewMut::rows(&mut up_shared, 0, up_cols),
+            View::rows(&scaled, 0, d),
+            View::rows(&up_weight, 0, up_cols),
+            false,
+            1.0,
+        );
+        let up_first_const = added(&vec_mat(beta, &up_weight), &vec_mat(&i2t.out.bias, &up_weight));
+        let up_second_const = added(&vec_mat(&second.norm4.beta, up1_weight), up1_bias);
         let (keys_gamma, keys_beta) = affine(&t2i.k);
         let (values_gamma, values_beta) = affine(&t2i.v);
         let (queries_gamma, queries_beta) = affine(&i2t.q);
@@ -171,6 +224,12 @@ impl MaskDecoder {
             second_pe_keys: project(&t2i.k, &pe, n, false),
             second_pe_queries: project(&i2t.q, &pe, n, false),
             final_pe_keys: project(&packed.final_attn.k, &pe, n, false),
+            up_first_gamma: vec_mat(gamma, &up_weight),
+            up_second_gamma: vec_mat(gamma2, up1_weight),
+            up_first_const,
+            up_second_const,
+            up_weight,
+            up_shared,
             first_residual,
             keys_gamma,
             keys_beta,
@@ -236,7 +295,12 @@ impl MaskDecoder {
             .flat_map(|(&o, token)| packed.hyper(o, token))
             .collect();
         let (h, w) = image.grid;
-        let logits = packed.upscale(&one.keys, &hyper, (h, w));
+        let first_rows = rows_through_upscaling(image, &one.first_scaled_rows);
+        let second_rows = rows_through_upscaling(image, &one.second_rows);
+        let layer = |cell0, cells, out: &mut [f32]| {
+            first_upscaling_layer(image, one, (&first_rows, &second_rows), cell0, cells, out)
+        };
+        let logits = packed.upscale(layer, &hyper, (h, w));
         Ok(Tensor::from_vec(logits, (outputs.len(), 4 * h, 4 * w), &Device::Cpu)?)
     }
 }
@@ -328,11 +392,93 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
         true,
         1.0,
     );
-    for row in keys.chunks_exact_mut(d) {
+    let mut second_mean = vec![0f32; n];
+    let mut second_inv_std = vec![0f32; n];
+    for (i, row) in keys.chunks_exact_mut(d).enumerate() {
         add_into(row, &attn.out.bias);
-        second.norm4.row(row);
+        let (m, s) = second.norm4.row(row);
+        second_mean[i] = m;
+        second_inv_std[i] = 1.0 / s;
     }
-    DecodedPrompt { tokens, queries, keys }
+    DecodedPrompt {
+        tokens,
+        queries,
+        keys,
+        first_weights: a_first,
+        first_scaled_rows: scaled_rows,
+        first_mean: mean,
+        first_inv_std: inv_std,
+        second_weights: weights,
+        second_rows: u_second,
+        second_mean,
+        second_inv_std,
+    }
+}
+
+/// Attention output rows `[R, D]` through the scaled first transposed convolution `W'`: `[R, 4·c1]`.
+fn rows_through_upscaling(image: &DecoderImage, rows: &[f32]) -> Vec<f32> {
+    let cols = image.up_first_gamma.len();
+    let d = image.up_weight.len() / cols;
+    let r = rows.len() / d;
+    let mut projected = vec![0f32; r * cols];
+    let out = ViewMut::rows(&mut projected, 0, cols);
+    matmul(r, cols, d, out, View::rows(rows, 0, d), View::rows(&image.up_weight, 0, cols), false, 1.0);
+    projected
+}
+
+/// The first transposed convolution (with bias) of cells `cell0..cell0 + cells` of a decoded prompt's
+/// image tokens, `out` `[cells, 4·c1]`, through both blocks' attention weights: with `X₂ = γ₂⊙(Y − μ₂)/σ₂
+/// + β₂`, `Y = X₁ + A₂U₂ + b_o₂` and `X₁ = γ⊙(E + b_o + A₁U₁ − μ₁)/σ₁ + β`, the product `X₂·W` needs
+/// the shared `γ⊙(E + b_o)·W'` and per prompt only `H·T`-wide products with `A₁` and `A₂`
+/// (`first_rows`, `second_rows`: `γ⊙U₁` and `U₂` through `W'`, from [`rows_through_upscaling`]).
+fn first_upscaling_layer(
+    image: &DecoderImage,
+    prompt: &DecodedPrompt,
+    (first_rows, second_rows): (&[f32], &[f32]),
+    cell0: usize,
+    cells: usize,
+    out: &mut [f32],
+) {
+    let cols = image.up_first_gamma.len();
+    let ht1 = first_rows.len() / cols;
+    let ht2 = second_rows.len() / cols;
+    let out = &mut out[..cells * cols];
+    matmul(
+        cells,
+        cols,
+        ht1,
+        ViewMut::rows(out, 0, cols),
+        View::rows(&prompt.first_weights, cell0 * ht1, ht1),
+        View::rows(first_rows, 0, cols),
+        false,
+        1.0,
+    );
+    for (c, row) in out.chunks_exact_mut(cols).enumerate() {
+        let i = cell0 + c;
+        let (mean, inv_std) = (prompt.first_mean[i], prompt.first_inv_std[i]);
+        let shared = &image.up_shared[i * cols..(i + 1) * cols];
+        for j in 0..cols {
+            row[j] =
+                (row[j] + shared[j] - mean * image.up_first_gamma[j]) * inv_std + image.up_first_const[j];
+        }
+    }
+    matmul(
+        cells,
+        cols,
+        ht2,
+        ViewMut::rows(out, 0, cols),
+        View::rows(&prompt.second_weights, cell0 * ht2, ht2),
+        View::rows(second_rows, 0, cols),
+        true,
+        1.0,
+    );
+    for (c, row) in out.chunks_exact_mut(cols).enumerate() {
+        let i = cell0 + c;
+        let (mean, inv_std) = (prompt.second_mean[i], prompt.second_inv_std[i]);
+        for j in 0..cols {
+            row[j] = (row[j] - mean * image.up_second_gamma[j]) * inv_std + image.up_second_const[j];
+        }
+    }
 }
 
 /// The second block's token→image attention, from the first block's trace: `with_pe` `[T, D]` are
