@@ -17,11 +17,9 @@ use std::time::Instant;
 
 use candle_core::{Device, Tensor};
 use rayon::prelude::*;
-use splatseg_models::resample::resize_planes;
-use splatseg_models::sam::masks::{mask_box, stability_score};
+use splatseg_models::sam::mask_output::{positive_box, positive_rle, MaskScratch};
+use splatseg_models::sam::masks::stability_score;
 use splatseg_models::sam::{ImageEmbedding, Sam};
-use splatseg_scene::rle::Rle;
-use splatseg_scene::Plane;
 
 /// Deterministic values in (−1, 1) (the same in every build, so checksums compare).
 fn pseudo_random(shape: (usize, usize, usize), seed: u64) -> candle_core::Result<Tensor> {
@@ -97,13 +95,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let areas: Vec<u64> = lows
         .par_iter()
         .flat_map(|low| low.par_chunks(256 * 256))
-        .map(|low| {
-            let logits = resize_planes(low, 1, &rows, &cols, 256, 256);
-            let stability = stability_score(&logits, 0.0, 1.0);
-            let mask =
-                Plane::from_vec(width, height, logits.iter().map(|&v| v > 0.0).collect()).expect("size");
-            let bbox = mask_box(&mask);
-            Rle::encode(&mask).area() + (stability.is_nan() as u64) + bbox[0] as u64
+        .map_init(MaskScratch::default, |scratch, low| {
+            let logits = scratch.upscale(low, &rows, &cols, (256, 256));
+            let stability = stability_score(logits, 0.0, 1.0);
+            let bbox = positive_box(logits, width);
+            let rle = positive_rle(logits, &[0, 0, width, height], (height, width));
+            rle.area() + (stability.is_nan() as u64) + bbox[0] as u64
         })
         .collect();
     let post = t.elapsed();

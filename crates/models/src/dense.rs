@@ -66,6 +66,7 @@ impl<'a> ViewMut<'a> {
 
 /// `out = scale · lhs · rhs` (`accumulate`: `out += scale · lhs · rhs`) for `lhs` `[m, k]`, `rhs`
 /// `[k, n]`, `out` `[m, n]`. Panics if a view reaches outside its slice (a caller's bug, never data).
+#[allow(clippy::too_many_arguments)] // the BLAS-style signature reads best at the many call sites
 pub fn matmul(
     m: usize,
     n: usize,

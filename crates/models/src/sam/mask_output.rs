@@ -9,14 +9,14 @@ use crate::resample::{resize_plane_into, AxisTaps};
 
 /// Buffers reused across the masks one worker handles.
 #[derive(Debug, Default)]
-pub(super) struct MaskScratch {
+pub struct MaskScratch {
     columns: Vec<f32>,
     logits: Vec<f32>,
 }
 
 impl MaskScratch {
     /// Logits `[rows.out_len, cols.out_len]` of the low-resolution `low` `[lh, lw]`.
-    pub(super) fn upscale(
+    pub fn upscale(
         &mut self,
         low: &[f32],
         rows: &AxisTaps,
@@ -31,7 +31,7 @@ impl MaskScratch {
 
 /// Box `[x0, y0, x1, y1]` (inclusive pixel indices) of `logits > 0` for logits `[H, width]`; all
 /// zeros when nothing is positive (SAM's `batched_mask_to_box`).
-pub(super) fn positive_box(logits: &[f32], width: usize) -> [f32; 4] {
+pub fn positive_box(logits: &[f32], width: usize) -> [f32; 4] {
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0usize, 0usize);
     if width == 0 {
         return [0.0; 4];
@@ -83,7 +83,7 @@ impl Runs {
 
 /// COCO RLE (column-major) of the `height × width` image whose pixels inside `crop` (`[x0, y0, x1,
 /// y1]`) are `logits > 0` (logits `[y1 − y0, x1 − x0]`) and `false` elsewhere.
-pub(super) fn positive_rle(logits: &[f32], crop: &[usize; 4], (height, width): (usize, usize)) -> Rle {
+pub fn positive_rle(logits: &[f32], crop: &[usize; 4], (height, width): (usize, usize)) -> Rle {
     let crop_w = crop[2] - crop[0];
     let mut runs = Runs { counts: Vec::new(), current: false, run: 0 };
     for x in 0..width {

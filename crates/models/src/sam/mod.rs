@@ -8,7 +8,7 @@
 pub mod amg;
 pub mod image_encoder;
 pub mod mask_decoder;
-mod mask_output;
+pub mod mask_output;
 pub mod masks;
 mod packed_decoder;
 pub mod prompt_encoder;

@@ -475,8 +475,9 @@ fn first_upscaling_layer(
     for (c, row) in out.chunks_exact_mut(cols).enumerate() {
         let i = cell0 + c;
         let (mean, inv_std) = (prompt.second_mean[i], prompt.second_inv_std[i]);
-        for j in 0..cols {
-            row[j] = (row[j] - mean * image.up_second_gamma[j]) * inv_std + image.up_second_const[j];
+        let affine = image.up_second_gamma.iter().zip(&image.up_second_const);
+        for (v, (gamma, constant)) in row.iter_mut().zip(affine) {
+            *v = (*v - mean * gamma) * inv_std + constant;
         }
     }
 }
@@ -567,8 +568,10 @@ fn second_token_to_image(
             let row = h * t + s;
             let mean_weight = dot(&weighted[row * n..(row + 1) * n], trace.mean);
             let out = &mut heads[s * ci + h * dh..s * ci + (h + 1) * dh];
-            for j in 0..dh {
-                out[j] += image.values_beta[h * dh + j] - mean_weight * image.values_gamma[h * dh + j];
+            let beta = &image.values_beta[h * dh..(h + 1) * dh];
+            let gamma = &image.values_gamma[h * dh..(h + 1) * dh];
+            for ((o, b), g) in out.iter_mut().zip(beta).zip(gamma) {
+                *o += b - mean_weight * g;
             }
         }
     }
