@@ -95,6 +95,30 @@ fn exp_shifted_in_place_portable(values: &mut [f32], shift: f32) -> f32 {
     lanes.iter().sum::<f32>() + tail
 }
 
+/// The exact (erf) GELU in place, `x · (1 + erf(x / √2)) / 2` (as [`crate::activation::gelu_erf`]);
+/// 8 lanes wide with AVX2 where the CPU has it (same arithmetic, so the same results).
+pub fn gelu_in_place(values: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (just detected).
+        return unsafe { gelu_in_place_avx2(values) };
+    }
+    gelu_in_place_portable(values)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gelu_in_place_avx2(values: &mut [f32]) {
+    gelu_in_place_portable(values)
+}
+
+#[inline(always)]
+fn gelu_in_place_portable(values: &mut [f32]) {
+    for v in values {
+        *v = (erf(*v * std::f32::consts::FRAC_1_SQRT_2) + 1.0) * 0.5 * *v;
+    }
+}
+
 /// `erf(x)` by Abramowitz & Stegun 7.1.26 (absolute error < 1.5e-7 in exact arithmetic, < 1e-6 in f32 (tested); the formula PyTorch's vectorised
 /// CPU `erf` uses): `1 − (a₁t + a₂t² + … + a₅t⁵)·e^(−x²)` with `t = 1 / (1 + p|x|)`, sign restored.
 #[inline(always)]

@@ -256,15 +256,14 @@ impl PackedDecoder {
         let mut first = vec![0f32; UPSCALE_TILE * 4 * c1];
         let mut second = vec![0f32; UPSCALE_TILE * 16 * c2];
         let mut blocked = vec![0f32; s * UPSCALE_TILE * 16];
-        let gelu = |v: &mut f32| *v = (kernels::erf(*v * std::f32::consts::FRAC_1_SQRT_2) + 1.0) * 0.5 * *v;
         for cell0 in (0..h * w).step_by(UPSCALE_TILE) {
             let cells = UPSCALE_TILE.min(h * w - cell0);
             let first = &mut first[..cells * 4 * c1];
             first_layer(cell0, cells, first);
             for sub in first.chunks_exact_mut(c1) {
                 self.up_norm.row(sub);
-                sub.iter_mut().for_each(gelu);
             }
+            kernels::gelu_in_place(first);
             let second = &mut second[..cells * 16 * c2];
             matmul(
                 cells * 4,
@@ -282,8 +281,8 @@ impl PackedDecoder {
                 .zip(self.up2_bias.chunks_exact(c2).cycle())
             {
                 sub.iter_mut().zip(bias).for_each(|(v, b)| *v += b);
-                sub.iter_mut().for_each(gelu);
             }
+            kernels::gelu_in_place(second);
             // blocked[m, r] for sub-pixel rows r = (cell, dy1, dx1, dy2, dx2)
             let rows = cells * 16;
             matmul(
