@@ -13,6 +13,7 @@ pub mod masks;
 mod packed_decoder;
 pub mod prompt_encoder;
 pub mod rel_pos_attention;
+mod second_block;
 pub mod shared_decoder;
 pub mod tiny_vit;
 

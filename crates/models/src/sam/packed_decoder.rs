@@ -318,3 +318,14 @@ pub(super) fn added(a: &[f32], b: &[f32]) -> Vec<f32> {
 pub(super) fn add_into(a: &mut [f32], b: &[f32]) {
     a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
 }
+
+/// `x·Wᵀ` (`with_bias`: `+ b`) for `x` `[rows, in]`.
+pub(super) fn project(lin: &Linear, x: &[f32], rows: usize, with_bias: bool) -> Vec<f32> {
+    let mut out = vec![0f32; rows * lin.outputs];
+    if with_bias {
+        lin.forward(x, rows, &mut out);
+    } else {
+        lin.forward_no_bias(x, rows, &mut out);
+    }
+    out
+}
