@@ -30,9 +30,8 @@ impl CustomOp1 for GeluErf {
         };
         let mut out = vec![0f32; input.len()];
         out.par_chunks_mut(CHUNK).zip(input.par_chunks(CHUNK)).for_each(|(out, input)| {
-            for (o, &x) in out.iter_mut().zip(input) {
-                *o = (kernels::erf(x * std::f32::consts::FRAC_1_SQRT_2) + 1.0) * 0.5 * x;
-            }
+            out.copy_from_slice(input);
+            kernels::gelu_in_place(out);
         });
         Ok((CpuStorage::F32(out), layout.shape().clone()))
     }

@@ -20,6 +20,7 @@ pub mod activation;
 pub mod attention;
 pub mod checkpoint;
 pub mod conv;
+pub mod dense;
 pub mod depth_anything;
 pub mod dinov2;
 pub mod error;

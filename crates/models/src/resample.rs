@@ -255,38 +255,55 @@ pub fn resize_planes(
     let (out_h, out_w) = (rows.out_len(), cols.out_len());
     let mut out = vec![0f32; channels * out_h * out_w];
     out.par_chunks_mut(out_h * out_w).zip(planes.par_chunks(in_h * in_w)).for_each(|(dst, src)| {
-        // columns first: [in_h, out_w]
-        let mut tmp = vec![0f32; in_h * out_w];
-        for y in 0..in_h {
-            let row = &src[y * in_w..(y + 1) * in_w];
-            for x in 0..out_w {
-                let start = cols.starts[x];
-                let w = &cols.weights[x * cols.taps_per_output..(x + 1) * cols.taps_per_output];
-                let mut acc = 0f32;
-                for (k, wk) in w.iter().enumerate() {
-                    if let Some(v) = row.get(start + k) {
-                        acc += wk * v;
-                    }
-                }
-                tmp[y * out_w + x] = acc;
-            }
-        }
-        for y in 0..out_h {
-            let start = rows.starts[y];
-            let w = &rows.weights[y * rows.taps_per_output..(y + 1) * rows.taps_per_output];
-            let dst_row = &mut dst[y * out_w..(y + 1) * out_w];
-            for (k, wk) in w.iter().enumerate() {
-                if *wk == 0.0 || start + k >= in_h {
-                    continue;
-                }
-                let src_row = &tmp[(start + k) * out_w..(start + k + 1) * out_w];
-                for (d, s) in dst_row.iter_mut().zip(src_row) {
-                    *d += wk * s;
-                }
-            }
-        }
+        let mut tmp = Vec::new();
+        resize_plane_into(src, rows, cols, (in_h, in_w), &mut tmp, dst);
     });
     out
+}
+
+/// Resizes one plane `src` `[in_h, in_w]` into `dst` `[rows.out_len, cols.out_len]` (overwritten),
+/// columns first through `tmp` (resized as needed, so a caller can reuse it across planes).
+pub fn resize_plane_into(
+    src: &[f32],
+    rows: &AxisTaps,
+    cols: &AxisTaps,
+    (in_h, in_w): (usize, usize),
+    tmp: &mut Vec<f32>,
+    dst: &mut [f32],
+) {
+    let (out_h, out_w) = (rows.out_len(), cols.out_len());
+    // columns first: [in_h, out_w]
+    tmp.clear();
+    tmp.resize(in_h * out_w, 0.0);
+    for y in 0..in_h {
+        let row = &src[y * in_w..(y + 1) * in_w];
+        for x in 0..out_w {
+            let start = cols.starts[x];
+            let w = &cols.weights[x * cols.taps_per_output..(x + 1) * cols.taps_per_output];
+            let mut acc = 0f32;
+            for (k, wk) in w.iter().enumerate() {
+                if let Some(v) = row.get(start + k) {
+                    acc += wk * v;
+                }
+            }
+            tmp[y * out_w + x] = acc;
+        }
+    }
+    for y in 0..out_h {
+        let start = rows.starts[y];
+        let w = &rows.weights[y * rows.taps_per_output..(y + 1) * rows.taps_per_output];
+        let dst_row = &mut dst[y * out_w..(y + 1) * out_w];
+        dst_row.fill(0.0);
+        for (k, wk) in w.iter().enumerate() {
+            if *wk == 0.0 || start + k >= in_h {
+                continue;
+            }
+            let src_row = &tmp[(start + k) * out_w..(start + k + 1) * out_w];
+            for (d, s) in dst_row.iter_mut().zip(src_row) {
+                *d += wk * s;
+            }
+        }
+    }
 }
 
 /// Resizes a `[C, H, W]` tensor to `[C, out_h, out_w]` with PyTorch's `size=` semantics.

@@ -1,6 +1,7 @@
 //! The shared-work mask decoder against the one-prompt-at-a-time decoder, on the random-weight SAM and
 //! MobileSAM fixtures: logits and IoU predictions within 1e-4 (relative to max(1, |value|)), and the
-//! automatic mask generator keeps exactly the same masks.
+//! automatic mask generator keeps exactly the same masks (stability scores equal up to one pixel of
+//! each count flipping by rounding).
 
 mod common;
 
@@ -89,7 +90,16 @@ fn shared_decoder_keeps_the_same_automatic_masks() {
             assert_eq!(a.segmentation, b.segmentation, "thresholds {iou_thresh}/{stability}: mask differs");
             assert_eq!(a.point_coords, b.point_coords);
             assert!((a.predicted_iou - b.predicted_iou).abs() < 1e-4);
-            assert!((a.stability_score - b.stability_score).abs() < 1e-6);
+            // the stability score counts pixels above ±1: a logit within rounding of ±1 may flip one
+            // pixel of each count, which moves the score by at most 2 / (pixels above −1) ≤ 2 / area
+            let tolerance = 2.0 / a.area.max(1) as f64;
+            assert!(
+                (a.stability_score - b.stability_score).abs() <= tolerance,
+                "stability {} vs {} (area {})",
+                a.stability_score,
+                b.stability_score,
+                a.area
+            );
         }
     }
 }

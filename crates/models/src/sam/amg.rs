@@ -13,16 +13,15 @@ use splatseg_scene::rle::Rle;
 use splatseg_scene::sam::SamMask;
 use splatseg_scene::Plane;
 
+use super::mask_output::{positive_box, positive_rle, MaskScratch};
 use super::masks::{mask_box, near_crop_edge, nms, remove_small_regions, stability_score, RegionKind};
 use super::shared_decoder::DecoderImage;
 use super::{ImageEmbedding, Sam};
 use crate::error::{ModelsError, ModelsResult};
 
 /// Prompts sent through the shared-work decoder at once (results do not depend on it); chunks run in
-/// parallel. One at a time measured fastest: ViT-B, 256 points, decoder 12.3 s with 1, 22.7 s with 4,
-/// 31.2 s with 16 (sequential chunks, machine under load ~16): a prompt's `[4096, 256]` image tokens
-/// stay in cache, a batch's do not. Chunks in parallel vs in sequence: 16.4–19.0 s vs 18.3–18.4 s
-/// (same load), no clear difference.
+/// parallel. The decoder works one prompt at a time on buffers that stay in cache (a prompt's `[4096,
+/// 256]` image tokens are 4 MB), so one per chunk just spreads the prompts over the threads.
 const DECODER_CHUNK: usize = 1;
 
 /// Parameters of the automatic mask generator; defaults are the reference's.
@@ -282,22 +281,21 @@ fn process_batch(
     let image_box = [0, 0, width, height];
     let kept: Vec<Option<Candidate>> = candidates
         .par_iter()
-        .map(|(point, _, low, iou)| {
-            let logits = crate::resample::resize_planes(low, 1, &rows, &cols, low_size.0, low_size.1);
-            let stability = stability_score(&logits, 0.0, config.stability_score_offset);
+        .map_init(MaskScratch::default, |scratch, (point, _, low, iou)| {
+            let logits = scratch.upscale(low, &rows, &cols, low_size);
+            let stability = stability_score(logits, 0.0, config.stability_score_offset);
             // NaN (empty union) fails too, as in the reference
             let stable = stability >= config.stability_score_thresh;
             if !stable {
                 return None;
             }
-            let mask = Plane::from_vec(cw, ch, logits.iter().map(|&v| v > 0.0).collect())?;
-            let box_in_crop = mask_box(&mask);
+            let box_in_crop = positive_box(logits, cw);
             if near_crop_edge(&box_in_crop, crop, &image_box, 20.0) {
                 return None;
             }
-            let rle = Rle::encode(&uncrop(&mask, crop, (height, width)));
+            debug_assert_eq!(logits.len(), cw * ch);
             Some(Candidate {
-                rle,
+                rle: positive_rle(logits, crop, (height, width)),
                 box_xyxy: box_in_crop,
                 iou: *iou,
                 stability,
@@ -367,21 +365,6 @@ fn decode_low_res(
         points.par_chunks(DECODER_CHUNK).enumerate().map(decode_chunk).collect::<ModelsResult<_>>()?;
     let low_size = per_chunk.iter().find_map(|(_, size)| *size).unwrap_or((0, 0));
     Ok((per_chunk.into_iter().flat_map(|(found, _)| found).collect(), low_size))
-}
-
-/// A crop's mask placed in a zero image of `height × width`.
-fn uncrop(mask: &Plane<bool>, crop: &[usize; 4], (height, width): (usize, usize)) -> Plane<bool> {
-    if crop == &[0, 0, width, height] {
-        return mask.clone();
-    }
-    let mut full = Plane::filled(width, height, false);
-    let (cw, ch) = mask.size();
-    for y in 0..ch {
-        for x in 0..cw {
-            *full.get_mut(crop[0] + x, crop[1] + y) = *mask.get(x, y);
-        }
-    }
-    full
 }
 
 /// `postprocess_small_regions`: fill small holes, drop small islands, prefer unchanged masks in an NMS.

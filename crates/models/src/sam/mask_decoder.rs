@@ -1,7 +1,11 @@
 //! SAM's mask decoder: a two-way transformer between prompt tokens and image cells, an upscaling
 //! path to 4× the embedding grid, hypernetwork MLPs giving one mask per output token, and an IoU head.
 
+use std::sync::Arc;
+
 use candle_core::{Module, Tensor};
+
+use super::packed_decoder::PackedDecoder;
 
 use crate::activation::gelu_erf;
 use crate::error::ModelsResult;
@@ -109,7 +113,7 @@ impl TwoWayBlock {
 
 #[derive(Debug, Clone)]
 pub(super) struct Mlp {
-    layers: Vec<candle_nn::Linear>,
+    pub(super) layers: Vec<candle_nn::Linear>,
 }
 
 impl Mlp {
@@ -159,6 +163,9 @@ pub struct MaskDecoder {
     pub(super) hypernets: Vec<Mlp>,
     pub(super) iou_head: Mlp,
     pub(super) dim: usize,
+    /// The same weights as contiguous buffers for the shared-work path (`None` unless the transformer
+    /// has the released two blocks).
+    pub(super) packed: Option<Arc<PackedDecoder>>,
 }
 
 impl MaskDecoder {
@@ -184,7 +191,7 @@ impl MaskDecoder {
         };
         let (up1_weight, up1_bias) = convt("output_upscaling.0", dim, dim / 4)?;
         let (up2_weight, up2_bias) = convt("output_upscaling.3", dim / 4, dim / 8)?;
-        Ok(Self {
+        let mut decoder = Self {
             output_tokens: Tensor::cat(&[w.get("iou_token.weight", &[1, dim])?, mask_tokens], 0)?,
             blocks,
             final_attn: Attention::new(w, "transformer.final_attn_token_to_image", dim)?,
@@ -199,7 +206,10 @@ impl MaskDecoder {
                 .collect::<ModelsResult<Vec<_>>>()?,
             iou_head: Mlp::new(w, "iou_prediction_head")?,
             dim,
-        })
+            packed: None,
+        };
+        decoder.packed = PackedDecoder::new(&decoder)?.map(Arc::new);
+        Ok(decoder)
     }
 
     /// Decoder width D.

@@ -8,9 +8,12 @@
 pub mod amg;
 pub mod image_encoder;
 pub mod mask_decoder;
+pub mod mask_output;
 pub mod masks;
+mod packed_decoder;
 pub mod prompt_encoder;
 pub mod rel_pos_attention;
+mod second_block;
 pub mod shared_decoder;
 pub mod tiny_vit;
 

@@ -1,100 +1,76 @@
-//! The mask decoder with its prompt-independent work done once per image, for many prompts at once.
+//! The mask decoder with its prompt-independent work done once per image, one prompt at a time on
+//! plain f32 buffers (matrix products by `gemm`, no per-op tensors).
 //!
 //! Same results as [`MaskDecoder::forward`] up to floating-point reassociation (tested against it).
-//! What is shared and what is rearranged, with `E` the image tokens `[N, D]`, `P` the positional
-//! encoding `[N, D]`, `T` prompt tokens and `H` heads of width `d`:
+//! With `E` the image tokens `[N, D]`, `P` their positional encoding, `T` tokens, `H` heads of width
+//! `d` and `A·U` an attention output written as its weights `A` `[N, H·T]` times `U[h·T + t] = W_o,h
+//! v_t,h` (so the `[N, H·d]` head outputs are never formed):
 //!
-//! - First block: its image tokens are `E` for every prompt, so the token→image keys `(E + P)·W_kᵀ`,
-//!   values `E·W_vᵀ` and the image→token queries `(E + P)·W_qᵀ` are computed once per image
-//!   ([`DecoderImage`]); per prompt only the `T × N` attention itself remains.
-//! - Later blocks and the final attention: the image tokens now depend on the prompt (the image→token
-//!   update), but every attention between them and the `T` tokens only needs dot products of the
-//!   image tokens with `H·T` vectors. Token→image scores are `q_h·(W_k,h (x + p) + b) =
-//!   (W_k,hᵀ q_h)·x + q_h·(W_k,h p) + q_h·b`: the image tokens are multiplied by `H·T` (56) columns
-//!   instead of projected to the 128-wide internal width, and `P·W_kᵀ` is shared. Values:
-//!   `Σᵢ aᵢ (W_v,h xᵢ + b) = W_v,h (Σᵢ aᵢ xᵢ) + b` (the weights sum to 1). Image→token queries
-//!   likewise, with the roles of the two sides swapped.
-//! - Image→token outputs: `Σⱼ aᵢⱼ W_o,h v_j` is `aᵢ · U` with `U = W_o,h v_j` formed per prompt on the
-//!   `T` tokens, so the `[N, 128]` head outputs are never formed.
+//! - First block: its image side is `E` for every prompt, so the token→image keys `(E + P)·W_kᵀ`,
+//!   values `E·W_vᵀ` and the image→token queries `(E + P)·W_qᵀ` are computed once per image; per
+//!   prompt only the attentions over the `T` tokens and `X₁ = LN(E + b_o + A₁·U₁)` remain.
+//! - Second block: `X₁ = γ⊙(E + b_o + A₁U₁ − μ)/σ + β` per row, so any projection of it is
+//!   `W X₁ᵢ = (W(γ⊙(E + b_o))ᵢ + A₁ᵢ·W(γ⊙U₁) − μᵢ Wγ)/σᵢ + Wβ`: the `[N, H·d]` projections of
+//!   `γ⊙(E + b_o)` and of `P` are shared, and per prompt the token→image scores and values and the
+//!   image→token scores need only `H·T`-wide products with `A₁` instead of `D`-wide ones with `X₁`.
+//! - Final attention: only the tokens whose outputs are used (the IoU token while decoding; the mask
+//!   tokens of the masks asked for later) attend, with the scores `(W_k,hᵀ q)·x` folded into `D`-wide
+//!   vectors.
 //! - The IoU head needs only the tokens: masks are upscaled afterwards, and only for the prompts and
 //!   mask outputs the caller asks for (the automatic mask generator's predicted-IoU filter runs first).
 
-use candle_core::{Module, Tensor, D};
+use std::sync::Arc;
 
-use super::mask_decoder::{Attention, MaskDecoder, TwoWayBlock, NUM_HEADS};
+use candle_core::{Device, Tensor};
+
+use super::mask_decoder::{MaskDecoder, NUM_HEADS};
+use super::packed_decoder::{add_into, added, project, PackedDecoder};
+use super::second_block::{second_image_scores, second_token_to_image, FirstBlockTrace};
+use crate::dense::{matmul, softmax_runs, Linear, View, ViewMut};
 use crate::error::{ModelsError, ModelsResult};
+use crate::kernels::dot;
 
-/// Per-image, prompt-independent inputs of the decoder's attentions (all head-split `[H, N, d]`).
+/// Per-image, prompt-independent inputs of the decoder's attentions; projections are `[N, H·d]`.
 #[derive(Debug, Clone)]
 pub struct DecoderImage {
-    /// Image tokens, `[N, D]` (embedding plus the "no mask" dense prompt; rows are cells).
-    tokens: Tensor,
+    packed: Arc<PackedDecoder>,
+    /// `E + b_o` of the first image→token attention, `[N, D]` (rows are cells).
+    first_residual: Vec<f32>,
     /// First block, token→image keys `(E + P)·W_kᵀ + b_k`.
-    first_keys: Tensor,
+    first_keys: Vec<f32>,
     /// First block, token→image values `E·W_vᵀ + b_v`.
-    first_values: Tensor,
+    first_values: Vec<f32>,
     /// First block, image→token queries `(E + P)·W_qᵀ + b_q`.
-    first_queries: Tensor,
-    /// Blocks after the first: (token→image `P·W_kᵀ`, image→token `P·W_qᵀ`), no biases.
-    later_pe: Vec<(Tensor, Tensor)>,
+    first_queries: Vec<f32>,
+    /// Second block: `γ⊙(E + b_o)` (γ, β: the first block's last norm) projected by the token→image
+    /// keys and values and the image→token queries, no biases.
+    pub(super) second_keys: Vec<f32>,
+    pub(super) second_values: Vec<f32>,
+    pub(super) second_queries: Vec<f32>,
+    /// `P·W_kᵀ` of the second token→image attention and `P·W_qᵀ` of its image→token one.
+    pub(super) second_pe_keys: Vec<f32>,
+    pub(super) second_pe_queries: Vec<f32>,
+    /// `Wγ` and `Wβ + b` of those three projections, `[H·d]` each.
+    pub(super) keys_gamma: Vec<f32>,
+    pub(super) keys_beta: Vec<f32>,
+    pub(super) values_gamma: Vec<f32>,
+    pub(super) values_beta: Vec<f32>,
+    pub(super) queries_gamma: Vec<f32>,
+    pub(super) queries_beta: Vec<f32>,
     /// Final token→image attention's `P·W_kᵀ`, no bias.
-    final_pe_keys: Tensor,
+    final_pe_keys: Vec<f32>,
+    /// Upscaling: `W'` = the first transposed convolution `[D, 4·c1]` with its rows scaled by the last
+    /// block's norm γ₂, and `γ⊙(E + b_o)·W'` `[N, 4·c1]`.
+    up_weight: Vec<f32>,
+    up_shared: Vec<f32>,
+    /// `γ·W'`, `β·W' + b_o₂·W'` (first block's norm, second block's image→token output bias), `γ₂·W`,
+    /// `β₂·W + b` (last norm, the convolution's bias): `[4·c1]` each.
+    up_first_gamma: Vec<f32>,
+    up_first_const: Vec<f32>,
+    up_second_gamma: Vec<f32>,
+    up_second_const: Vec<f32>,
     /// Embedding grid (h, w).
     grid: (usize, usize),
-}
-
-/// A batch of prompts through the transformer: tokens and image tokens, ready for the heads.
-#[derive(Debug, Clone)]
-pub struct DecodedTokens {
-    /// Output tokens after the final attention, `[B, T, D]` (IoU token, mask tokens, prompt tokens).
-    queries: Tensor,
-    /// Image tokens after the last block, `[B, N, D]`.
-    keys: Tensor,
-    /// IoU predictions of every mask output, `[B, M]`.
-    pub iou: Tensor,
-}
-
-/// `[R, H·d]` → `[H, R, d]`.
-fn split_heads(x: &Tensor) -> ModelsResult<Tensor> {
-    let (rows, width) = x.dims2()?;
-    Ok(x.reshape((rows, NUM_HEADS, width / NUM_HEADS))?.transpose(0, 1)?.contiguous()?)
-}
-
-/// A projection's weight `[H·d, D]` as `[H, d, D]`.
-fn weight_heads(linear: &candle_nn::Linear) -> ModelsResult<Tensor> {
-    let (width, dim) = linear.weight().dims2()?;
-    Ok(linear.weight().reshape((NUM_HEADS, width / NUM_HEADS, dim))?)
-}
-
-/// A projection's bias `[H·d]` as `[H, 1, d]`.
-fn bias_heads(linear: &candle_nn::Linear) -> ModelsResult<Tensor> {
-    let width = linear.weight().dims()[0];
-    let bias = match linear.bias() {
-        Some(b) => b.clone(),
-        None => Tensor::zeros(width, linear.weight().dtype(), linear.weight().device())?,
-    };
-    Ok(bias.reshape((NUM_HEADS, 1, width / NUM_HEADS))?)
-}
-
-/// `[H, B·T, C]` → `[B, H·T, C]`.
-fn heads_to_batch(x: &Tensor, b: usize) -> ModelsResult<Tensor> {
-    let (h, bt, c) = x.dims3()?;
-    let t = bt / b;
-    Ok(x.reshape((h, b, t, c))?.transpose(0, 1)?.contiguous()?.reshape((b, h * t, c))?)
-}
-
-/// `Σ_c x[h, r, c] · bias[h, 0, c]` for `x` `[H, B·T, d]`: `[B, H·T]` (as `[B, H·T, 1]`).
-fn bias_scores(x: &Tensor, bias: &Tensor, b: usize) -> ModelsResult<Tensor> {
-    let per_row = x.broadcast_mul(bias)?.sum_keepdim(D::Minus1)?; // [H, B·T, 1]
-    heads_to_batch(&per_row, b)
-}
-
-/// The image side of a cross attention.
-enum ImageSide<'a> {
-    /// The first block: projections shared by every prompt, `[H, N, d]`.
-    Shared { keys: &'a Tensor, values: &'a Tensor },
-    /// Prompt-dependent image tokens `[B, N, D]` and the shared `P·W_kᵀ` `[H, N, d]`.
-    PerPrompt { tokens: &'a Tensor, pe_projected: &'a Tensor },
 }
 
 impl DecoderImage {
@@ -102,36 +78,146 @@ impl DecoderImage {
     pub fn grid(&self) -> (usize, usize) {
         self.grid
     }
+
+    pub(super) fn cells(&self) -> usize {
+        self.grid.0 * self.grid.1
+    }
+}
+
+/// One prompt through the transformer.
+#[derive(Debug, Clone)]
+struct DecodedPrompt {
+    /// The transformer's input tokens `[T, D]` (their own positional terms).
+    tokens: Vec<f32>,
+    /// Tokens after the last block, before the final attention, `[T, D]`.
+    queries: Vec<f32>,
+    /// Image tokens after the last block, `[N, D]`.
+    keys: Vec<f32>,
+    /// How the image tokens came about, for the upscaling path: each block's image→token weights
+    /// `A` `[N, H·T]` and output rows, and the row means and inverse standard deviations of its norm.
+    first_weights: Vec<f32>,
+    /// `γ⊙U₁` `[H·T, D]`.
+    first_scaled_rows: Vec<f32>,
+    first_mean: Vec<f32>,
+    first_inv_std: Vec<f32>,
+    second_weights: Vec<f32>,
+    /// `U₂` `[H·T, D]`.
+    second_rows: Vec<f32>,
+    second_mean: Vec<f32>,
+    second_inv_std: Vec<f32>,
+}
+
+/// A batch of prompts through the transformer, ready for the heads.
+#[derive(Debug, Clone)]
+pub struct DecodedTokens {
+    prompts: Vec<DecodedPrompt>,
+    /// IoU predictions of every mask output, `[B, M]`.
+    pub iou: Tensor,
+}
+
+fn packed(decoder: &MaskDecoder) -> ModelsResult<&Arc<PackedDecoder>> {
+    decoder.packed.as_ref().ok_or_else(|| {
+        ModelsError::Input(format!(
+            "the shared-work SAM decoder needs the released two-layer transformer, this one has {}",
+            decoder.blocks.len()
+        ))
+    })
+}
+
+/// `v·W` for `v` `[K]` and `W` `[K, M]` (row-major): `[M]`.
+fn vec_mat(v: &[f32], w: &[f32]) -> Vec<f32> {
+    let cols = w.len() / v.len().max(1);
+    let mut out = vec![0f32; cols];
+    for (row, &x) in w.chunks_exact(cols).zip(v) {
+        out.iter_mut().zip(row).for_each(|(o, r)| *o += x * r);
+    }
+    out
 }
 
 impl MaskDecoder {
     /// The prompt-independent part of the decoder for one image: `image` and `image_pe` `[D, h, w]` as
     /// in [`MaskDecoder::forward`].
     pub fn prepare_image(&self, image: &Tensor, image_pe: &Tensor) -> ModelsResult<DecoderImage> {
+        let packed = packed(self)?.clone();
         let (d, h, w) = image.dims3()?;
-        let Some(first) = self.blocks.first() else {
-            return Err(ModelsError::Input("the SAM mask decoder has no transformer layers".into()));
+        if d != packed.dim || image_pe.dims3()? != (d, h, w) {
+            return Err(ModelsError::Input(format!(
+                "SAM decoder input {:?} / positional encoding {:?}, expected [{}, h, w] both",
+                image.dims(),
+                image_pe.dims(),
+                packed.dim
+            )));
+        }
+        let n = h * w;
+        let rows =
+            |t: &Tensor| -> ModelsResult<Vec<f32>> { Ok(t.reshape((d, n))?.t()?.flatten_all()?.to_vec1()?) };
+        let tokens = rows(image)?;
+        let pe = rows(image_pe)?;
+        let with_pe = added(&tokens, &pe);
+        let [first, second] = &packed.blocks;
+        let first_residual: Vec<f32> = tokens
+            .chunks_exact(d)
+            .flat_map(|row| row.iter().zip(&first.image_to_token.out.bias).map(|(x, b)| x + b))
+            .collect();
+        let (gamma, beta) = (&first.norm4.gamma, &first.norm4.beta);
+        let scaled: Vec<f32> = first_residual
+            .chunks_exact(d)
+            .flat_map(|row| row.iter().zip(gamma).map(|(x, g)| x * g))
+            .collect();
+        let (t2i, i2t) = (&second.token_to_image, &second.image_to_token);
+        let affine = |lin: &Linear| {
+            let beta_part: Vec<f32> = lin.apply_to(beta).iter().zip(&lin.bias).map(|(x, b)| x + b).collect();
+            (lin.apply_to(gamma), beta_part)
         };
-        let tokens = image.reshape((d, h * w))?.t()?.contiguous()?;
-        let pe = image_pe.reshape((d, h * w))?.t()?.contiguous()?;
-        let with_pe = (&tokens + &pe)?;
-        let first_keys = split_heads(&first.token_to_image.k.forward(&with_pe)?)?;
-        let first_values = split_heads(&first.token_to_image.v.forward(&tokens)?)?;
-        let first_queries = split_heads(&first.image_to_token.q.forward(&with_pe)?)?;
-        let project = |linear: &candle_nn::Linear| split_heads(&pe.matmul(&linear.weight().t()?)?);
-        let later_pe = self.blocks[1..]
-            .iter()
-            .map(|b| Ok((project(&b.token_to_image.k)?, project(&b.image_to_token.q)?)))
-            .collect::<ModelsResult<_>>()?;
-        let final_pe_keys = project(&self.final_attn.k)?;
+        let (up1_weight, up1_bias) = packed.up1();
+        let up_cols = up1_bias.len();
+        let gamma2 = &second.norm4.gamma;
+        let up_weight: Vec<f32> = up1_weight
+            .chunks_exact(up_cols)
+            .zip(gamma2)
+            .flat_map(|(row, g)| row.iter().map(move |w| w * g))
+            .collect();
+        let mut up_shared = vec![0f32; n * up_cols];
+        matmul(
+            n,
+            up_cols,
+            d,
+            ViewMut::rows(&mut up_shared, 0, up_cols),
+            View::rows(&scaled, 0, d),
+            View::rows(&up_weight, 0, up_cols),
+            false,
+            1.0,
+        );
+        let up_first_const = added(&vec_mat(beta, &up_weight), &vec_mat(&i2t.out.bias, &up_weight));
+        let up_second_const = added(&vec_mat(&second.norm4.beta, up1_weight), up1_bias);
+        let (keys_gamma, keys_beta) = affine(&t2i.k);
+        let (values_gamma, values_beta) = affine(&t2i.v);
+        let (queries_gamma, queries_beta) = affine(&i2t.q);
         Ok(DecoderImage {
-            tokens,
-            first_keys,
-            first_values,
-            first_queries,
-            later_pe,
-            final_pe_keys,
+            first_keys: project(&first.token_to_image.k, &with_pe, n, true),
+            first_values: project(&first.token_to_image.v, &tokens, n, true),
+            first_queries: project(&first.image_to_token.q, &with_pe, n, true),
+            second_keys: project(&t2i.k, &scaled, n, false),
+            second_values: project(&t2i.v, &scaled, n, false),
+            second_queries: project(&i2t.q, &scaled, n, false),
+            second_pe_keys: project(&t2i.k, &pe, n, false),
+            second_pe_queries: project(&i2t.q, &pe, n, false),
+            final_pe_keys: project(&packed.final_attn.k, &pe, n, false),
+            up_first_gamma: vec_mat(gamma, &up_weight),
+            up_second_gamma: vec_mat(gamma2, up1_weight),
+            up_first_const,
+            up_second_const,
+            up_weight,
+            up_shared,
+            first_residual,
+            keys_gamma,
+            keys_beta,
+            values_gamma,
+            values_beta,
+            queries_gamma,
+            queries_beta,
             grid: (h, w),
+            packed,
         })
     }
 
@@ -139,51 +225,26 @@ impl MaskDecoder {
     ///
     /// `sparse`: `[B, T', D]` prompt tokens. Masks come from [`MaskDecoder::masks_of`].
     pub fn decode_tokens(&self, image: &DecoderImage, sparse: &Tensor) -> ModelsResult<DecodedTokens> {
-        let (b, _, d) = sparse.dims3()?;
-        let m = self.hypernets.len();
-        let tokens = Tensor::cat(
-            &[self.output_tokens.unsqueeze(0)?.broadcast_as((b, 1 + m, d))?.contiguous()?, sparse.clone()],
-            1,
-        )?;
-        let mut queries = tokens.clone();
-        let mut keys: Option<Tensor> = None;
-        for (i, block) in self.blocks.iter().enumerate() {
-            let side = match (&keys, i) {
-                (None, _) => ImageSide::Shared { keys: &image.first_keys, values: &image.first_values },
-                (Some(k), i) => ImageSide::PerPrompt { tokens: k, pe_projected: &image.later_pe[i - 1].0 },
-            };
-            queries = block_tokens(block, &queries, &tokens, side)?;
-            let q = (&queries + &tokens)?;
-            let update = match &keys {
-                None => image_to_token(
-                    &block.image_to_token,
-                    &q,
-                    &queries,
-                    ImageQueries::Shared(&image.first_queries),
-                )?
-                .broadcast_add(&image.tokens)?,
-                Some(k) => {
-                    let pe_q = &image.later_pe[i - 1].1;
-                    (k + image_to_token(
-                        &block.image_to_token,
-                        &q,
-                        &queries,
-                        ImageQueries::PerPrompt(k, pe_q),
-                    )?)?
-                }
-            };
-            keys = Some(block.norm4.forward(&update)?);
+        let (b, t_sparse, d) = sparse.dims3()?;
+        let packed = &image.packed;
+        if d != packed.dim {
+            return Err(ModelsError::Input(format!(
+                "SAM prompt tokens {:?}, expected width {}",
+                sparse.dims(),
+                packed.dim
+            )));
         }
-        let keys = match keys {
-            Some(k) => k,
-            None => image.tokens.unsqueeze(0)?.broadcast_as((b, image.tokens.dims()[0], d))?.contiguous()?,
-        };
-        let q = (&queries + &tokens)?;
-        let side = ImageSide::PerPrompt { tokens: &keys, pe_projected: &image.final_pe_keys };
-        let attended = token_to_image(&self.final_attn, &q, side)?;
-        let queries = self.final_norm.forward(&(&queries + attended)?)?;
-        let iou = self.iou_head.forward(&queries.narrow(1, 0, 1)?.squeeze(1)?)?;
-        Ok(DecodedTokens { queries, keys, iou })
+        let sparse = sparse.flatten_all()?.to_vec1::<f32>()?;
+        let mut prompts = Vec::with_capacity(b);
+        let mut iou = Vec::with_capacity(b * packed.num_masks);
+        for prompt in sparse.chunks_exact(t_sparse * d) {
+            let decoded = decode_prompt(packed, image, prompt);
+            let final_tokens = final_attention(packed, image, &decoded, &[0]);
+            iou.extend(packed.iou(&final_tokens));
+            prompts.push(decoded);
+        }
+        let iou = Tensor::from_vec(iou, (b, packed.num_masks), &Device::Cpu)?;
+        Ok(DecodedTokens { prompts, iou })
     }
 
     /// Low-resolution logits of the mask outputs `outputs` (indices into the M outputs) of prompt
@@ -195,117 +256,290 @@ impl MaskDecoder {
         prompt: usize,
         outputs: &[usize],
     ) -> ModelsResult<Tensor> {
-        let tokens = decoded.queries.get(prompt)?; // [T, D]
-        let hyper = outputs
+        let packed = &image.packed;
+        let Some(one) = decoded.prompts.get(prompt) else {
+            return Err(ModelsError::Input(format!(
+                "prompt {prompt} of a batch of {}",
+                decoded.prompts.len()
+            )));
+        };
+        if let Some(bad) = outputs.iter().find(|&&o| o >= packed.num_masks) {
+            return Err(ModelsError::Input(format!("mask output {bad} of {}", packed.num_masks)));
+        }
+        let which: Vec<usize> = outputs.iter().map(|&o| 1 + o).collect();
+        let final_tokens = final_attention(packed, image, one, &which);
+        let hyper: Vec<f32> = outputs
             .iter()
-            .map(|&o| self.hypernets[o].forward(&tokens.narrow(0, 1 + o, 1)?))
-            .collect::<ModelsResult<Vec<_>>>()?;
-        let hyper = Tensor::cat(&hyper, 0)?.unsqueeze(0)?; // [1, S, D/8]
-        let keys = decoded.keys.narrow(0, prompt, 1)?;
-        Ok(self.upscale_masks(&keys, &hyper, image.grid)?.squeeze(0)?)
+            .zip(final_tokens.chunks_exact(packed.dim))
+            .flat_map(|(&o, token)| packed.hyper(o, token))
+            .collect();
+        let (h, w) = image.grid;
+        let first_rows = rows_through_upscaling(image, &one.first_scaled_rows);
+        let second_rows = rows_through_upscaling(image, &one.second_rows);
+        let layer = |cell0, cells, out: &mut [f32]| {
+            first_upscaling_layer(image, one, (&first_rows, &second_rows), cell0, cells, out)
+        };
+        let logits = packed.upscale(layer, &hyper, (h, w));
+        Ok(Tensor::from_vec(logits, (outputs.len(), 4 * h, 4 * w), &Device::Cpu)?)
     }
 }
 
-/// A block's token-side steps up to and including the token→image attention and the MLP.
-fn block_tokens(
-    block: &TwoWayBlock,
-    queries: &Tensor,
-    query_pe: &Tensor,
-    image: ImageSide,
-) -> ModelsResult<Tensor> {
-    let queries = if block.skip_first_pe {
-        block.self_attn.forward(queries, queries, queries)?
-    } else {
-        let q = (queries + query_pe)?;
-        (queries + block.self_attn.forward(&q, &q, queries)?)?
-    };
-    let queries = block.norm1.forward(&queries)?;
-    let q = (&queries + query_pe)?;
-    let queries = block.norm2.forward(&(&queries + token_to_image(&block.token_to_image, &q, image)?)?)?;
-    let mlp = block.lin2.forward(&block.lin1.forward(&queries)?.relu()?)?;
-    Ok(block.norm3.forward(&(queries + mlp)?)?)
+/// One prompt (`sparse` `[T', D]`) through both blocks.
+fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -> DecodedPrompt {
+    let d = packed.dim;
+    let n = image.cells();
+    let mut tokens = packed.output_tokens.clone();
+    tokens.extend_from_slice(sparse);
+    let t = tokens.len() / d;
+    let ht = NUM_HEADS * t;
+    let [first, second] = &packed.blocks;
+    let mut queries = tokens.clone();
+
+    // ---- first block: the image side is shared
+    first.self_attention(&mut queries, &tokens, t);
+    let attn = &first.token_to_image;
+    let (ci, dh) = (attn.internal, attn.head_dim());
+    let q = project(&attn.q, &added(&queries, &tokens), t, true);
+    let mut scores = vec![0f32; t * n];
+    let mut heads = vec![0f32; t * ci];
+    for h in 0..NUM_HEADS {
+        let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
+        let keys = View::transposed(&image.first_keys, h * dh, ci);
+        matmul(t, n, dh, ViewMut::rows(&mut scores, 0, n), head, keys, false, attn.scale());
+        softmax_runs(&mut scores, n, 1.0);
+        let values = View { data: &image.first_values, offset: h * dh, rs: ci, cs: 1 };
+        let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
+        matmul(t, dh, n, out, View::rows(&scores, 0, n), values, false, 1.0);
+    }
+    add_into(&mut queries, &project(&attn.out, &heads, t, true));
+    first.norm2.rows(&mut queries);
+    first.mlp(&mut queries, t);
+
+    let attn = &first.image_to_token;
+    let (ci, dh) = (attn.internal, attn.head_dim());
+    let k = project(&attn.k, &added(&queries, &tokens), t, true);
+    let u_first = attn.output_rows(&project(&attn.v, &queries, t, true), t);
+    let mut a_first = vec![0f32; n * ht];
+    for h in 0..NUM_HEADS {
+        let image_q = View { data: &image.first_queries, offset: h * dh, rs: ci, cs: 1 };
+        let out = ViewMut { data: &mut a_first, offset: h * t, rs: ht, cs: 1 };
+        matmul(n, t, dh, out, image_q, View::transposed(&k, h * dh, ci), false, attn.scale());
+    }
+    softmax_runs(&mut a_first, t, 1.0);
+    let mut keys = image.first_residual.clone();
+    matmul(
+        n,
+        d,
+        ht,
+        ViewMut::rows(&mut keys, 0, d),
+        View::rows(&a_first, 0, ht),
+        View::rows(&u_first, 0, d),
+        true,
+        1.0,
+    );
+    let mut mean = vec![0f32; n];
+    let mut inv_std = vec![0f32; n];
+    for (i, row) in keys.chunks_exact_mut(d).enumerate() {
+        let (m, s) = first.norm4.row(row);
+        mean[i] = m;
+        inv_std[i] = 1.0 / s;
+    }
+    let gamma = &first.norm4.gamma;
+    let scaled_rows: Vec<f32> =
+        u_first.chunks_exact(d).flat_map(|row| row.iter().zip(gamma).map(|(u, g)| u * g)).collect();
+    let trace =
+        FirstBlockTrace { weights: &a_first, scaled_rows: &scaled_rows, mean: &mean, inv_std: &inv_std };
+
+    // ---- second block: the image side through the first block's weights
+    second.self_attention(&mut queries, &tokens, t);
+    let attended = second_token_to_image(packed, image, &trace, &added(&queries, &tokens), t);
+    add_into(&mut queries, &attended);
+    second.norm2.rows(&mut queries);
+    second.mlp(&mut queries, t);
+
+    let attn = &second.image_to_token;
+    let k = project(&attn.k, &added(&queries, &tokens), t, true);
+    let weights = second_image_scores(packed, image, &trace, &k, t);
+    let u_second = attn.output_rows(&project(&attn.v, &queries, t, true), t);
+    matmul(
+        n,
+        d,
+        ht,
+        ViewMut::rows(&mut keys, 0, d),
+        View::rows(&weights, 0, ht),
+        View::rows(&u_second, 0, d),
+        true,
+        1.0,
+    );
+    let mut second_mean = vec![0f32; n];
+    let mut second_inv_std = vec![0f32; n];
+    for (i, row) in keys.chunks_exact_mut(d).enumerate() {
+        add_into(row, &attn.out.bias);
+        let (m, s) = second.norm4.row(row);
+        second_mean[i] = m;
+        second_inv_std[i] = 1.0 / s;
+    }
+    DecodedPrompt {
+        tokens,
+        queries,
+        keys,
+        first_weights: a_first,
+        first_scaled_rows: scaled_rows,
+        first_mean: mean,
+        first_inv_std: inv_std,
+        second_weights: weights,
+        second_rows: u_second,
+        second_mean,
+        second_inv_std,
+    }
 }
 
-/// Token→image attention: `queries` `[B, T, D]` (with their positional terms) attend to the image
-/// tokens. Returns the output projection `[B, T, D]`.
-fn token_to_image(attn: &Attention, queries: &Tensor, image: ImageSide) -> ModelsResult<Tensor> {
-    let (b, t, _) = queries.dims3()?;
-    let head_dim = attn.internal / NUM_HEADS;
-    let scale = 1.0 / (head_dim as f64).sqrt();
-    let q = split_heads(&attn.q.forward(queries)?.reshape((b * t, attn.internal))?)?; // [H, B·T, d]
-    let heads_out = match image {
-        ImageSide::Shared { keys, values } => {
-            let scores = (q.matmul(&keys.t()?)? * scale)?; // [H, B·T, N]
-            candle_nn::ops::softmax_last_dim(&scores)?.matmul(values)? // [H, B·T, d]
-        }
-        ImageSide::PerPrompt { tokens, pe_projected } => {
-            // (W_k,hᵀ q) per head and token: [B, H·T, D]
-            let folded = heads_to_batch(&q.matmul(&weight_heads(&attn.k)?)?, b)?;
-            let from_tokens = folded.matmul(&tokens.transpose(1, 2)?)?; // [B, H·T, N]
-            let from_pe = heads_to_batch(&q.matmul(&pe_projected.t()?)?, b)?; // [B, H·T, N]
-            let from_bias = bias_scores(&q, &bias_heads(&attn.k)?, b)?; // [B, H·T, 1]
-            let scores = ((from_tokens + from_pe)?.broadcast_add(&from_bias)? * scale)?;
-            let weights = candle_nn::ops::softmax_last_dim(&scores)?; // [B, H·T, N]
-            let mixed = weights.matmul(tokens)?; // [B, H·T, D]
-            let n_tok = mixed.dims()[1] / NUM_HEADS;
-            let mixed =
-                mixed.reshape((b, NUM_HEADS, n_tok, mixed.dims()[2]))?.transpose(0, 1)?.contiguous()?;
-            let mixed = mixed.reshape((NUM_HEADS, b * n_tok, mixed.dims()[3]))?; // [H, B·T, D]
-            mixed.matmul(&weight_heads(&attn.v)?.transpose(1, 2)?)?.broadcast_add(&bias_heads(&attn.v)?)?
-        }
-    };
-    let out = heads_out.transpose(0, 1)?.contiguous()?.reshape((b, t, attn.internal))?;
-    Ok(attn.out.forward(&out)?)
+/// Attention output rows `[R, D]` through the scaled first transposed convolution `W'`: `[R, 4·c1]`.
+fn rows_through_upscaling(image: &DecoderImage, rows: &[f32]) -> Vec<f32> {
+    let cols = image.up_first_gamma.len();
+    let d = image.up_weight.len() / cols;
+    let r = rows.len() / d;
+    let mut projected = vec![0f32; r * cols];
+    let out = ViewMut::rows(&mut projected, 0, cols);
+    matmul(r, cols, d, out, View::rows(rows, 0, d), View::rows(&image.up_weight, 0, cols), false, 1.0);
+    projected
 }
 
-/// The image side of an image→token attention's queries.
-enum ImageQueries<'a> {
-    /// First block: `(E + P)·W_qᵀ + b_q`, `[H, N, d]`.
-    Shared(&'a Tensor),
-    /// Image tokens `[B, N, D]` and the shared `P·W_qᵀ` `[H, N, d]`.
-    PerPrompt(&'a Tensor, &'a Tensor),
+/// The first transposed convolution (with bias) of cells `cell0..cell0 + cells` of a decoded prompt's
+/// image tokens, `out` `[cells, 4·c1]`, through both blocks' attention weights: with `X₂ = γ₂⊙(Y − μ₂)/σ₂
+/// + β₂`, `Y = X₁ + A₂U₂ + b_o₂` and `X₁ = γ⊙(E + b_o + A₁U₁ − μ₁)/σ₁ + β`, the product `X₂·W` needs
+/// the shared `γ⊙(E + b_o)·W'` and per prompt only `H·T`-wide products with `A₁` and `A₂`
+/// (`first_rows`, `second_rows`: `γ⊙U₁` and `U₂` through `W'`, from [`rows_through_upscaling`]).
+fn first_upscaling_layer(
+    image: &DecoderImage,
+    prompt: &DecodedPrompt,
+    (first_rows, second_rows): (&[f32], &[f32]),
+    cell0: usize,
+    cells: usize,
+    out: &mut [f32],
+) {
+    let cols = image.up_first_gamma.len();
+    let ht1 = first_rows.len() / cols;
+    let ht2 = second_rows.len() / cols;
+    let out = &mut out[..cells * cols];
+    matmul(
+        cells,
+        cols,
+        ht1,
+        ViewMut::rows(out, 0, cols),
+        View::rows(&prompt.first_weights, cell0 * ht1, ht1),
+        View::rows(first_rows, 0, cols),
+        false,
+        1.0,
+    );
+    for (c, row) in out.chunks_exact_mut(cols).enumerate() {
+        let i = cell0 + c;
+        let (mean, inv_std) = (prompt.first_mean[i], prompt.first_inv_std[i]);
+        let shared = &image.up_shared[i * cols..(i + 1) * cols];
+        for j in 0..cols {
+            row[j] =
+                (row[j] + shared[j] - mean * image.up_first_gamma[j]) * inv_std + image.up_first_const[j];
+        }
+    }
+    matmul(
+        cells,
+        cols,
+        ht2,
+        ViewMut::rows(out, 0, cols),
+        View::rows(&prompt.second_weights, cell0 * ht2, ht2),
+        View::rows(second_rows, 0, cols),
+        true,
+        1.0,
+    );
+    for (c, row) in out.chunks_exact_mut(cols).enumerate() {
+        let i = cell0 + c;
+        let (mean, inv_std) = (prompt.second_mean[i], prompt.second_inv_std[i]);
+        let affine = image.up_second_gamma.iter().zip(&image.up_second_const);
+        for (v, (gamma, constant)) in row.iter_mut().zip(affine) {
+            *v = (*v - mean * gamma) * inv_std + constant;
+        }
+    }
 }
 
-/// Image→token attention: every image token attends to the `T` tokens (`keys_in` `[B, T, D]` with
-/// their positional terms, `values_in` without). Returns the output projection `[B, N, D]`.
-fn image_to_token(
-    attn: &Attention,
-    keys_in: &Tensor,
-    values_in: &Tensor,
-    image: ImageQueries,
-) -> ModelsResult<Tensor> {
-    let (b, t, _) = keys_in.dims3()?;
-    let head_dim = attn.internal / NUM_HEADS;
-    let scale = 1.0 / (head_dim as f64).sqrt();
-    let k = split_heads(&attn.k.forward(keys_in)?.reshape((b * t, attn.internal))?)?; // [H, B·T, d]
-    let v = split_heads(&attn.v.forward(values_in)?.reshape((b * t, attn.internal))?)?; // [H, B·T, d]
-    let scores = match image {
-        ImageQueries::Shared(queries) => {
-            let n = queries.dims()[1];
-            // [H, N, B·T] → [B, N, H, T]
-            let s = queries.matmul(&k.t()?)?.reshape((NUM_HEADS, n, b, t))?;
-            s.permute((2, 1, 0, 3))?.contiguous()?
+/// The final token→image attention and norm for the tokens `which` (indices into the `T` tokens) of
+/// a decoded prompt: `[S, D]`.
+fn final_attention(
+    packed: &PackedDecoder,
+    image: &DecoderImage,
+    prompt: &DecodedPrompt,
+    which: &[usize],
+) -> Vec<f32> {
+    let d = packed.dim;
+    let n = image.cells();
+    let attn = &packed.final_attn;
+    let (ci, dh) = (attn.internal, attn.head_dim());
+    let ts = which.len();
+    let row = |x: &[f32], i: usize| x[i * d..(i + 1) * d].to_vec();
+    let selected: Vec<f32> = which.iter().flat_map(|&i| row(&prompt.queries, i)).collect();
+    let with_pe: Vec<f32> =
+        which.iter().flat_map(|&i| added(&row(&prompt.queries, i), &row(&prompt.tokens, i))).collect();
+    let q = project(&attn.q, &with_pe, ts, true);
+    // folded[(h, s)] = W_k,hᵀ q_s,h, [H·S, D]
+    let mut folded = vec![0f32; NUM_HEADS * ts * d];
+    let mut scores = vec![0f32; NUM_HEADS * ts * n];
+    for h in 0..NUM_HEADS {
+        let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
+        let out = ViewMut { data: &mut folded, offset: h * ts * d, rs: d, cs: 1 };
+        matmul(ts, d, dh, out, head, View::rows(&attn.k.weight, h * dh * d, d), false, 1.0);
+        let out = ViewMut { data: &mut scores, offset: h * ts * n, rs: n, cs: 1 };
+        matmul(ts, n, dh, out, head, View::transposed(&image.final_pe_keys, h * dh, ci), false, 1.0);
+    }
+    let keys = &prompt.keys;
+    matmul(
+        NUM_HEADS * ts,
+        n,
+        d,
+        ViewMut::rows(&mut scores, 0, n),
+        View::rows(&folded, 0, d),
+        View::transposed(keys, 0, d),
+        true,
+        1.0,
+    );
+    let scale = attn.scale();
+    for h in 0..NUM_HEADS {
+        for s in 0..ts {
+            let from_bias =
+                dot(&q[s * ci + h * dh..s * ci + (h + 1) * dh], &attn.k.bias[h * dh..(h + 1) * dh]);
+            let r = h * ts + s;
+            scores[r * n..(r + 1) * n].iter_mut().for_each(|v| *v = (*v + from_bias) * scale);
         }
-        ImageQueries::PerPrompt(tokens, pe_projected) => {
-            let n = tokens.dims()[1];
-            let folded = heads_to_batch(&k.matmul(&weight_heads(&attn.q)?)?, b)?; // [B, H·T, D]
-            let from_tokens = tokens.matmul(&folded.transpose(1, 2)?)?; // [B, N, H·T]
-            let from_pe = pe_projected.matmul(&k.t()?)?.reshape((NUM_HEADS, n, b, t))?;
-            let from_pe = from_pe.permute((2, 1, 0, 3))?.contiguous()?.reshape((b, n, NUM_HEADS * t))?;
-            let from_bias = bias_scores(&k, &bias_heads(&attn.q)?, b)?.transpose(1, 2)?; // [B, 1, H·T]
-            (from_tokens + from_pe)?.broadcast_add(&from_bias)?.reshape((b, n, NUM_HEADS, t))?
-        }
-    };
-    let n = scores.dims()[1];
-    let weights = candle_nn::ops::softmax_last_dim(&(scores * scale)?)?.reshape((b, n, NUM_HEADS * t))?;
-    // U[b, (h, t)] = W_o,h v[b, t, h]: [H, B·T, D] → [B, H·T, D]
-    let (dim, _) = attn.out.weight().dims2()?;
-    let out_heads =
-        attn.out.weight().reshape((dim, NUM_HEADS, head_dim))?.permute((1, 2, 0))?.contiguous()?;
-    let u = heads_to_batch(&v.matmul(&out_heads)?, b)?;
-    let out = weights.matmul(&u)?; // [B, N, D]
-    Ok(match attn.out.bias() {
-        Some(bias) => out.broadcast_add(bias)?,
-        None => out,
-    })
+    }
+    softmax_runs(&mut scores, n, 1.0);
+    let mut mixed = vec![0f32; NUM_HEADS * ts * d];
+    matmul(
+        NUM_HEADS * ts,
+        d,
+        n,
+        ViewMut::rows(&mut mixed, 0, d),
+        View::rows(&scores, 0, n),
+        View::rows(keys, 0, d),
+        false,
+        1.0,
+    );
+    let mut heads = vec![0f32; ts * ci];
+    for h in 0..NUM_HEADS {
+        let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
+        matmul(
+            ts,
+            dh,
+            d,
+            out,
+            View::rows(&mixed, h * ts * d, d),
+            View::transposed(&attn.v.weight, h * dh * d, d),
+            false,
+            1.0,
+        );
+    }
+    for row in heads.chunks_exact_mut(ci) {
+        add_into(row, &attn.v.bias);
+    }
+    let mut out = selected;
+    add_into(&mut out, &project(&attn.out, &heads, ts, true));
+    packed.final_norm.rows(&mut out);
+    out
 }
