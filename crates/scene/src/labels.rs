@@ -28,6 +28,14 @@ pub fn parse_label_png(bytes: &[u8]) -> Result<Plane<u32>, String> {
     let mut reader = decoder.read_info().map_err(|e| invalid(format!("cannot decode PNG: {e}")))?;
     let (declared_w, declared_h) = (reader.info().width, reader.info().height);
     crate::limits::check_pixels("the label map", declared_w as u64, declared_h as u64)?;
+    // Refused before the buffer is allocated: an RGBA 16-bit header at the pixel cap asks for
+    // 2 GiB (found by the fuzz campaign).
+    let declared = reader.info().color_type;
+    if !matches!(declared, png::ColorType::Grayscale | png::ColorType::Indexed) {
+        return Err(invalid(format!(
+            "colour type {declared:?}; a label map must be greyscale (8 or 16 bit) or palette-indexed"
+        )));
+    }
     let size = reader.output_buffer_size().ok_or_else(|| invalid("image too large".to_string()))?;
     let mut buffer = vec![0u8; size];
     let frame = reader.next_frame(&mut buffer).map_err(|e| invalid(format!("cannot decode PNG: {e}")))?;
