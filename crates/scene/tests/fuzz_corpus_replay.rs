@@ -111,3 +111,14 @@ fn the_other_seeds_are_valid_files() {
     let map = splatseg_scene::labels::parse_label_png(&read("label_png", "seed_16bit.png")).expect("png");
     assert_eq!((map.width, map.height), (64, 48));
 }
+
+/// The campaign's finding (label_png, round 4; the artifact with its header checksum repaired so
+/// stable builds parse it): an RGBA 16-bit PNG declaring 2 × 2²⁷ pixels made the reader allocate
+/// a 2 GiB decode buffer before checking the colour type. It is refused from the header now.
+#[test]
+fn an_rgba_label_png_at_the_pixel_cap_is_refused_before_decoding() {
+    let path = corpus_root().join("label_png").join("crash_oom_rgba16_tall.png");
+    let bytes = std::fs::read(path).expect("artifact");
+    let e = splatseg_scene::labels::parse_label_png(&bytes).expect_err("refused");
+    assert!(e.contains("colour type") && e.contains("greyscale"), "{e}");
+}
