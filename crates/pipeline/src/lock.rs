@@ -32,21 +32,9 @@ impl Drop for OutputLock {
 /// Takes the lock on `out` (created if needed) for `command`, or fails at once when another
 /// process holds it.
 pub fn lock_output(out: &Path, command: &str) -> crate::Result<OutputLock> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
-    let path = out.join(LOCK_FILE);
-    let mut file = OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(false)
-        .open(&path)
-        .with_context(|| format!("cannot open the lock file {}", path.display()))?;
+    let (path, mut file) = open_lock_file(out)?;
     if !try_lock(&file, true).with_context(|| format!("cannot lock {}", path.display()))? {
-        let mut holder = String::new();
-        let _ = file.read_to_string(&mut holder);
-        let holder = holder.trim();
-        let holder = if holder.is_empty() { "another process".to_string() } else { holder.to_string() };
+        let holder = holder_of(&file);
         bail!(
             "the output folder is in use by {holder}: two runs must not write the same --out at once \
              (wait for it to finish or choose another --out): {}",
@@ -69,6 +57,19 @@ pub fn lock_output(out: &Path, command: &str) -> crate::Result<OutputLock> {
 /// and a shard is refused while a `run` writes. No temporary files are removed (other shards'
 /// writes may be in flight).
 pub fn lock_output_shared(out: &Path, command: &str) -> crate::Result<OutputLock> {
+    let (path, file) = open_lock_file(out)?;
+    if !try_lock(&file, false).with_context(|| format!("cannot lock {}", path.display()))? {
+        let holder = holder_of(&file);
+        bail!(
+            "the output folder is in use by {holder}: `{command}` shards wait for it to finish: {}",
+            out.display()
+        );
+    }
+    Ok(OutputLock { file, shared: true })
+}
+
+/// Creates `out` and opens (creating) its lock file; returns the file's path with it.
+fn open_lock_file(out: &Path) -> crate::Result<(std::path::PathBuf, std::fs::File)> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create the output folder {}", out.display()))?;
     let path = out.join(LOCK_FILE);
@@ -79,17 +80,17 @@ pub fn lock_output_shared(out: &Path, command: &str) -> crate::Result<OutputLock
         .truncate(false)
         .open(&path)
         .with_context(|| format!("cannot open the lock file {}", path.display()))?;
-    if !try_lock(&file, false).with_context(|| format!("cannot lock {}", path.display()))? {
-        let mut holder = String::new();
-        let _ = (&file).read_to_string(&mut holder);
-        let holder = holder.trim();
-        let holder = if holder.is_empty() { "another process".to_string() } else { holder.to_string() };
-        bail!(
-            "the output folder is in use by {holder}: `{command}` shards wait for it to finish: {}",
-            out.display()
-        );
+    Ok((path, file))
+}
+
+/// Who holds the lock, as the holder wrote it into the file ("another process" if unreadable).
+fn holder_of(file: &std::fs::File) -> String {
+    let mut holder = String::new();
+    let _ = (&*file).read_to_string(&mut holder);
+    match holder.trim() {
+        "" => "another process".to_string(),
+        h => h.to_string(),
     }
-    Ok(OutputLock { file, shared: true })
 }
 
 /// Removes the temporary files (`.tmp*`, see `splatseg_scene::atomic`) a killed writer left in
