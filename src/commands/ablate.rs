@@ -81,6 +81,7 @@ fn study_views(scene: &SynthScene, region_options: RegionOptions) -> anyhow::Res
                 metric_depth: Some(&metric),
                 descriptors: &descriptors,
                 region_options,
+                intrinsics: Some(splatseg_cues::Intrinsics::of_camera(scene.scene.camera(view), w, h)),
             })?;
             Ok(StudyView { stem: v.stem.clone(), inputs, gt: v.gt_instance.clone(), keep_apart: Some(white) })
         })

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
-    FeatureGrids, MaskInput, NpyDepthSource, RegionOptions, RegionSource,
+    FeatureGrids, Intrinsics, MaskInput, NpyDepthSource, RegionOptions, RegionSource,
 };
 use splatseg_merge::{build_view_inputs, merge_view, CueRequest, Decision, MergeConfig, RegionSummary};
 use splatseg_render::{render, RenderCamera, RenderRequest};
@@ -203,6 +203,7 @@ fn merge_one(
         metric_depth: metric.as_ref(),
         descriptors: sources.descriptors,
         region_options: RegionOptions::default(),
+        intrinsics: Some(Intrinsics::of_camera(scene.camera(view), w, h)),
     })
     .with_context(|| format!("cues of view `{}`", view.stem))?;
     let result = merge_view(&inputs, config).with_context(|| format!("merging view `{}`", view.stem))?;

@@ -5,6 +5,7 @@
 //! - [`descriptors`]: per-region semantic descriptors (dense feature grids or the model-free
 //!   colour + texture fallback).
 //! - [`regions`]: overlapping SAM masks resolved into a partition.
+//! - [`surface`]: camera-space points and per-region surface normals from metric depth.
 //! - [`filter`]: the small filters these are built from.
 
 pub mod depth;
@@ -13,6 +14,7 @@ pub mod edges;
 pub mod error;
 pub mod filter;
 pub mod regions;
+pub mod surface;
 
 pub use depth::{
     depth_gradient, normalise_depth, DepthKind, DepthMap, DepthSource, InMemoryDepthSource, NpyDepthSource,
@@ -24,3 +26,4 @@ pub use descriptors::{
 pub use edges::{grey_from_rgb, log_edges};
 pub use error::{CuesError, CuesResult};
 pub use regions::{regions_from_sam_masks, MaskInput, RegionOptions, RegionSource, Regions, UncoveredPolicy};
+pub use surface::{camera_points, near_depth_edge, region_normal_at, Intrinsics, NormalWindow};

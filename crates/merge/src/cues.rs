@@ -5,8 +5,8 @@ use crate::merge::ViewInputs;
 use splatseg_cues::depth::DEPTH_GRADIENT_SIGMA_PX;
 use splatseg_cues::edges::LOG_SIGMA_PX;
 use splatseg_cues::{
-    depth_gradient, grey_from_rgb, log_edges, normalise_depth, regions_from_sam_masks, DepthMap,
-    DescribeRequest, DescriptorSource, MaskInput, RegionOptions,
+    camera_points, depth_gradient, grey_from_rgb, log_edges, normalise_depth, regions_from_sam_masks,
+    DepthMap, DescribeRequest, DescriptorSource, Intrinsics, MaskInput, RegionOptions,
 };
 use splatseg_scene::Plane;
 
@@ -27,6 +27,9 @@ pub struct CueRequest<'a> {
     pub descriptors: &'a dyn DescriptorSource,
     /// How masks become regions.
     pub region_options: RegionOptions,
+    /// The view's pinhole intrinsics: with metric depth they give the camera-space points the
+    /// crease gate reads (`None`: no crease gate).
+    pub intrinsics: Option<Intrinsics>,
 }
 
 /// Computes regions, descriptors, normalised depth, `∇D` and LoG edges for one view.
@@ -50,5 +53,9 @@ pub fn build_view_inputs(request: &CueRequest<'_>) -> MergeResultOf<ViewInputs> 
     let gradient = depth_gradient(&depth, DEPTH_GRADIENT_SIGMA_PX);
     let edges = log_edges(&grey_from_rgb(request.rgb), LOG_SIGMA_PX);
     let metric_depth = request.metric_depth.cloned().or_else(|| request.depth.metric().cloned());
-    Ok(ViewInputs { regions, descriptors, depth, depth_gradient: gradient, edges, metric_depth })
+    let points = match (&metric_depth, &request.intrinsics) {
+        (Some(z), Some(k)) => Some(camera_points(z, k)),
+        _ => None,
+    };
+    Ok(ViewInputs { regions, descriptors, depth, depth_gradient: gradient, edges, metric_depth, points })
 }

@@ -10,9 +10,9 @@
 use crate::config::MergeConfig;
 use crate::error::{MergeError, MergeResultOf};
 use crate::graph::{build_edges, sorted_union, Edge, Junctions};
-use crate::score::{evaluate, BoundaryMaps, Outcome, RegionState, ScoreTerms, Scratch};
+use crate::score::{evaluate, BoundaryMaps, Outcome, RegionState, ScoreTerms, Scratch, SurfaceMaps};
 use serde::{Deserialize, Serialize};
-use splatseg_cues::{RegionDescriptors, Regions};
+use splatseg_cues::{near_depth_edge, region_normal_at, NormalWindow, RegionDescriptors, Regions};
 use splatseg_scene::Plane;
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BinaryHeap};
@@ -32,6 +32,9 @@ pub struct ViewInputs {
     pub edges: Plane<f32>,
     /// `[H, W]` metric z, when available (enables the relative depth gate).
     pub metric_depth: Option<Plane<f32>>,
+    /// `[H, W]` camera-space points (NaN = no depth), when metric depth and the intrinsics are
+    /// known (enables the crease gate).
+    pub points: Option<Plane<[f32; 3]>>,
 }
 
 /// One final region.
@@ -129,6 +132,9 @@ fn check_inputs(inputs: &ViewInputs) -> MergeResultOf<()> {
     ];
     if let Some(m) = &inputs.metric_depth {
         maps.push(("metric depth", m.size()));
+    }
+    if let Some(m) = &inputs.points {
+        maps.push(("points", m.size()));
     }
     for (name, s) in maps {
         if s != size {
@@ -229,17 +235,55 @@ fn shared_boundary(
     }
 }
 
+/// Relative depth jump between neighbouring pixels near a band pixel above which it is taken to
+/// be on an occlusion edge and left out of the crease test (an object's outline against the
+/// floor behind it is an occlusion edge; where it stands on the floor is a contact).
+const OCCLUSION_DEPTH_JUMP: f32 = 0.1;
+
+/// `[H, W]` unit surface normals of the band pixels of `edges` (NaN elsewhere and near occlusion
+/// edges), each from its own input region's points (`points`, `labels`: `[H, W]`), in a window
+/// scaled with the image.
+fn band_normals(points: &Plane<[f32; 3]>, labels: &Plane<u32>, edges: &[Edge]) -> Plane<[f32; 3]> {
+    let (w, h) = labels.size();
+    let window = NormalWindow::for_size(w, h);
+    let mut normals = Plane::filled(w, h, [f32::NAN; 3]);
+    let mut done = vec![false; w * h];
+    for e in edges {
+        for &p in &e.band {
+            let p = p as usize;
+            if !std::mem::replace(&mut done[p], true)
+                && !near_depth_edge(points, p, window, OCCLUSION_DEPTH_JUMP)
+            {
+                if let Some(n) = region_normal_at(points, labels, p, window) {
+                    normals.data[p] = n;
+                }
+            }
+        }
+    }
+    normals
+}
+
 /// Runs Multi-Cue-Guided Mask Merging on one view.
 pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<MergeResult> {
     config.validate()?;
     check_inputs(inputs)?;
     let n = inputs.regions.count();
     let labels = &inputs.regions.labels;
+    let (built, junctions) = build_edges(labels, config.dilation_steps as usize);
+    let normals = match (&inputs.points, config.max_concave_crease_deg) {
+        (Some(points), Some(_)) => Some(band_normals(points, labels, &built)),
+        _ => None,
+    };
     let maps = BoundaryMaps {
         depth: &inputs.depth,
         edges: &inputs.edges,
         depth_gradient: &inputs.depth_gradient,
         metric_depth: inputs.metric_depth.as_ref(),
+        surface: inputs
+            .points
+            .as_ref()
+            .zip(normals.as_ref())
+            .map(|(points, normals)| SurfaceMaps { points, normals }),
     };
     // Region ids are input labels 1..=n; index 0 unused.
     let mut states: Vec<Option<RegionState>> = std::iter::once(None)
@@ -249,7 +293,6 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
         .collect();
     let mut versions = vec![0u32; n + 1];
     let mut parent: Vec<u32> = (0..=n as u32).collect();
-    let (built, junctions) = build_edges(labels, config.dilation_steps as usize);
     let mut edges: Vec<Option<Edge>> = built.into_iter().map(Some).collect();
     let mut neighbours: Vec<BTreeMap<u32, usize>> = vec![BTreeMap::new(); n + 1];
     for (i, e) in edges.iter().enumerate() {

@@ -55,6 +55,14 @@
 //!   contact exceeds `max_depth_boundary` (0.12). Depth maps smooth a step over a few pixels,
 //!   so the contact medians of an object and what stands behind it come closer than the step;
 //!   `∇D` there does not.
+//! - Concave-crease gate (not in the paper; with metric depth and intrinsics): the surface
+//!   normal on each side of the contact (averaged over the band pixels of that side, each
+//!   estimated from its own region's pixels, [`splatseg_cues::region_normal_at`]) and the
+//!   sides' mean points `x`. The crease is concave when `(n_i − n_j)·(x_i − x_j) < 0` (the
+//!   local-convexity criterion of LCCP, Stein et al. 2014): reject when it is concave and the
+//!   normals differ by more than `max_concave_crease_deg` (45°). Objects are mostly convex;
+//!   where two of them meet — a box on the floor, stacked boxes, walls at a corner — the crease
+//!   is concave and the depth is continuous, so the depth gates cannot see it.
 //! - Relative metric-depth gate (when metric depth, e.g. rendered from the Gaussians, is given):
 //!   `|z̃_i − z̃_j| / min(z̃_i, z̃_j) ≤ τ_rel` (default 0.1), `z̃` the median metric z of each
 //!   region's pixels inside the shared band. Unlike the normalised gate it does not depend on the
@@ -99,6 +107,10 @@ pub struct ScoreTerms {
     pub bbox_gap_px: u32,
     /// Relative metric-depth gap on the boundary, when metric depth is available.
     pub relative_depth_gap: Option<f32>,
+    /// Angle between the surface normals of the two sides of the contact, degrees, negative
+    /// when the crease is concave (when metric depth and intrinsics are available).
+    #[serde(default)]
+    pub crease_deg: Option<f32>,
     /// The composite score `S`.
     pub score: f32,
 }
@@ -115,6 +127,8 @@ pub enum Outcome {
     DepthGate,
     /// The depth-gradient statistic on the contact is above `max_depth_boundary`.
     DepthStep,
+    /// The two sides meet at a concave crease sharper than `max_concave_crease_deg`.
+    ConcaveCrease,
     /// Relative metric-depth gap above `τ_rel`.
     RelativeDepthGate,
     /// Released-code profile: cosine below its floor.
@@ -172,6 +186,65 @@ pub(crate) struct BoundaryMaps<'a> {
     pub depth_gradient: &'a Plane<f32>,
     /// `[H, W]` metric z, if available.
     pub metric_depth: Option<&'a Plane<f32>>,
+    /// Camera-space points and normals, for the crease gate.
+    pub surface: Option<SurfaceMaps<'a>>,
+}
+
+/// `[H, W]` camera-space points and unit surface normals (NaN = none; normals only on band
+/// pixels).
+#[derive(Clone, Copy)]
+pub(crate) struct SurfaceMaps<'a> {
+    /// Points.
+    pub points: &'a Plane<[f32; 3]>,
+    /// Normals.
+    pub normals: &'a Plane<[f32; 3]>,
+}
+
+/// Fewest band pixels with a normal each side needs for the crease angle.
+const CREASE_MIN_PIXELS: usize = 8;
+
+/// The signed crease angle between the two sides of `band` (degrees, negative = concave; see
+/// the module docs), `None` without surface maps or when a side has too few normals or
+/// normals that disagree (their mean shorter than ½).
+fn crease_deg(
+    maps: &BoundaryMaps<'_>,
+    band: &[u32],
+    side: &mut impl FnMut(u32) -> Option<bool>,
+) -> Option<f32> {
+    let SurfaceMaps { points, normals } = maps.surface?;
+    let mut n = [[0f64; 3]; 2];
+    let mut x = [[0f64; 3]; 2];
+    let mut count = [0usize; 2];
+    for &p in band {
+        let normal = normals.data[p as usize];
+        if !normal[0].is_finite() {
+            continue;
+        }
+        let k = match side(p) {
+            Some(true) => 0,
+            Some(false) => 1,
+            None => continue,
+        };
+        let point = points.data[p as usize];
+        for c in 0..3 {
+            n[k][c] += normal[c] as f64;
+            x[k][c] += point[c] as f64;
+        }
+        count[k] += 1;
+    }
+    if count[0] < CREASE_MIN_PIXELS || count[1] < CREASE_MIN_PIXELS {
+        return None;
+    }
+    let unit = |v: [f64; 3], k: usize| -> Option<[f64; 3]> {
+        let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        (len >= 0.5 * count[k] as f64).then(|| v.map(|c| c / len))
+    };
+    let (na, nb) = (unit(n[0], 0)?, unit(n[1], 1)?);
+    let dot = (na[0] * nb[0] + na[1] * nb[1] + na[2] * nb[2]).clamp(-1.0, 1.0);
+    let angle = dot.acos().to_degrees() as f32;
+    let convexity: f64 =
+        (0..3).map(|c| (na[c] - nb[c]) * (x[0][c] / count[0] as f64 - x[1][c] / count[1] as f64)).sum();
+    Some(if convexity < 0.0 { -angle } else { angle })
 }
 
 /// Statistic of `map` over the band pixels.
@@ -293,6 +366,10 @@ pub(crate) fn evaluate(
             .map(|(za, zb)| (za - zb).abs() / za.min(zb)),
         _ => None,
     };
+    let crease_deg = match config.max_concave_crease_deg {
+        Some(_) => crease_deg(maps, band, &mut side),
+        None => None,
+    };
     let terms = ScoreTerms {
         cos,
         depth_gap,
@@ -302,6 +379,7 @@ pub(crate) fn evaluate(
         contact,
         bbox_gap_px,
         relative_depth_gap,
+        crease_deg,
         score,
     };
     let outcome = if band.is_empty() || bbox_gap_px > config.tau_gap_px || contact < config.tau_contact {
@@ -310,6 +388,8 @@ pub(crate) fn evaluate(
         Outcome::DepthGate
     } else if config.max_depth_boundary.is_some_and(|t| depth_boundary > t) {
         Outcome::DepthStep
+    } else if matches!((crease_deg, config.max_concave_crease_deg), (Some(c), Some(t)) if c < -t) {
+        Outcome::ConcaveCrease
     } else if matches!((relative_depth_gap, config.relative_depth_gate), (Some(g), Some(t)) if g > t) {
         Outcome::RelativeDepthGate
     } else if config.profile == Profile::ReleasedCode && cos < config.released.min_cos {

@@ -40,6 +40,7 @@ fn view(
         depth,
         edges: log_edges(&plane(grey), LOG_SIGMA_PX),
         metric_depth: None,
+        points: None,
     }
 }
 
@@ -149,6 +150,7 @@ fn masks_view(masks: &[MaskInput]) -> ViewInputs {
         depth,
         edges: log_edges(&grey, LOG_SIGMA_PX),
         metric_depth: None,
+        points: None,
         regions,
     }
 }
@@ -377,4 +379,57 @@ fn a_depth_step_on_the_contact_stops_a_merge_the_contact_gap_misses() {
     assert_eq!(d.outcome, Outcome::DepthStep, "{:?}", d.terms);
     let off = MergeConfig { max_depth_boundary: None, ..MergeConfig::default() };
     assert_eq!(pair(&merge_view(&v, &off).unwrap()).outcome, Outcome::Accepted);
+}
+
+/// Intrinsics of the geometric views below: 80 × 60 pixels, a wide lens.
+const K: splatseg_cues::Intrinsics = splatseg_cues::Intrinsics { fx: 30.0, fy: 30.0, cx: 40.0, cy: 30.0 };
+
+/// A view of planes seen by a pinhole camera at the origin (y down, z forward): `surface(ry)`
+/// gives the label and metric z along the ray of a pixel row (`ry = (y + 0.5 − c_y) / f_y`).
+/// Every region looks the same (descriptor, grey), so only geometry can keep them apart.
+fn planes_view(surface: impl Fn(f32) -> (u32, f32), regions: usize) -> ViewInputs {
+    let ray_y = |y: usize| (y as f32 + 0.5 - K.cy) / K.fy;
+    let z = plane(|_, y| surface(ray_y(y)).1);
+    let mut v = view(
+        |_, y| surface(ray_y(y)).0,
+        &vec![[1.0, 0.0, 0.0]; regions],
+        |_, _| 0.5,
+        |_, y| surface(ray_y(y)).1 / 10.0,
+    );
+    v.points = Some(splatseg_cues::camera_points(&z, &K));
+    v.metric_depth = Some(z);
+    v
+}
+
+#[test]
+fn a_concave_crease_keeps_a_wall_and_the_floor_apart_and_a_convex_one_joins_two_faces() {
+    let pair = |r: &splatseg_merge::MergeResult, a: u32, b: u32| {
+        r.log.decisions.iter().find(|d| (d.a, d.b) == (a, b)).expect("the pair is evaluated").clone()
+    };
+    // The depth-step gate is off: the floor's depth ramps fastest at the contact here, and this
+    // test is about the crease alone.
+    let on = MergeConfig { max_depth_boundary: None, ..MergeConfig::default() };
+    let off = MergeConfig { max_concave_crease_deg: None, ..on.clone() };
+    // A wall at z = 2 (label 1) standing on a floor 1 below the camera (label 2): concave.
+    let wall_on_floor = planes_view(|ry| if ry > 0.5 { (2, 1.0 / ry) } else { (1, 2.0) }, 2);
+    let d = pair(&merge_view(&wall_on_floor, &on).unwrap(), 1, 2);
+    let crease = d.terms.crease_deg.expect("both sides have normals");
+    assert!((-95.0..-80.0).contains(&crease), "a right angle, concave: {crease}");
+    assert_eq!(d.outcome, Outcome::ConcaveCrease, "{:?}", d.terms);
+    assert_eq!(pair(&merge_view(&wall_on_floor, &off).unwrap(), 1, 2).outcome, Outcome::Accepted);
+    // Two faces of one object meeting at a ridge 2 in front of the camera, each tilted 37°
+    // away from it (label 1 above, 2 below): a convex edge, like a box's.
+    let ridge =
+        planes_view(|ry| if ry < 0.0 { (1, 1.6 / (0.8 + 0.6 * ry)) } else { (2, 1.6 / (0.8 - 0.6 * ry)) }, 2);
+    let r = merge_view(&ridge, &on).unwrap();
+    let d = pair(&r, 1, 2);
+    let crease = d.terms.crease_deg.expect("both sides have normals");
+    assert!((65.0..80.0).contains(&crease), "74°, convex: {crease}");
+    assert!(d.merged || r.log.decisions.iter().any(|d| (d.a, d.b) == (1, 2) && d.merged), "the faces join");
+    // The same faces folded the other way (a valley) are two surfaces.
+    let valley =
+        planes_view(|ry| if ry < 0.0 { (1, 1.6 / (0.8 - 0.6 * ry)) } else { (2, 1.6 / (0.8 + 0.6 * ry)) }, 2);
+    let d = pair(&merge_view(&valley, &on).unwrap(), 1, 2);
+    assert!((-80.0..-65.0).contains(&d.terms.crease_deg.expect("normals")), "{:?}", d.terms);
+    assert_eq!(d.outcome, Outcome::ConcaveCrease);
 }

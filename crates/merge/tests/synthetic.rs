@@ -15,7 +15,8 @@ fn study_views(scene: &SynthScene, region_options: RegionOptions) -> Vec<StudyVi
     scene
         .views
         .iter()
-        .map(|v| {
+        .zip(&scene.scene.views)
+        .map(|(v, view)| {
             let (w, h) = v.image.size();
             let rgb = v.image.map(|p| p.map(|c| c as f32 / 255.0));
             let mut scratch = Vec::new();
@@ -40,6 +41,7 @@ fn study_views(scene: &SynthScene, region_options: RegionOptions) -> Vec<StudyVi
                 metric_depth: Some(&v.gt_depth_z),
                 descriptors: &descriptors,
                 region_options,
+                intrinsics: Some(splatseg_cues::Intrinsics::of_camera(scene.scene.camera(view), w, h)),
             })
             .unwrap();
             StudyView { stem: v.stem.clone(), inputs, gt: v.gt_instance.clone(), keep_apart: Some(white) }

@@ -282,7 +282,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
     profiler.next("lift and render back");
     let mut lifted = match &prepared {
-        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &mut views, &matching, &merged_map, &pc.lift)?),
+        Some(p) => {
+            let snap_kind = pc.lift.final_maps.snapped_onto().unwrap_or("merged");
+            let snap_map = |v: usize| cached_map(v, snap_kind);
+            Some(lift_stage::lift_and_render(p, &cams, &mut views, &matching, &snap_map, &pc.lift)?)
+        }
         None => None,
     };
     let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {

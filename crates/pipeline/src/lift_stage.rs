@@ -170,15 +170,15 @@ impl LiftOutput {
 }
 
 /// Lifts the matched labels of the views with masks onto the Gaussians, renders every view back
-/// (snapping the rendered ids onto the merged regions read back by `merged_map(v)` with
-/// `final_maps = "snapped"`), drops specks and numbers the ids by first appearance. The views'
+/// (snapping the rendered ids onto the regions read back by `snap_map(v)`: the SAM regions with
+/// `final_maps = "snapped-raw"`, the merged ones with `"snapped"`), drops specks and numbers the ids by first appearance. The views'
 /// visible Gaussians and labels are consumed (moved, not copied).
 pub fn lift_and_render(
     prepared: &PreparedGaussians,
     cams: &[PosedCamera],
     views: &mut [Option<ViewResult>],
     matching: &Matching,
-    merged_map: &(dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
+    snap_map: &(dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
     config: &LiftConfig,
 ) -> crate::Result<LiftOutput> {
     let mut vis: Vec<ViewVisibility> = Vec::new();
@@ -216,7 +216,7 @@ pub fn lift_and_render(
         .map(|(v, c)| -> crate::Result<RunLengths> {
             let map = render_label_map(prepared, &votes, c.camera, c.world_from_cam, config);
             let map = match (&config.final_maps, &views[v]) {
-                (FinalMaps::Snapped, Some(_)) => snap_to_regions(&merged_map(v)?, &map),
+                (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => snap_to_regions(&snap_map(v)?, &map),
                 _ => map,
             };
             Ok(RunLengths::encode(&map))

@@ -137,6 +137,7 @@ pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::R
         metric_depth: depth.metric,
         descriptors: ctx.descriptors,
         region_options: ctx.region_options,
+        intrinsics: Some(splatseg_cues::Intrinsics::of_camera(camera, size.0, size.1)),
     })
     .with_context(|| format!("preparing the merge cues of view `{}`", view.stem))?;
     let result = merge_view(&inputs, ctx.config).with_context(|| format!("merging view `{}`", view.stem))?;

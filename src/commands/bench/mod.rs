@@ -3,6 +3,7 @@
 
 use clap::{Args as ClapArgs, Subcommand};
 
+pub mod ceiling;
 pub mod quality;
 pub mod scale;
 pub mod suite;

@@ -20,7 +20,11 @@ run` with --features, the scene's Gaussians and ground truth) and score the fina
 labelled Gaussians. Prints each metric's distribution over the scenes (min, p10, median, mean, \
 max), the means per family, the IoU per failure class (multi_tone, thin, border_cut, stacked, \
 touching, white_pair, same_depth_pair, occluded, room, plain; instances matched by the eval \
-crate's Hungarian matching over all views) and the worst scenes.
+crate's Hungarian matching over all views) and the worst scenes. Two ceilings are scored beside \
+the final maps: the SAM masks as regions and the merged regions, every region given its majority \
+ground-truth id (an oracle in place of matching and lifting): the gap from the SAM ceiling to the \
+merged one is what merging lost by wrong merges, from the merged ceiling to the final maps what \
+matching and lifting lost.
 
 Seed sets: tune settings on the tuning seeds 0..16 and report on the report seeds 100..132 \
 (`--seeds report`), which no setting was chosen on.
@@ -32,7 +36,8 @@ views).
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms
   splatseg bench quality --seeds report --out bench-report
-  splatseg bench quality --seeds 100..108 --family hires --no-features";
+  splatseg bench quality --seeds 100..108 --family hires --no-features
+  splatseg bench quality --seeds 0..4 --config merge-off.toml --out tuning-merge-off";
 
 /// Score the pipeline over many synthetic scenes of the stress suite.
 #[derive(Debug, ClapArgs)]
@@ -60,6 +65,10 @@ pub struct Args {
     /// Keep every scene and run folder under OUT/scenes (they are deleted after scoring).
     #[arg(long)]
     pub keep: bool,
+    /// A pipeline config (TOML, as for `splatseg run --config`) for every run instead of the
+    /// defaults: to compare settings on the tuning seeds.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
     /// How many of the worst scenes to list.
     #[arg(long, default_value_t = 8)]
     pub worst: usize,
@@ -83,6 +92,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         vec![Descriptors::Features]
     };
     let overrides = SceneOverrides { size: args.size, views: args.views };
+    let pipeline = match &args.config {
+        Some(path) => splatseg_pipeline::PipelineConfig::from_file(path)?,
+        None => splatseg_pipeline::PipelineConfig::default(),
+    };
     let work_root = match &args.out {
         Some(out) => out.join("scenes"),
         None => std::env::temp_dir().join(format!("splatseg-bench-{}", std::process::id())),
@@ -93,7 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for (k, &family) in families.iter().enumerate() {
         for (j, &seed) in seeds.iter().enumerate() {
             let work = work_root.join(format!("{family}_{seed}"));
-            let scene = score_scene(family, seed, overrides, &descriptors, &work)?;
+            let scene = score_scene(family, seed, overrides, &descriptors, &pipeline, &work)?;
             if !args.keep {
                 std::fs::remove_dir_all(&work)
                     .with_context(|| format!("cannot remove the scene folder {}", work.display()))?;

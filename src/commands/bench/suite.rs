@@ -105,19 +105,24 @@ pub struct SceneScore {
     pub accuracy_3d: f64,
     /// Share of Gaussians left unlabelled (object_id −1).
     pub unlabelled_share: f64,
+    /// mIoU of the SAM regions with oracle ids (each region its majority ground-truth id).
+    pub ceiling_sam_regions: f64,
+    /// mIoU of the merged regions with oracle ids.
+    pub ceiling_merged: f64,
     /// Per instance.
     pub instances: Vec<InstanceResult>,
     /// Seconds for generating and running.
     pub seconds: f64,
 }
 
-/// Generates scene (`family`, `seed`) into `work/scene`, runs the pipeline into `work/run_*`
-/// once per entry of `descriptors`, and scores each run.
+/// Generates scene (`family`, `seed`) into `work/scene`, runs the pipeline with `pipeline` into
+/// `work/run_*` once per entry of `descriptors`, and scores each run.
 pub fn score_scene(
     family: Family,
     seed: u64,
     overrides: SceneOverrides,
     descriptors: &[Descriptors],
+    pipeline: &PipelineConfig,
     work: &Path,
 ) -> anyhow::Result<Vec<SceneScore>> {
     let started = Instant::now();
@@ -138,7 +143,7 @@ pub fn score_scene(
             depth_kind: DepthKind::InverseRelative,
             gaussians: None,
             gt: Some(scene_dir.join("gt")),
-            pipeline: PipelineConfig::default(),
+            pipeline: pipeline.clone(),
             out: work.join(match d {
                 Descriptors::Features => "run_features",
                 Descriptors::ModelFree => "run_model_free",
@@ -152,6 +157,10 @@ pub fn score_scene(
             Some(a) => (a.accuracy, a.unlabelled_predictions as f64 / a.labelled_gaussians.max(1) as f64),
             None => (f64::NAN, f64::NAN),
         };
+        let gt: Vec<(&str, &splatseg_scene::Plane<u32>)> =
+            synth.views.iter().map(|v| (v.stem.as_str(), &v.gt_instance)).collect();
+        let ceilings = super::ceiling::ceilings(&run.out.join("cache").join("merge"), &gt)
+            .with_context(|| format!("the ceilings of {family} seed {seed}"))?;
         let instances = m
             .instances
             .iter()
@@ -179,6 +188,8 @@ pub fn score_scene(
             ids_per_gt: m.pred_masks as f64 / m.gt_instances.max(1) as f64,
             accuracy_3d,
             unlabelled_share,
+            ceiling_sam_regions: ceilings.sam_regions,
+            ceiling_merged: ceilings.merged,
             instances,
             seconds: generated + run_started.elapsed().as_secs_f64(),
         });
@@ -233,7 +244,7 @@ impl Distribution {
 pub type Metric = (&'static str, fn(&SceneScore) -> f64);
 
 /// The metrics of the table.
-pub const METRICS: [Metric; 7] = [
+pub const METRICS: [Metric; 9] = [
     ("mIoU", |s| s.miou),
     ("boundary mIoU", |s| s.boundary_miou),
     ("per-view mIoU", |s| s.per_view_miou),
@@ -241,6 +252,8 @@ pub const METRICS: [Metric; 7] = [
     ("ids / GT instances", |s| s.ids_per_gt),
     ("3D label accuracy", |s| s.accuracy_3d),
     ("Gaussians unlabelled", |s| s.unlabelled_share),
+    ("ceiling: SAM regions, oracle ids (mIoU)", |s| s.ceiling_sam_regions),
+    ("ceiling: merged regions, oracle ids (mIoU)", |s| s.ceiling_merged),
 ];
 
 /// Scores of one failure class over many scenes.

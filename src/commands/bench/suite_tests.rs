@@ -56,7 +56,8 @@ fn reduced_stress_suite_meets_its_floors_on_the_worst_decile() {
         for seed in SEEDS {
             let work = tmp.path().join(format!("{family}_{seed}"));
             scores.extend(
-                score_scene(family, seed, overrides, &[Descriptors::Features], &work).expect("scene runs"),
+                score_scene(family, seed, overrides, &[Descriptors::Features], &Default::default(), &work)
+                    .expect("scene runs"),
             );
             std::fs::remove_dir_all(&work).expect("clean up");
         }
