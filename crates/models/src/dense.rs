@@ -6,6 +6,7 @@
 use gemm::Parallelism;
 
 use crate::kernels::{exp_shifted_in_place, max_of, squared_deviation, sum};
+use crate::skinny::{skinny_product, ColumnPanels};
 
 /// A strided read-only matrix inside a slice: element (r, c) is `data[offset + r·rs + c·cs]`.
 #[derive(Debug, Clone, Copy)]
@@ -132,9 +133,24 @@ pub struct Linear {
     pub inputs: usize,
     /// Output width.
     pub outputs: usize,
+    /// `Wᵀ` `[in, out]` in column panels: what the few-row kernel ([`crate::skinny`]) reads.
+    weight_t: ColumnPanels,
 }
 
 impl Linear {
+    /// From `weight` `[out, in]` (row-major) and `bias` `[out]`.
+    pub fn new(weight: Vec<f32>, bias: Vec<f32>, inputs: usize, outputs: usize) -> Self {
+        assert_eq!(weight.len(), inputs * outputs, "weight is not [{outputs}, {inputs}]");
+        assert_eq!(bias.len(), outputs, "bias is not [{outputs}]");
+        let weight_t = ColumnPanels::from_transposed(&weight, outputs, inputs);
+        Self { weight, bias, inputs, outputs, weight_t }
+    }
+
+    /// `Wᵀ` `[in, out]` in column panels.
+    pub fn weight_t(&self) -> &ColumnPanels {
+        &self.weight_t
+    }
+
     /// From a candle linear layer.
     pub fn from_candle(linear: &candle_nn::Linear) -> candle_core::Result<Self> {
         let (outputs, inputs) = linear.weight().dims2()?;
@@ -143,7 +159,7 @@ impl Linear {
             Some(b) => b.flatten_all()?.to_vec1::<f32>()?,
             None => vec![0.0; outputs],
         };
-        Ok(Self { weight, bias, inputs, outputs })
+        Ok(Self::new(weight, bias, inputs, outputs))
     }
 
     /// `x` `[rows, in]` → `out` `[rows, out]`.
@@ -156,6 +172,11 @@ impl Linear {
 
     /// `x·Wᵀ` without the bias: `x` `[rows, in]` → `out` `[rows, out]`.
     pub fn forward_no_bias(&self, x: &[f32], rows: usize, out: &mut [f32]) {
+        let few_rows =
+            skinny_product(rows, out, (x, 0, self.inputs), &self.weight_t, (0, self.inputs), false);
+        if few_rows.is_some() {
+            return;
+        }
         matmul(
             rows,
             self.outputs,
@@ -273,12 +294,8 @@ mod tests {
         );
         // lhs·rhs = [[1 + 1 − 6, −1 + 4 + 3], [4 + 2.5 − 12, −4 + 10 + 6]] = [[−4, 6], [−5.5, 12]]
         assert_eq!(out, [10.0 - 8.0, 12.0, -11.0, 10.0 + 24.0]);
-        let lin = Linear {
-            weight: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
-            bias: vec![0.5, -0.5],
-            inputs: 3,
-            outputs: 2,
-        };
+        let lin = Linear::new(vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0], vec![0.5, -0.5], 3, 2);
+        assert_eq!((lin.weight_t().get(0, 1), lin.weight_t().get(2, 0)), (4.0, 3.0));
         let mut y = [0.0; 2];
         lin.forward(&[1.0, 0.0, -1.0], 1, &mut y);
         assert_eq!(y, [1.0 - 3.0 + 0.5, 4.0 - 6.0 - 0.5]);
