@@ -168,6 +168,10 @@ mod avx512 {
         let mut panel = w;
         while c0 < n {
             let (m0, m1) = (lane_mask(n - c0), lane_mask((n - c0).saturating_sub(16)));
+            if m1 == 0 {
+                half_panel::<R>(k, x, x_rs, panel, out.add(c0), n, m0, accumulate);
+                break;
+            }
             let mut acc0 = [_mm512_setzero_ps(); R];
             let mut acc1 = [_mm512_setzero_ps(); R];
             if accumulate {
@@ -192,6 +196,39 @@ mod avx512 {
             }
             c0 += super::PANEL;
             panel = panel.add(panel_stride);
+        }
+    }
+
+    /// The last panel when at most 16 of its columns are used: one vector per row.
+    ///
+    /// # Safety
+    /// As [`rows_tile`], with `panel` the last panel and `out` at its first column.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn half_panel<const R: usize>(
+        k: usize,
+        x: *const f32,
+        x_rs: usize,
+        panel: *const f32,
+        out: *mut f32,
+        n: usize,
+        mask: __mmask16,
+        accumulate: bool,
+    ) {
+        let mut acc = [_mm512_setzero_ps(); R];
+        if accumulate {
+            for r in 0..R {
+                acc[r] = _mm512_maskz_loadu_ps(mask, out.add(r * n));
+            }
+        }
+        for kk in 0..k {
+            let w0 = _mm512_loadu_ps(panel.add(kk * super::PANEL));
+            for r in 0..R {
+                acc[r] = _mm512_fmadd_ps(_mm512_set1_ps(*x.add(r * x_rs + kk)), w0, acc[r]);
+            }
+        }
+        for r in 0..R {
+            _mm512_mask_storeu_ps(out.add(r * n), mask, acc[r]);
         }
     }
 }
