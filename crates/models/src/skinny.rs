@@ -8,6 +8,8 @@
 //! Each output is the sequential sum over `k` of fused multiply-adds: the same products as any other
 //! order, reassociated and rounded once per step.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 /// Largest row count this kernel takes.
 pub const MAX_ROWS: usize = 16;
 
@@ -125,8 +127,14 @@ pub fn skinny_product(
     None
 }
 
+/// Set by [`disable_avx512_kernels`].
+static PORTABLE_ONLY: AtomicBool = AtomicBool::new(false);
+
 /// Whether the AVX-512 kernel can run here.
 pub fn has_avx512() -> bool {
+    if PORTABLE_ONLY.load(Ordering::Relaxed) {
+        return false;
+    }
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx512f")
@@ -135,6 +143,13 @@ pub fn has_avx512() -> bool {
     {
         false
     }
+}
+
+/// From now on, in this process, [`has_avx512`] is false and every caller takes its `gemm` path: lets
+/// a test on an AVX-512 machine check the paths other CPUs take (in its own test binary: it is global).
+#[doc(hidden)]
+pub fn disable_avx512_kernels() {
+    PORTABLE_ONLY.store(true, Ordering::Relaxed);
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -204,6 +219,7 @@ mod avx512 {
     /// # Safety
     /// As [`rows_tile`], with `panel` the last panel and `out` at its first column.
     #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::needless_range_loop)] // `r` also offsets the row pointers
     #[target_feature(enable = "avx512f")]
     unsafe fn half_panel<const R: usize>(
         k: usize,
