@@ -6,6 +6,7 @@
 use gemm::Parallelism;
 
 use crate::kernels::{exp_shifted_in_place, max_of, squared_deviation, sum};
+use crate::skinny::{skinny_product, ColumnPanels};
 
 /// A strided read-only matrix inside a slice: element (r, c) is `data[offset + r·rs + c·cs]`.
 #[derive(Debug, Clone, Copy)]
@@ -132,9 +133,24 @@ pub struct Linear {
     pub inputs: usize,
     /// Output width.
     pub outputs: usize,
+    /// `Wᵀ` `[in, out]` in column panels: what the few-row kernel ([`crate::skinny`]) reads.
+    weight_t: ColumnPanels,
 }
 
 impl Linear {
+    /// From `weight` `[out, in]` (row-major) and `bias` `[out]`.
+    pub fn new(weight: Vec<f32>, bias: Vec<f32>, inputs: usize, outputs: usize) -> Self {
+        assert_eq!(weight.len(), inputs * outputs, "weight is not [{outputs}, {inputs}]");
+        assert_eq!(bias.len(), outputs, "bias is not [{outputs}]");
+        let weight_t = ColumnPanels::from_transposed(&weight, outputs, inputs);
+        Self { weight, bias, inputs, outputs, weight_t }
+    }
+
+    /// `Wᵀ` `[in, out]` in column panels.
+    pub fn weight_t(&self) -> &ColumnPanels {
+        &self.weight_t
+    }
+
     /// From a candle linear layer.
     pub fn from_candle(linear: &candle_nn::Linear) -> candle_core::Result<Self> {
         let (outputs, inputs) = linear.weight().dims2()?;
@@ -143,7 +159,7 @@ impl Linear {
             Some(b) => b.flatten_all()?.to_vec1::<f32>()?,
             None => vec![0.0; outputs],
         };
-        Ok(Self { weight, bias, inputs, outputs })
+        Ok(Self::new(weight, bias, inputs, outputs))
     }
 
     /// `x` `[rows, in]` → `out` `[rows, out]`.
@@ -156,6 +172,11 @@ impl Linear {
 
     /// `x·Wᵀ` without the bias: `x` `[rows, in]` → `out` `[rows, out]`.
     pub fn forward_no_bias(&self, x: &[f32], rows: usize, out: &mut [f32]) {
+        let few_rows =
+            skinny_product(rows, out, (x, 0, self.inputs), &self.weight_t, (0, self.inputs), false);
+        if few_rows.is_some() {
+            return;
+        }
         matmul(
             rows,
             self.outputs,
@@ -196,8 +217,25 @@ impl LayerNorm {
         Ok(Self { gamma, beta, eps })
     }
 
-    /// Normalises one row in place and returns its (mean, standard deviation incl. epsilon).
+    /// Normalises one row in place and returns its (mean, standard deviation incl. epsilon). Compiled
+    /// for AVX-512 where the CPU has it (the same arithmetic in the same order, so the same results).
     pub fn row(&self, row: &mut [f32]) -> (f32, f32) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::skinny::has_avx512() {
+            // SAFETY: the CPU supports AVX-512F (just detected).
+            return unsafe { self.row_avx512(row) };
+        }
+        self.row_portable(row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn row_avx512(&self, row: &mut [f32]) -> (f32, f32) {
+        self.row_portable(row)
+    }
+
+    #[inline(always)]
+    fn row_portable(&self, row: &mut [f32]) -> (f32, f32) {
         let n = row.len() as f32;
         let mean = sum(row) / n;
         let var = squared_deviation(row, mean) / n;
@@ -229,6 +267,38 @@ pub fn softmax_runs(x: &mut [f32], len: usize, scale: f32) {
         let max = max_of(run);
         let inv = 1.0 / exp_shifted_in_place(run, max);
         run.iter_mut().for_each(|v| *v *= inv);
+    }
+}
+
+/// Softmax down the columns of `x` `[B, rows, cols]`: for each of the `B` blocks and each column, over
+/// its `rows` entries, after scaling by `scale` (> 0). Runs along the columns, so the exponentials and
+/// the running maxima vectorise however few the rows are.
+pub fn softmax_columns(x: &mut [f32], rows: usize, cols: usize, scale: f32) {
+    if rows == 0 || cols == 0 {
+        return;
+    }
+    let mut max = vec![0f32; cols];
+    let mut total = vec![0f32; cols];
+    for block in x.chunks_exact_mut(rows * cols) {
+        if scale != 1.0 {
+            block.iter_mut().for_each(|v| *v *= scale);
+        }
+        max.copy_from_slice(&block[..cols]);
+        for row in block.chunks_exact(cols).skip(1) {
+            for (m, &v) in max.iter_mut().zip(row) {
+                *m = if v > *m { v } else { *m };
+            }
+        }
+        total.iter_mut().for_each(|s| *s = 0.0);
+        for row in block.chunks_exact_mut(cols) {
+            row.iter_mut().zip(&max).for_each(|(v, m)| *v -= m);
+            exp_shifted_in_place(row, 0.0);
+            total.iter_mut().zip(row.iter()).for_each(|(s, v)| *s += v);
+        }
+        total.iter_mut().for_each(|s| *s = 1.0 / *s);
+        for row in block.chunks_exact_mut(cols) {
+            row.iter_mut().zip(&total).for_each(|(v, inv)| *v *= inv);
+        }
     }
 }
 
@@ -273,16 +343,37 @@ mod tests {
         );
         // lhs·rhs = [[1 + 1 − 6, −1 + 4 + 3], [4 + 2.5 − 12, −4 + 10 + 6]] = [[−4, 6], [−5.5, 12]]
         assert_eq!(out, [10.0 - 8.0, 12.0, -11.0, 10.0 + 24.0]);
-        let lin = Linear {
-            weight: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
-            bias: vec![0.5, -0.5],
-            inputs: 3,
-            outputs: 2,
-        };
+        let lin = Linear::new(vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0], vec![0.5, -0.5], 3, 2);
+        assert_eq!((lin.weight_t().get(0, 1), lin.weight_t().get(2, 0)), (4.0, 3.0));
         let mut y = [0.0; 2];
         lin.forward(&[1.0, 0.0, -1.0], 1, &mut y);
         assert_eq!(y, [1.0 - 3.0 + 0.5, 4.0 - 6.0 - 0.5]);
         assert_eq!(lin.apply_to(&[1.0, 0.0, -1.0]), vec![-2.0, -2.0]);
+    }
+
+    #[test]
+    fn column_softmax_is_the_row_softmax_of_the_transpose() {
+        let (blocks, rows, cols) = (3, 7, 37);
+        let x: Vec<f32> = (0..blocks * rows * cols).map(|i| ((i * 53 % 97) as f32 - 48.0) * 0.21).collect();
+        let mut columns = x.clone();
+        softmax_columns(&mut columns, rows, cols, 0.6);
+        let mut transposed = vec![0f32; x.len()];
+        for b in 0..blocks {
+            for r in 0..rows {
+                for c in 0..cols {
+                    transposed[(b * cols + c) * rows + r] = x[(b * rows + r) * cols + c];
+                }
+            }
+        }
+        softmax_runs(&mut transposed, rows, 0.6);
+        for b in 0..blocks {
+            for r in 0..rows {
+                for c in 0..cols {
+                    let (a, e) = (columns[(b * rows + r) * cols + c], transposed[(b * cols + c) * rows + r]);
+                    assert!((a - e).abs() < 1e-6, "block {b} ({r}, {c}): {a} vs {e}");
+                }
+            }
+        }
     }
 
     #[test]

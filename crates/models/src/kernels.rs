@@ -6,6 +6,7 @@
 const LANES: usize = 8;
 
 /// `Σ a·b` with `LANES` partial sums.
+#[inline]
 pub fn dot(a: &[f32], b: &[f32]) -> f32 {
     let mut lanes = [0f32; LANES];
     let (a_chunks, b_chunks) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
@@ -19,6 +20,7 @@ pub fn dot(a: &[f32], b: &[f32]) -> f32 {
 }
 
 /// `Σ v` with `LANES` partial sums.
+#[inline]
 pub fn sum(values: &[f32]) -> f32 {
     let mut lanes = [0f32; LANES];
     let chunks = values.chunks_exact(LANES);
@@ -32,6 +34,7 @@ pub fn sum(values: &[f32]) -> f32 {
 }
 
 /// `Σ (v − mean)²` with `LANES` partial sums.
+#[inline]
 pub fn squared_deviation(values: &[f32], mean: f32) -> f32 {
     let mut lanes = [0f32; LANES];
     let chunks = values.chunks_exact(LANES);
@@ -46,6 +49,7 @@ pub fn squared_deviation(values: &[f32], mean: f32) -> f32 {
 }
 
 /// The largest value (−∞ for none; NaN-free input).
+#[inline]
 pub fn max_of(values: &[f32]) -> f32 {
     let larger = |m: f32, v: f32| if v > m { v } else { m };
     let mut lanes = [f32::NEG_INFINITY; LANES];

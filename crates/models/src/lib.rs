@@ -28,6 +28,7 @@ pub mod image;
 pub mod kernels;
 pub mod resample;
 pub mod sam;
+pub mod skinny;
 pub mod weights;
 
 pub use error::{ModelKind, ModelsError, ModelsResult};

@@ -7,6 +7,7 @@
 
 pub mod amg;
 pub mod image_encoder;
+mod image_panels;
 pub mod mask_decoder;
 pub mod mask_output;
 pub mod masks;

@@ -5,6 +5,7 @@
 use super::mask_decoder::{Attention, MaskDecoder, Mlp, TwoWayBlock, NUM_HEADS};
 use crate::dense::{matmul, softmax_runs, LayerNorm, Linear, View, ViewMut};
 use crate::kernels;
+use crate::skinny::skinny_product;
 
 /// Epsilon of the transformer's layer norms (PyTorch's default).
 const TRANSFORMER_EPS: f32 = 1e-5;
@@ -84,6 +85,13 @@ impl PackedAttention {
         let (ci, dh, d) = (self.internal, self.head_dim(), self.out.outputs);
         let mut u = vec![0f32; NUM_HEADS * t * d];
         for h in 0..NUM_HEADS {
+            let rows_of_head = &mut u[h * t * d..(h + 1) * t * d];
+            let head_rows = (h * dh, dh);
+            if skinny_product(t, rows_of_head, (v, h * dh, ci), self.out.weight_t(), head_rows, false)
+                .is_some()
+            {
+                continue;
+            }
             matmul(
                 t,
                 d,

@@ -5,12 +5,12 @@
 use super::mask_decoder::NUM_HEADS;
 use super::packed_decoder::{project, PackedDecoder};
 use super::shared_decoder::DecoderImage;
-use crate::dense::{matmul, softmax_runs, View, ViewMut};
+use crate::dense::{matmul, softmax_columns, softmax_runs, View, ViewMut};
 use crate::kernels::dot;
 
 /// What a per-prompt attention sees of the first block's image→token weights, for the second block.
 pub(super) struct FirstBlockTrace<'a> {
-    /// `A₁` `[N, H·T]`.
+    /// `A₁ᵀ` `[H·T, N]`.
     pub(super) weights: &'a [f32],
     /// `γ⊙U₁` `[H·T, D]`.
     pub(super) scaled_rows: &'a [f32],
@@ -42,10 +42,8 @@ pub(super) fn second_token_to_image(
         let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
         let out = ViewMut { data: &mut c, offset: h * t * ht1, rs: ht1, cs: 1 };
         matmul(t, ht1, dh, out, head, View::transposed(&keys_of_rows, h * dh, ci), false, 1.0);
-        let out = ViewMut { data: &mut base, offset: h * t * n, rs: n, cs: 1 };
-        matmul(t, n, dh, out, head, View::transposed(&image.second_pe_keys, h * dh, ci), false, 1.0);
-        let out = ViewMut { data: &mut varying, offset: h * t * n, rs: n, cs: 1 };
-        matmul(t, n, dh, out, head, View::transposed(&image.second_keys, h * dh, ci), false, 1.0);
+        image.second_pe_keys.head_scores(&mut base[h * t * n..(h + 1) * t * n], &q, t, (h, dh));
+        image.second_keys.head_scores(&mut varying[h * t * n..(h + 1) * t * n], &q, t, (h, dh));
     }
     matmul(
         ht,
@@ -53,7 +51,7 @@ pub(super) fn second_token_to_image(
         ht1,
         ViewMut::rows(&mut varying, 0, n),
         View::rows(&c, 0, ht1),
-        View::transposed(trace.weights, 0, ht1),
+        View::rows(trace.weights, 0, n),
         true,
         1.0,
     );
@@ -89,15 +87,13 @@ pub(super) fn second_token_to_image(
         n,
         ViewMut::rows(&mut mixed, 0, ht1),
         View::rows(weighted, 0, n),
-        View::rows(trace.weights, 0, ht1),
+        View::transposed(trace.weights, 0, n),
         false,
         1.0,
     );
     let values_of_rows = project(&attn.v, trace.scaled_rows, ht1, false);
     for h in 0..NUM_HEADS {
-        let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
-        let values = View { data: &image.second_values, offset: h * dh, rs: ci, cs: 1 };
-        matmul(t, dh, n, out, View::rows(weighted, h * t * n, n), values, false, 1.0);
+        image.second_values.head_mix(&mut heads, (weighted, h * t * n), t, (h, dh));
         let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
         let rows = View { data: &values_of_rows, offset: h * dh, rs: ci, cs: 1 };
         matmul(t, dh, ht1, out, View::rows(&mixed, h * t * ht1, ht1), rows, true, 1.0);
@@ -115,8 +111,8 @@ pub(super) fn second_token_to_image(
     project(&attn.out, &heads, t, true)
 }
 
-/// The second block's image→token attention weights `[N, H·T]` (softmax over each head's `T`
-/// entries), from the first block's trace and the keys `k` `[T, H·d]` (with biases).
+/// The second block's image→token attention weights, transposed: `[H·T, N]` (softmax over each
+/// head's `T` rows in every column), from the first block's trace and the keys `k` `[T, H·d]` (with biases).
 pub(super) fn second_image_scores(
     packed: &PackedDecoder,
     image: &DecoderImage,
@@ -131,27 +127,22 @@ pub(super) fn second_image_scores(
     // C[(h, t), c] = k_t,h · W_q,h (γ⊙U₁)_c
     let queries_of_rows = project(&attn.q, trace.scaled_rows, ht1, false);
     let mut c = vec![0f32; ht * ht1];
-    let mut scores = vec![0f32; n * ht];
-    let mut varying = vec![0f32; n * ht];
+    let mut scores = vec![0f32; ht * n];
+    let mut varying = vec![0f32; ht * n];
     for h in 0..NUM_HEADS {
-        let keys = View::transposed(k, h * dh, ci);
         let head = View { data: k, offset: h * dh, rs: ci, cs: 1 };
         let out = ViewMut { data: &mut c, offset: h * t * ht1, rs: ht1, cs: 1 };
         matmul(t, ht1, dh, out, head, View::transposed(&queries_of_rows, h * dh, ci), false, 1.0);
-        let out = ViewMut { data: &mut scores, offset: h * t, rs: ht, cs: 1 };
-        let pe = View { data: &image.second_pe_queries, offset: h * dh, rs: ci, cs: 1 };
-        matmul(n, t, dh, out, pe, keys, false, 1.0);
-        let out = ViewMut { data: &mut varying, offset: h * t, rs: ht, cs: 1 };
-        let projected = View { data: &image.second_queries, offset: h * dh, rs: ci, cs: 1 };
-        matmul(n, t, dh, out, projected, keys, false, 1.0);
+        image.second_pe_queries.head_scores(&mut scores[h * t * n..(h + 1) * t * n], k, t, (h, dh));
+        image.second_queries.head_scores(&mut varying[h * t * n..(h + 1) * t * n], k, t, (h, dh));
     }
     matmul(
-        n,
         ht,
+        n,
         ht1,
-        ViewMut::rows(&mut varying, 0, ht),
-        View::rows(trace.weights, 0, ht1),
-        View::transposed(&c, 0, ht1),
+        ViewMut::rows(&mut varying, 0, n),
+        View::rows(&c, 0, ht1),
+        View::rows(trace.weights, 0, n),
         true,
         1.0,
     );
@@ -165,13 +156,12 @@ pub(super) fn second_image_scores(
         }
     }
     let scale = attn.scale();
-    for (i, (row, varying)) in scores.chunks_exact_mut(ht).zip(varying.chunks_exact(ht)).enumerate() {
-        let (mean, inv_std) = (trace.mean[i], trace.inv_std[i]);
-        for col in 0..ht {
-            row[col] =
-                scale * (row[col] + from_beta[col] + (varying[col] - mean * from_gamma[col]) * inv_std);
+    for (col, (row, varying)) in scores.chunks_exact_mut(n).zip(varying.chunks_exact(n)).enumerate() {
+        let (beta, gamma) = (from_beta[col], from_gamma[col]);
+        for i in 0..n {
+            row[i] = scale * (row[i] + beta + (varying[i] - trace.mean[i] * gamma) * trace.inv_std[i]);
         }
     }
-    softmax_runs(&mut scores, t, 1.0);
+    softmax_columns(&mut scores, t, n, 1.0);
     scores
 }

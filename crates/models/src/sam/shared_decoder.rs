@@ -23,10 +23,11 @@ use std::sync::Arc;
 
 use candle_core::{Device, Tensor};
 
+use super::image_panels::{ImageKeys, ImageValues};
 use super::mask_decoder::{MaskDecoder, NUM_HEADS};
 use super::packed_decoder::{add_into, added, project, PackedDecoder};
 use super::second_block::{second_image_scores, second_token_to_image, FirstBlockTrace};
-use crate::dense::{matmul, softmax_runs, Linear, View, ViewMut};
+use crate::dense::{matmul, softmax_columns, softmax_runs, Linear, View, ViewMut};
 use crate::error::{ModelsError, ModelsResult};
 use crate::kernels::dot;
 
@@ -37,19 +38,19 @@ pub struct DecoderImage {
     /// `E + b_o` of the first image→token attention, `[N, D]` (rows are cells).
     first_residual: Vec<f32>,
     /// First block, token→image keys `(E + P)·W_kᵀ + b_k`.
-    first_keys: Vec<f32>,
+    first_keys: ImageKeys,
     /// First block, token→image values `E·W_vᵀ + b_v`.
-    first_values: Vec<f32>,
+    first_values: ImageValues,
     /// First block, image→token queries `(E + P)·W_qᵀ + b_q`.
-    first_queries: Vec<f32>,
+    first_queries: ImageKeys,
     /// Second block: `γ⊙(E + b_o)` (γ, β: the first block's last norm) projected by the token→image
     /// keys and values and the image→token queries, no biases.
-    pub(super) second_keys: Vec<f32>,
-    pub(super) second_values: Vec<f32>,
-    pub(super) second_queries: Vec<f32>,
+    pub(super) second_keys: ImageKeys,
+    pub(super) second_values: ImageValues,
+    pub(super) second_queries: ImageKeys,
     /// `P·W_kᵀ` of the second token→image attention and `P·W_qᵀ` of its image→token one.
-    pub(super) second_pe_keys: Vec<f32>,
-    pub(super) second_pe_queries: Vec<f32>,
+    pub(super) second_pe_keys: ImageKeys,
+    pub(super) second_pe_queries: ImageKeys,
     /// `Wγ` and `Wβ + b` of those three projections, `[H·d]` each.
     pub(super) keys_gamma: Vec<f32>,
     pub(super) keys_beta: Vec<f32>,
@@ -58,7 +59,7 @@ pub struct DecoderImage {
     pub(super) queries_gamma: Vec<f32>,
     pub(super) queries_beta: Vec<f32>,
     /// Final token→image attention's `P·W_kᵀ`, no bias.
-    final_pe_keys: Vec<f32>,
+    final_pe_keys: ImageKeys,
     /// Upscaling: `W'` = the first transposed convolution `[D, 4·c1]` with its rows scaled by the last
     /// block's norm γ₂, and `γ⊙(E + b_o)·W'` `[N, 4·c1]`.
     up_weight: Vec<f32>,
@@ -94,7 +95,7 @@ struct DecodedPrompt {
     /// Image tokens after the last block, `[N, D]`.
     keys: Vec<f32>,
     /// How the image tokens came about, for the upscaling path: each block's image→token weights
-    /// `A` `[N, H·T]` and output rows, and the row means and inverse standard deviations of its norm.
+    /// `Aᵀ` `[H·T, N]` and output rows, and the row means and inverse standard deviations of its norm.
     first_weights: Vec<f32>,
     /// `γ⊙U₁` `[H·T, D]`.
     first_scaled_rows: Vec<f32>,
@@ -193,16 +194,25 @@ impl MaskDecoder {
         let (keys_gamma, keys_beta) = affine(&t2i.k);
         let (values_gamma, values_beta) = affine(&t2i.v);
         let (queries_gamma, queries_beta) = affine(&i2t.q);
+        let first_ci = first.token_to_image.internal;
+        let first_i2t_ci = first.image_to_token.internal;
         Ok(DecoderImage {
-            first_keys: project(&first.token_to_image.k, &with_pe, n, true),
-            first_values: project(&first.token_to_image.v, &tokens, n, true),
-            first_queries: project(&first.image_to_token.q, &with_pe, n, true),
-            second_keys: project(&t2i.k, &scaled, n, false),
-            second_values: project(&t2i.v, &scaled, n, false),
-            second_queries: project(&i2t.q, &scaled, n, false),
-            second_pe_keys: project(&t2i.k, &pe, n, false),
-            second_pe_queries: project(&i2t.q, &pe, n, false),
-            final_pe_keys: project(&packed.final_attn.k, &pe, n, false),
+            first_keys: ImageKeys::new(project(&first.token_to_image.k, &with_pe, n, true), first_ci),
+            first_values: ImageValues::new(
+                project(&first.token_to_image.v, &tokens, n, true),
+                first_ci,
+                NUM_HEADS,
+            ),
+            first_queries: ImageKeys::new(project(&first.image_to_token.q, &with_pe, n, true), first_i2t_ci),
+            second_keys: ImageKeys::new(project(&t2i.k, &scaled, n, false), t2i.internal),
+            second_values: ImageValues::new(project(&t2i.v, &scaled, n, false), t2i.internal, NUM_HEADS),
+            second_queries: ImageKeys::new(project(&i2t.q, &scaled, n, false), i2t.internal),
+            second_pe_keys: ImageKeys::new(project(&t2i.k, &pe, n, false), t2i.internal),
+            second_pe_queries: ImageKeys::new(project(&i2t.q, &pe, n, false), i2t.internal),
+            final_pe_keys: ImageKeys::new(
+                project(&packed.final_attn.k, &pe, n, false),
+                packed.final_attn.internal,
+            ),
             up_first_gamma: vec_mat(gamma, &up_weight),
             up_second_gamma: vec_mat(gamma2, up1_weight),
             up_first_const,
@@ -303,36 +313,31 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
     let mut scores = vec![0f32; t * n];
     let mut heads = vec![0f32; t * ci];
     for h in 0..NUM_HEADS {
-        let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
-        let keys = View::transposed(&image.first_keys, h * dh, ci);
-        matmul(t, n, dh, ViewMut::rows(&mut scores, 0, n), head, keys, false, attn.scale());
-        softmax_runs(&mut scores, n, 1.0);
-        let values = View { data: &image.first_values, offset: h * dh, rs: ci, cs: 1 };
-        let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
-        matmul(t, dh, n, out, View::rows(&scores, 0, n), values, false, 1.0);
+        image.first_keys.head_scores(&mut scores, &q, t, (h, dh));
+        softmax_runs(&mut scores, n, attn.scale());
+        image.first_values.head_mix(&mut heads, (&scores, 0), t, (h, dh));
     }
     add_into(&mut queries, &project(&attn.out, &heads, t, true));
     first.norm2.rows(&mut queries);
     first.mlp(&mut queries, t);
 
     let attn = &first.image_to_token;
-    let (ci, dh) = (attn.internal, attn.head_dim());
+    let dh = attn.head_dim();
     let k = project(&attn.k, &added(&queries, &tokens), t, true);
     let u_first = attn.output_rows(&project(&attn.v, &queries, t, true), t);
-    let mut a_first = vec![0f32; n * ht];
+    // A₁ᵀ [H·T, N]: each head's T rows of scores, softmax down each column
+    let mut a_first = vec![0f32; ht * n];
     for h in 0..NUM_HEADS {
-        let image_q = View { data: &image.first_queries, offset: h * dh, rs: ci, cs: 1 };
-        let out = ViewMut { data: &mut a_first, offset: h * t, rs: ht, cs: 1 };
-        matmul(n, t, dh, out, image_q, View::transposed(&k, h * dh, ci), false, attn.scale());
+        image.first_queries.head_scores(&mut a_first[h * t * n..(h + 1) * t * n], &k, t, (h, dh));
     }
-    softmax_runs(&mut a_first, t, 1.0);
+    softmax_columns(&mut a_first, t, n, attn.scale());
     let mut keys = image.first_residual.clone();
     matmul(
         n,
         d,
         ht,
         ViewMut::rows(&mut keys, 0, d),
-        View::rows(&a_first, 0, ht),
+        View::transposed(&a_first, 0, n),
         View::rows(&u_first, 0, d),
         true,
         1.0,
@@ -366,7 +371,7 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
         d,
         ht,
         ViewMut::rows(&mut keys, 0, d),
-        View::rows(&weights, 0, ht),
+        View::transposed(&weights, 0, n),
         View::rows(&u_second, 0, d),
         true,
         1.0,
@@ -427,7 +432,7 @@ fn first_upscaling_layer(
         cols,
         ht1,
         ViewMut::rows(out, 0, cols),
-        View::rows(&prompt.first_weights, cell0 * ht1, ht1),
+        View::transposed(&prompt.first_weights, cell0, image.cells()),
         View::rows(first_rows, 0, cols),
         false,
         1.0,
@@ -446,7 +451,7 @@ fn first_upscaling_layer(
         cols,
         ht2,
         ViewMut::rows(out, 0, cols),
-        View::rows(&prompt.second_weights, cell0 * ht2, ht2),
+        View::transposed(&prompt.second_weights, cell0, image.cells()),
         View::rows(second_rows, 0, cols),
         true,
         1.0,
@@ -486,8 +491,7 @@ fn final_attention(
         let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
         let out = ViewMut { data: &mut folded, offset: h * ts * d, rs: d, cs: 1 };
         matmul(ts, d, dh, out, head, View::rows(&attn.k.weight, h * dh * d, d), false, 1.0);
-        let out = ViewMut { data: &mut scores, offset: h * ts * n, rs: n, cs: 1 };
-        matmul(ts, n, dh, out, head, View::transposed(&image.final_pe_keys, h * dh, ci), false, 1.0);
+        image.final_pe_keys.head_scores(&mut scores[h * ts * n..(h + 1) * ts * n], &q, ts, (h, dh));
     }
     let keys = &prompt.keys;
     matmul(

@@ -1,0 +1,55 @@
+//! The shared-work decoder's `gemm` paths — what CPUs without AVX-512 run — against the
+//! one-prompt-at-a-time decoder, on the random-weight SAM and MobileSAM fixtures, with the AVX-512
+//! kernels switched off for this test binary (on other CPUs they are off anyway). Logits and IoU
+//! predictions within 1e-4 (relative to max(1, |value|)), as `sam_shared_decoder.rs` checks for the
+//! default path.
+
+mod common;
+
+use candle_core::{Device, Tensor};
+use common::fixture;
+use rand::{Rng, SeedableRng};
+use splatseg_models::sam::mask_decoder::MaskDecoder;
+use splatseg_models::skinny::{disable_avx512_kernels, has_avx512};
+use splatseg_models::weights::Weights;
+use splatseg_models::ModelKind;
+
+fn random(shape: &[usize], rng: &mut rand_chacha::ChaCha8Rng) -> Tensor {
+    let n: usize = shape.iter().product();
+    let data: Vec<f32> = (0..n).map(|_| rng.gen_range(-1.0f32..1.0)).collect();
+    Tensor::from_vec(data, shape, &Device::Cpu).unwrap()
+}
+
+fn worst_difference(ours: &Tensor, reference: &Tensor) -> f32 {
+    assert_eq!(ours.dims(), reference.dims());
+    let a = ours.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+    let b = reference.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+    a.iter().zip(&b).map(|(x, y)| (x - y).abs() / y.abs().max(1.0)).fold(0.0, f32::max)
+}
+
+#[test]
+fn gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder() {
+    disable_avx512_kernels();
+    assert!(!has_avx512());
+    for checkpoint in ["sam_tiny.pth", "mobile_sam_tiny.pth"] {
+        let weights = Weights::load(&fixture(checkpoint), ModelKind::Sam).unwrap();
+        let decoder = MaskDecoder::new(&weights.sub("mask_decoder.")).unwrap();
+        let d = decoder.dim();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        let (h, w, prompts) = (7, 5, 3);
+        let image = random(&[d, h, w], &mut rng);
+        let pe = random(&[d, h, w], &mut rng);
+        let sparse = random(&[prompts, 2, d], &mut rng);
+        let (masks, iou) = decoder.forward(&image, &pe, &sparse).unwrap();
+        let prepared = decoder.prepare_image(&image, &pe).unwrap();
+        let decoded = decoder.decode_tokens(&prepared, &sparse).unwrap();
+        let worst_iou = worst_difference(&decoded.iou, &iou);
+        assert!(worst_iou <= 1e-4, "{checkpoint}: IoU predictions differ by {worst_iou}");
+        let outputs: Vec<usize> = (0..masks.dims()[1]).collect();
+        for p in 0..prompts {
+            let ours = decoder.masks_of(&prepared, &decoded, p, &outputs).unwrap();
+            let worst = worst_difference(&ours, &masks.get(p).unwrap());
+            assert!(worst <= 1e-4, "{checkpoint}, prompt {p}: logits differ by {worst}");
+        }
+    }
+}
