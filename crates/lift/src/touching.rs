@@ -97,7 +97,7 @@ fn contacts(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> BTreeMap<
         if id <= 0 {
             continue;
         }
-        let p = gaussians.means[i] / voxel;
+        let p = gaussians.mean(i) / voxel;
         let v = [p.x.floor() as i64, p.y.floor() as i64, p.z.floor() as i64];
         let cell = cells.entry(voxel_key(v)).or_insert_with(|| (v, Vec::new()));
         if !cell.1.contains(&(id as u32)) {

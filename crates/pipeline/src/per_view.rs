@@ -13,7 +13,9 @@ use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{view_surface_depth, view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
+use splatseg_lift::{
+    view_depth_and_visibility, view_surface_depth, LiftConfig, PosedCamera, PreparedGaussians,
+};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -136,8 +138,8 @@ impl MergeSources {
 }
 
 /// What `run` does per view, one view at a time on each thread: surface depth from the
-/// Gaussians, the merge (computed, from the cache, or — after `merge --shard` — from the shard
-/// that made it), visibility; only the compact [`ViewResult`] is kept, the merged maps stay in
+/// Gaussians and the visibility test against it (one projection), the merge (computed, from the
+/// cache, or — after `merge --shard` — from the shard that made it); only the compact [`ViewResult`] is kept, the merged maps stay in
 /// `OUT/cache/merge/`.
 pub struct PerView<'a> {
     /// The Gaussians, when there are some.
@@ -158,15 +160,19 @@ impl PerView<'_> {
     /// The compact result of view `v` (which has masks).
     pub fn result(&self, v: usize) -> crate::Result<ViewResult> {
         let c = &self.cams[v];
-        let depth = self.prepared.map(|p| view_surface_depth(p, c.camera, c.world_from_cam, self.lift));
+        // One projection of the Gaussians: the surface depth and the visibility test against it.
+        let (depth, visibility) = match self.prepared {
+            Some(p) => {
+                let (depth, visibility) = view_depth_and_visibility(p, c.camera, c.world_from_cam, self.lift);
+                (Some(depth), Some(visibility))
+            }
+            None => (None, None),
+        };
         let metric = depth.as_ref().map(finite_depth);
+        drop(depth);
         let merged = match self.sharded {
             Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count })?,
             None => self.sources.merge(self.ctx, v, metric)?,
-        };
-        let visibility = match (self.prepared, &depth) {
-            (Some(p), Some(d)) => Some(view_visibility(p, c.camera, c.world_from_cam, Some(d), self.lift)),
-            _ => None,
         };
         let (visibility, local_labels) = ViewResult::compact(visibility, &merged.merged);
         Ok(ViewResult {
