@@ -28,12 +28,14 @@ pub mod visibility;
 
 pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
-pub use lifting::{lift_labels, GaussianStatus, LiftStats, Lifted, ObjectFeatures};
+pub use lifting::{
+    lift_labels, FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator,
+};
 pub use numbering::{drop_small_objects, renumber};
 pub use project::{project_view, raster_settings, PreparedGaussians};
 pub use render_labels::{label_map_of_view, render_label_map, render_votes, RenderVotes};
 pub use snap::snap_to_regions;
-pub use touching::join_touching_objects;
+pub use touching::{join_touching_counted, join_touching_objects, ViewCounts};
 pub use visibility::{
     surface_depth, view_depth_and_visibility, view_surface_depth, view_visibility, visible_gaussians,
     ViewVisibility,

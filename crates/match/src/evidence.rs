@@ -121,7 +121,10 @@ fn transpose(observations: &[ViewObservations], budget: u64) -> (ObservationsByG
         }
     }
     let pairs: u64 = counts.iter().map(|&k| k as u64 * (k as u64).saturating_sub(1) / 2).sum();
-    let stride = pairs.div_ceil(budget.max(1)).max(1) as u32;
+    // Observations the caller already sampled (every `base`-th Gaussian, e.g. to bound memory over
+    // many views) are subsampled further by whole multiples of `base`.
+    let base = observations.iter().flat_map(|o| &o.gaussians).fold(0u32, |d, &g| gcd(d, g)).max(1);
+    let stride = (pairs.div_ceil(budget.max(1)).max(1) as u32).saturating_mul(base);
     let sampled = |g: u32| g.is_multiple_of(stride);
     let mut starts = Vec::with_capacity(n_gaussians / stride as usize + 2);
     let mut row_of = vec![u32::MAX; n_gaussians.div_ceil(stride as usize)];
@@ -144,6 +147,14 @@ fn transpose(observations: &[ViewObservations], budget: u64) -> (ObservationsByG
         }
     }
     (ObservationsByGaussian { starts, entries }, stride)
+}
+
+/// Greatest common divisor (`gcd(0, x) = x`).
+fn gcd(mut a: u32, mut b: u32) -> u32 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
 }
 
 /// Counts Gaussian co-occurrence between the masks of `input` (see the module docs).

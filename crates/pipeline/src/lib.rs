@@ -38,6 +38,7 @@ pub mod shard;
 #[cfg(test)]
 mod tests;
 pub mod train_stage;
+mod visible;
 
 use crate::error::bail;
 use cache::{read_json, write_json, KeyHasher};
@@ -261,6 +262,8 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         ctx: &ctx,
         sharded,
         lift: &pc.lift,
+        out: &config.out,
+        sample_stride: prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len())),
     };
     let bar = progress(scene.views.len(), "merge");
     let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
@@ -282,9 +285,13 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
     profiler.next("lift and render back");
     let mut lifted = match &prepared {
-        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &mut views, &matching, &merged_map, &pc.lift)?),
+        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &merged_map, &pc.lift)?),
         None => None,
     };
+    let spill_dir = cache_dir.join("visible");
+    if spill_dir.is_dir() {
+        std::fs::remove_dir_all(&spill_dir).with_context(|| format!("removing {}", spill_dir.display()))?;
+    }
     let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {
         if views[v].is_none() {
             return Ok(None);
@@ -351,9 +358,12 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     };
     let fused = lifted.as_mut().and_then(|l| l.lifted.fused_features.take());
     if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
-        let g = outputs::labelled_rows(rows, ids, fused);
+        let (finite, n_rows) = (rows.finite_rows(), rows.gaussians.len());
+        let g = outputs::labelled_rows(rows, ids, fused.is_some());
+        let fused = fused.map(|f| outputs::FusedRows::new(f, &finite, n_rows));
         let out_ply = config.out.join("gaussians.ply");
-        splatseg_scene::ply::write_ply_rows(&out_ply, &g)
+        let rows: Option<&dyn splatseg_scene::ply::FeatureRows> = fused.as_ref().map(|f| f as _);
+        splatseg_scene::ply::write_ply_rows_with_features(&out_ply, &g, rows)
             .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
     }
     let final_ids: std::collections::BTreeSet<u32> =

@@ -6,7 +6,7 @@ use crate::error::{bail, Context};
 use crate::lift_stage::ViewResult;
 use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
 use crate::shard::{write_manifest, Shard, ShardManifest};
-use crate::{inputs, lock, RunConfig};
+use crate::{inputs, lock, visible, RunConfig};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{
@@ -140,7 +140,7 @@ impl MergeSources {
 /// What `run` does per view, one view at a time on each thread: surface depth from the
 /// Gaussians and the visibility test against it (one projection), the merge (computed, from the
 /// cache, or — after `merge --shard` — from the shard that made it); only the compact [`ViewResult`] is kept, the merged maps stay in
-/// `OUT/cache/merge/`.
+/// `OUT/cache/merge/`, the visible Gaussians are spilled to `OUT/cache/visible/`.
 pub struct PerView<'a> {
     /// The Gaussians, when there are some.
     pub prepared: Option<&'a PreparedGaussians>,
@@ -154,6 +154,10 @@ pub struct PerView<'a> {
     pub sharded: Option<usize>,
     /// Lift settings (surface depth, visibility).
     pub lift: &'a LiftConfig,
+    /// Output folder (the visible Gaussians are spilled to `OUT/cache/visible/`).
+    pub out: &'a Path,
+    /// Matching samples every `sample_stride`-th Gaussian ([`visible::sample_stride`]).
+    pub sample_stride: u32,
 }
 
 impl PerView<'_> {
@@ -174,14 +178,23 @@ impl PerView<'_> {
             Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count })?,
             None => self.sources.merge(self.ctx, v, metric)?,
         };
-        let (visibility, local_labels) = ViewResult::compact(visibility, &merged.merged);
+        // Every visible Gaussian to disk, a bounded sample of them kept for matching.
+        let (observations, spill) = match visibility {
+            Some(vis) => {
+                let labels: Vec<u32> = vis.pixels.iter().map(|&p| merged.merged.data[p as usize]).collect();
+                let path = visible::spill_path(self.out, &self.ctx.scene.views[v].stem);
+                visible::write(&path, &vis, &labels)?;
+                (Some(visible::sampled(&vis, &labels, self.sample_stride)), Some(path))
+            }
+            None => (None, None),
+        };
         Ok(ViewResult {
             raw_max: merged.raw.data.iter().copied().max().unwrap_or(0),
             merged_max: merged.merged.data.iter().copied().max().unwrap_or(0),
             regions: merged.regions,
             cached: merged.cached,
-            visibility,
-            local_labels,
+            observations,
+            spill,
         })
     }
 }
