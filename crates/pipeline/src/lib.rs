@@ -50,7 +50,7 @@ use lift_stage::ViewResult;
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
 pub use per_view::{merge_shard, ShardSummary};
 use profile::Profiler;
-pub use profile::{peak_rss_bytes, StageProfile};
+pub use profile::{peak_rss_bytes, PartTimes, StageProfile};
 use rayon::prelude::*;
 pub use results::RunOutputs;
 use serde::{Deserialize, Serialize};
@@ -252,6 +252,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .collect();
     let ply_key = per_view::ply_key(ply_path.as_deref(), &pc.lift)?;
     profiler.next("per view: depth, merge, visibility");
+    let times = profile::PartTimes::default();
     let sources = per_view::MergeSources::new(config, &ply_key);
     let ctx = sources.context(&scene, &load, config);
     let sharded = shard::expected_shards(&config.out, "merge")?;
@@ -264,6 +265,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         lift: &pc.lift,
         out: &config.out,
         sample_stride: prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len())),
+        times: &times,
     };
     let bar = progress(scene.views.len(), "merge");
     let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
@@ -280,14 +282,18 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let merged_map = |v: usize| cached_map(v, "merged");
 
     // Match, lift, render back.
+    profiler.parts(times.take());
     profiler.next("match");
     let matching = lift_stage::match_views(&mut views, prepared.is_some(), &pc.matching)?;
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
     profiler.next("lift and render back");
     let mut lifted = match &prepared {
-        Some(p) => Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &merged_map, &pc.lift)?),
+        Some(p) => {
+            Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &merged_map, &pc.lift, &times)?)
+        }
         None => None,
     };
+    profiler.parts(times.take());
     let spill_dir = cache_dir.join("visible");
     if spill_dir.is_dir() {
         std::fs::remove_dir_all(&spill_dir).with_context(|| format!("removing {}", spill_dir.display()))?;

@@ -10,6 +10,7 @@
 //! (which need every view) are decided, then decoded one view at a time.
 
 use super::progress;
+use crate::profile::PartTimes;
 use crate::visible;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
@@ -147,29 +148,33 @@ pub fn lift_and_render(
     matching: &Matching,
     merged_map: &(dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
     config: &LiftConfig,
+    times: &PartTimes,
 ) -> crate::Result<LiftOutput> {
     let spilled: Vec<(&PathBuf, &[u32])> = views
         .iter()
         .zip(&matching.global_of_label)
         .filter_map(|(m, table)| m.as_ref().and_then(|m| m.spill.as_ref()).map(|p| (p, &table[..])))
         .collect();
-    let mut votes = VoteAccumulator::new(prepared.len());
-    for &(path, table) in &spilled {
-        let (gaussians, weights, labels) = visible::read(path)?;
-        let ids: Vec<u32> = labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
-        votes.add_view(&gaussians, &weights, &ids)?;
-    }
     let features = ObjectFeatures { dim: matching.dim, values: &matching.object_features };
-    let mut lifted = votes.finish(features, config)?;
-    let counts: Vec<ViewCounts> = spilled
-        .par_iter()
-        .map(|&(path, _)| -> crate::Result<ViewCounts> {
-            let (gaussians, _, labels) = visible::read(path)?;
-            Ok(ViewCounts::new(&gaussians, &labels, &lifted.object_ids))
-        })
-        .collect::<crate::Result<_>>()?;
-    let joins = join_touching_counted(prepared, &mut lifted, features, &counts, config);
-    drop(counts);
+    let mut lifted = times.time("votes, fusion, variance filter", || -> crate::Result<Lifted> {
+        let mut votes = VoteAccumulator::new(prepared.len());
+        for &(path, table) in &spilled {
+            let (gaussians, weights, labels) = visible::read(path)?;
+            let ids: Vec<u32> = labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
+            votes.add_view(&gaussians, &weights, &ids)?;
+        }
+        Ok(votes.finish(features, config)?)
+    })?;
+    let joins = times.time("touching objects", || -> crate::Result<usize> {
+        let counts: Vec<ViewCounts> = spilled
+            .par_iter()
+            .map(|&(path, _)| -> crate::Result<ViewCounts> {
+                let (gaussians, _, labels) = visible::read(path)?;
+                Ok(ViewCounts::new(&gaussians, &labels, &lifted.object_ids))
+            })
+            .collect::<crate::Result<_>>()?;
+        Ok(join_touching_counted(prepared, &mut lifted, features, &counts, config))
+    })?;
     tracing::info!("joined {joins} pairs of touching look-alike objects");
     let votes = render_votes(&lifted, config);
     let bar = progress(cams.len(), "render label maps");
@@ -178,9 +183,14 @@ pub fn lift_and_render(
         .enumerate()
         .progress_with(bar.clone())
         .map(|(v, c)| -> crate::Result<RunLengths> {
-            let map = render_label_map(prepared, &votes, c.camera, c.world_from_cam, config);
+            let map = times.time("render back", || {
+                render_label_map(prepared, &votes, c.camera, c.world_from_cam, config)
+            });
             let map = match (&config.final_maps, &views[v]) {
-                (FinalMaps::Snapped, Some(_)) => snap_to_regions(&merged_map(v)?, &map),
+                (FinalMaps::Snapped, Some(_)) => {
+                    let regions = times.time("read the merged maps back", || merged_map(v))?;
+                    times.time("snap", || snap_to_regions(&regions, &map))
+                }
                 _ => map,
             };
             Ok(RunLengths::encode(&map))

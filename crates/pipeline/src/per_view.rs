@@ -5,6 +5,7 @@ use crate::cache::KeyHasher;
 use crate::error::{bail, Context};
 use crate::lift_stage::ViewResult;
 use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
+use crate::profile::PartTimes;
 use crate::shard::{write_manifest, Shard, ShardManifest};
 use crate::{inputs, lock, visible, RunConfig};
 use rayon::prelude::*;
@@ -158,6 +159,8 @@ pub struct PerView<'a> {
     pub out: &'a Path,
     /// Matching samples every `sample_stride`-th Gaussian ([`visible::sample_stride`]).
     pub sample_stride: u32,
+    /// Thread time of the parts of the per-view pass.
+    pub times: &'a PartTimes,
 }
 
 impl PerView<'_> {
@@ -167,23 +170,26 @@ impl PerView<'_> {
         // One projection of the Gaussians: the surface depth and the visibility test against it.
         let (depth, visibility) = match self.prepared {
             Some(p) => {
-                let (depth, visibility) = view_depth_and_visibility(p, c.camera, c.world_from_cam, self.lift);
+                let (depth, visibility) = self.times.time("surface depth and visibility", || {
+                    view_depth_and_visibility(p, c.camera, c.world_from_cam, self.lift)
+                });
                 (Some(depth), Some(visibility))
             }
             None => (None, None),
         };
         let metric = depth.as_ref().map(finite_depth);
         drop(depth);
-        let merged = match self.sharded {
-            Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count })?,
-            None => self.sources.merge(self.ctx, v, metric)?,
-        };
+        let merged =
+            self.times.time("merge (inputs, cues, merging; or the cache)", || match self.sharded {
+                Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count }),
+                None => self.sources.merge(self.ctx, v, metric),
+            })?;
         // Every visible Gaussian to disk, a bounded sample of them kept for matching.
         let (observations, spill) = match visibility {
             Some(vis) => {
                 let labels: Vec<u32> = vis.pixels.iter().map(|&p| merged.merged.data[p as usize]).collect();
                 let path = visible::spill_path(self.out, &self.ctx.scene.views[v].stem);
-                visible::write(&path, &vis, &labels)?;
+                self.times.time("spill the visible Gaussians", || visible::write(&path, &vis, &labels))?;
                 (Some(visible::sampled(&vis, &labels, self.sample_stride)), Some(path))
             }
             None => (None, None),
