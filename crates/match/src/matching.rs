@@ -207,6 +207,8 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
         .map(|i| {
             let (mut edges, cannot) = edges_of_mask(i, &view_of_mask, &unit, dim, evidence.as_ref(), config);
             edges.sort_by(edge_order);
+            // Kept until the merge: no growth slack (up to half of a list's capacity).
+            edges.shrink_to_fit();
             (edges, cannot)
         })
         .collect();
