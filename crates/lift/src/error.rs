@@ -35,6 +35,14 @@ pub enum LiftError {
         /// Number expected.
         expected: usize,
     },
+    /// A view's list of visible Gaussians is not strictly increasing or names a Gaussian past the end.
+    #[error("view {view}: visible Gaussians must be strictly increasing indices below {n_gaussians}")]
+    VisibleList {
+        /// View index (in the order views were added).
+        view: usize,
+        /// Number of Gaussians.
+        n_gaussians: usize,
+    },
     /// A Gaussian parameter is NaN or infinite.
     #[error("Gaussian {index} has a non-finite {what}")]
     NonFinite {

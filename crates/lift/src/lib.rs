@@ -2,8 +2,8 @@
 //! Gaussians (paper §4.3, "Feature Lifting", "3D Mask ID Assignment", "Variance-based
 //! Reliability Filtering").
 //!
-//! - [`project`]: Gaussians → 2D footprints per view (EWA, as 3DGS).
-//! - [`composite`]: front-to-back alpha compositing of footprints on the CPU.
+//! - [`project`]: Gaussians prepared once, and projected per view by the renderer
+//!   (`splatseg_render::ProjectedView`; its compositor `visit_contributions` is the only one).
 //! - [`visibility`]: which Gaussians a view sees (depth test against the composited surface),
 //!   where their centre lands, and their fusion weight (frontal, near views weigh more).
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
@@ -16,7 +16,6 @@
 //! [`render_all`]); per-Gaussian work runs over Gaussian ranges in parallel with views in fixed
 //! order, so results do not depend on the thread count.
 
-pub mod composite;
 pub mod config;
 pub mod error;
 pub mod lifting;
@@ -29,13 +28,18 @@ pub mod visibility;
 
 pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
-pub use lifting::{lift_labels, GaussianStatus, LiftStats, Lifted, ObjectFeatures};
+pub use lifting::{
+    lift_labels, FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator,
+};
 pub use numbering::{drop_small_objects, renumber};
-pub use project::PreparedGaussians;
-pub use render_labels::{render_label_map, render_votes, RenderVotes};
+pub use project::{project_view, raster_settings, PreparedGaussians};
+pub use render_labels::{label_map_of_view, render_label_map, render_votes, RenderVotes};
 pub use snap::snap_to_regions;
-pub use touching::join_touching_objects;
-pub use visibility::{view_surface_depth, view_visibility, ViewVisibility};
+pub use touching::{join_touching_counted, join_touching_objects, ViewCounts};
+pub use visibility::{
+    surface_depth, view_depth_and_visibility, view_surface_depth, view_visibility, visible_gaussians,
+    ViewVisibility,
+};
 
 use rayon::prelude::*;
 use splatseg_scene::{Camera, Plane, Pose};

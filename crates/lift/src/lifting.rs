@@ -12,8 +12,9 @@
 //!
 //! Votes are kept in [`SLOTS`] slots per Gaussian (id, count, weight); a Gaussian voted for by
 //! more distinct ids than that drops the id with the fewest votes (rare: it would be unreliable
-//! anyway). Accumulation runs over Gaussian ranges in parallel, views in fixed order inside, so
-//! the result does not depend on the thread count.
+//! anyway). Votes are accumulated one view at a time ([`VoteAccumulator`]: memory independent of
+//! the number of views), over Gaussian ranges in parallel, views in a fixed order, so the result
+//! does not depend on the thread count.
 
 use crate::config::LiftConfig;
 use crate::error::{LiftError, LiftResult};
@@ -75,10 +76,77 @@ pub struct Lifted {
     pub variances: Vec<f32>,
     /// `[N]` number of views that see each Gaussian.
     pub views_seen: Vec<u32>,
-    /// `[N, dim]` fused features f_g, when object features were given (dim > 0).
-    pub fused_features: Option<FeatureBlock>,
+    /// Fused features f_g (`[N, dim]`, made row by row on demand), when object features were
+    /// given (dim > 0).
+    pub fused_features: Option<FusedFeatures>,
     /// Counts per status.
     pub stats: LiftStats,
+}
+
+/// The fused features `f_g = Σ_v w_v f_{k_v} / Σ_v w_v` of every Gaussian, kept as the terms of
+/// the sum (at most [`SLOTS`] ids and their normalised weights per Gaussian, 64 bytes) and the
+/// `[n_objects, dim]` object features, not as an `[N, dim]` block (1.5 kB per Gaussian at D = 384):
+/// rows are made when asked, e.g. while the PLY is written. Rows equal what the variance filter
+/// computed, bit for bit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FusedFeatures {
+    /// Feature dimension D.
+    pub dim: usize,
+    /// `[n_objects, dim]` unit object features; row `k − 1` belongs to id `k`.
+    objects: Vec<f32>,
+    /// `[N · SLOTS]` (object id, weight / total), id 0 = no term.
+    terms: Vec<FusionTerm>,
+}
+
+impl FusedFeatures {
+    /// Number of Gaussians.
+    pub fn len(&self) -> usize {
+        self.terms.len() / SLOTS
+    }
+
+    /// True for no Gaussians.
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// Writes f_g of Gaussian `g` (`[dim]`) into `out`.
+    pub fn row(&self, g: usize, out: &mut [f32]) {
+        out.iter_mut().for_each(|x| *x = 0.0);
+        for &(id, w) in &self.terms[g * SLOTS..(g + 1) * SLOTS] {
+            if id == 0 {
+                continue;
+            }
+            let f = &self.objects[(id as usize - 1) * self.dim..id as usize * self.dim];
+            for (o, x) in out.iter_mut().zip(f) {
+                *o += w * x;
+            }
+        }
+    }
+
+    /// The whole `[N, dim]` block (for small sets and tests).
+    pub fn to_block(&self) -> FeatureBlock {
+        let mut values = vec![0f32; self.len() * self.dim];
+        for (g, row) in values.chunks_mut(self.dim.max(1)).enumerate().take(self.len()) {
+            self.row(g, row);
+        }
+        FeatureBlock { dim: self.dim, values }
+    }
+}
+
+/// One term of f_g: (object id, weight / total).
+type FusionTerm = (u32, f32);
+
+/// The terms of f_g for one Gaussian's slots, in slot order (as [`fuse`] sums them).
+fn fusion_terms(slots: &[Slot]) -> [(u32, f32); SLOTS] {
+    let mut terms = [(0u32, 0f32); SLOTS];
+    let total: f32 = slots.iter().filter(|s| s.id > 0).map(|s| s.weight).sum();
+    if total <= 0.0 {
+        return terms;
+    }
+    for (t, s) in terms.iter_mut().zip(slots.iter().filter(|s| s.id > 0)) {
+        *t = (s.id, s.weight / total);
+    }
+    terms
 }
 
 /// How many Gaussians ended in each state.
@@ -148,6 +216,7 @@ fn validate(
 /// `visibility: [n_views]` from [`crate::view_visibility`]; `id_maps: [n_views]`, each
 /// `[height, width]` of that view, value = global id (0 = none). The caller checks map sizes
 /// against the cameras ([`crate::check_map_sizes`]); pixel indices out of a map are an error.
+/// The same as feeding every view to a [`VoteAccumulator`] in order.
 pub fn lift_labels(
     n_gaussians: usize,
     visibility: &[ViewVisibility],
@@ -161,65 +230,149 @@ pub fn lift_labels(
             return Err(LiftError::MapTooSmall { view, pixels: map.data.len() });
         }
     }
-    const CHUNK: usize = 16_384;
-    let dim = features.dim;
-    let chunks: Vec<(Vec<Decision>, Vec<f32>)> = (0..n_gaussians.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(n_gaussians));
-            let mut slots = vec![[Slot::default(); SLOTS]; hi - lo];
-            let mut used = vec![0usize; hi - lo];
-            for (vis, map) in visibility.iter().zip(id_maps) {
-                let start = vis.gaussians.partition_point(|&g| (g as usize) < lo);
-                let end = vis.gaussians.partition_point(|&g| (g as usize) < hi);
+    let mut votes = VoteAccumulator::new(n_gaussians);
+    for (vis, map) in visibility.iter().zip(id_maps) {
+        let ids: Vec<u32> = vis.pixels.iter().map(|&p| map.data[p as usize]).collect();
+        votes.add_view(&vis.gaussians, &vis.weights, &ids)?;
+    }
+    votes.finish(features, config)
+}
+
+/// Gaussians per parallel work item of the vote accumulation and the decisions.
+const CHUNK: usize = 16_384;
+
+/// The votes of every Gaussian, accumulated one view at a time (memory: `[N]` vote slots,
+/// whatever the number of views). Views must be added in a fixed order (the scene's) for results
+/// that do not depend on the order views finished in; inside a view the work is split over
+/// Gaussian ranges, so the thread count does not matter either.
+#[derive(Clone)]
+pub struct VoteAccumulator {
+    /// `[N]` vote slots.
+    slots: Vec<[Slot; SLOTS]>,
+    /// `[N]` slots in use.
+    used: Vec<u8>,
+    /// Largest id voted for.
+    max_id: u32,
+    /// Views added.
+    views: usize,
+}
+
+impl VoteAccumulator {
+    /// No votes yet for `n_gaussians` Gaussians.
+    pub fn new(n_gaussians: usize) -> Self {
+        VoteAccumulator {
+            slots: vec![[Slot::default(); SLOTS]; n_gaussians],
+            used: vec![0; n_gaussians],
+            max_id: 0,
+            views: 0,
+        }
+    }
+
+    /// Number of Gaussians.
+    pub fn len(&self) -> usize {
+        self.used.len()
+    }
+
+    /// True for no Gaussians.
+    pub fn is_empty(&self) -> bool {
+        self.used.is_empty()
+    }
+
+    /// Adds one view's votes: `gaussians: [n_visible]` strictly increasing indices (as
+    /// [`ViewVisibility::gaussians`]), `weights: [n_visible]` fusion weights, `ids: [n_visible]` the
+    /// global id at each one's centre pixel (0 = none).
+    pub fn add_view(&mut self, gaussians: &[u32], weights: &[f32], ids: &[u32]) -> LiftResult<()> {
+        let view = self.views;
+        for (what, len) in [("fusion weights", weights.len()), ("ids", ids.len())] {
+            if len != gaussians.len() {
+                return Err(LiftError::Count { what, got: len, expected: gaussians.len() });
+            }
+        }
+        if gaussians.windows(2).any(|w| w[0] >= w[1])
+            || gaussians.last().is_some_and(|&g| g as usize >= self.len())
+        {
+            return Err(LiftError::VisibleList { view, n_gaussians: self.len() });
+        }
+        self.slots.par_chunks_mut(CHUNK).zip(self.used.par_chunks_mut(CHUNK)).enumerate().for_each(
+            |(c, (slots, used))| {
+                let (lo, hi) = (c * CHUNK, c * CHUNK + slots.len());
+                let start = gaussians.partition_point(|&g| (g as usize) < lo);
+                let end = gaussians.partition_point(|&g| (g as usize) < hi);
                 for k in start..end {
-                    let g = vis.gaussians[k] as usize - lo;
-                    let id = map.data[vis.pixels[k] as usize];
-                    vote(&mut slots[g], &mut used[g], id, vis.weights[k]);
+                    let g = gaussians[k] as usize - lo;
+                    let mut u = used[g] as usize;
+                    vote(&mut slots[g], &mut u, ids[k], weights[k]);
+                    used[g] = u as u8;
                 }
-            }
-            let mut decisions = Vec::with_capacity(hi - lo);
-            let mut fused_chunk = Vec::with_capacity((hi - lo) * dim);
-            let mut fused = vec![0f32; dim];
-            for (s, &u) in slots.iter().zip(&used) {
-                decisions.push(decide(&s[..u], &features, config, &mut fused));
-                fused_chunk.extend_from_slice(&fused);
-            }
-            (decisions, fused_chunk)
-        })
-        .collect();
-    let mut lifted = Lifted {
-        object_ids: Vec::with_capacity(n_gaussians),
-        status: Vec::with_capacity(n_gaussians),
-        majority_ids: Vec::with_capacity(n_gaussians),
-        variances: Vec::with_capacity(n_gaussians),
-        views_seen: Vec::with_capacity(n_gaussians),
-        fused_features: None,
-        stats: LiftStats::default(),
-    };
-    let mut fused = Vec::with_capacity(n_gaussians * dim);
-    for (decisions, f) in chunks {
-        for d in decisions {
-            lifted.object_ids.push(d.object_id);
-            lifted.status.push(d.status);
-            lifted.majority_ids.push(d.majority);
-            lifted.variances.push(d.variance);
-            lifted.views_seen.push(d.views);
+            },
+        );
+        self.max_id = self.max_id.max(ids.iter().copied().max().unwrap_or(0));
+        self.views += 1;
+        Ok(())
+    }
+
+    /// The majority vote, fusion and variance filter of every Gaussian (see the module docs).
+    pub fn finish(self, features: ObjectFeatures, config: &LiftConfig) -> LiftResult<Lifted> {
+        if features.dim > 0 && self.max_id as usize > features.n_objects() {
+            return Err(LiftError::UnknownObject {
+                view: 0,
+                id: self.max_id,
+                n_objects: features.n_objects(),
+            });
         }
-        fused.extend(f);
-    }
-    if dim > 0 {
-        lifted.fused_features = Some(FeatureBlock { dim, values: fused });
-    }
-    for s in &lifted.status {
-        match s {
-            GaussianStatus::Labelled => lifted.stats.labelled += 1,
-            GaussianStatus::Unreliable => lifted.stats.unreliable += 1,
-            GaussianStatus::NoObject => lifted.stats.no_object += 1,
-            GaussianStatus::Unseen | GaussianStatus::TooFewViews => lifted.stats.unseen += 1,
+        let n_gaussians = self.len();
+        let dim = features.dim;
+        let chunks: Vec<(Vec<Decision>, Vec<FusionTerm>)> = self
+            .slots
+            .par_chunks(CHUNK)
+            .zip(self.used.par_chunks(CHUNK))
+            .map(|(slots, used)| {
+                let mut decisions = Vec::with_capacity(slots.len());
+                let mut terms = Vec::with_capacity(if dim > 0 { slots.len() * SLOTS } else { 0 });
+                let mut fused = vec![0f32; dim];
+                for (s, &u) in slots.iter().zip(used) {
+                    decisions.push(decide(&s[..u as usize], &features, config, &mut fused));
+                    if dim > 0 {
+                        terms.extend(fusion_terms(&s[..u as usize]));
+                    }
+                }
+                (decisions, terms)
+            })
+            .collect();
+        drop(self);
+        let mut lifted = Lifted {
+            object_ids: Vec::with_capacity(n_gaussians),
+            status: Vec::with_capacity(n_gaussians),
+            majority_ids: Vec::with_capacity(n_gaussians),
+            variances: Vec::with_capacity(n_gaussians),
+            views_seen: Vec::with_capacity(n_gaussians),
+            fused_features: None,
+            stats: LiftStats::default(),
+        };
+        let mut terms = Vec::with_capacity(if dim > 0 { n_gaussians * SLOTS } else { 0 });
+        for (decisions, t) in chunks {
+            for d in decisions {
+                lifted.object_ids.push(d.object_id);
+                lifted.status.push(d.status);
+                lifted.majority_ids.push(d.majority);
+                lifted.variances.push(d.variance);
+                lifted.views_seen.push(d.views);
+            }
+            terms.extend(t);
         }
+        if dim > 0 {
+            lifted.fused_features = Some(FusedFeatures { dim, objects: features.values.to_vec(), terms });
+        }
+        for s in &lifted.status {
+            match s {
+                GaussianStatus::Labelled => lifted.stats.labelled += 1,
+                GaussianStatus::Unreliable => lifted.stats.unreliable += 1,
+                GaussianStatus::NoObject => lifted.stats.no_object += 1,
+                GaussianStatus::Unseen | GaussianStatus::TooFewViews => lifted.stats.unseen += 1,
+            }
+        }
+        Ok(lifted)
     }
-    Ok(lifted)
 }
 
 #[derive(Clone, Copy)]

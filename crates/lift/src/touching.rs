@@ -31,24 +31,36 @@ pub const MIN_SEEN: u32 = 10;
 /// Share of an object's Gaussians seen in a view that one mask must hold.
 const MASK_SHARE: f32 = 0.2;
 
-/// One view's per-mask object counts: `(mask, object)` → Gaussians, and object → Gaussians.
-struct ViewCounts {
+/// One view's per-mask object counts: `(mask, object)` → Gaussians, and object → Gaussians
+/// (what the join reads of a view: small, so a caller streaming views keeps one per view).
+#[derive(Clone, Debug, Default)]
+pub struct ViewCounts {
     by_mask: HashMap<(u32, u32), u32>,
     total: HashMap<u32, u32>,
 }
 
-fn view_counts(vis: &ViewVisibility, masks: &Plane<u32>, ids: &[i32]) -> ViewCounts {
-    let mut counts = ViewCounts { by_mask: HashMap::new(), total: HashMap::new() };
-    for (&g, &p) in vis.gaussians.iter().zip(&vis.pixels) {
-        let id = ids[g as usize];
-        let Some(&mask) = masks.data.get(p as usize) else { continue };
-        if id <= 0 || mask == 0 {
-            continue;
+impl ViewCounts {
+    /// The counts of one view: `gaussians: [n_visible]` its visible Gaussians, `masks:
+    /// [n_visible]` the merged (view-local) mask at each one's centre pixel (0 = none), `ids: [N]`
+    /// the lifted object ids.
+    pub fn new(gaussians: &[u32], masks: &[u32], ids: &[i32]) -> Self {
+        let mut counts = ViewCounts::default();
+        for (&g, &mask) in gaussians.iter().zip(masks) {
+            let id = ids.get(g as usize).copied().unwrap_or(-1);
+            if id <= 0 || mask == 0 {
+                continue;
+            }
+            *counts.by_mask.entry((mask, id as u32)).or_insert(0) += 1;
+            *counts.total.entry(id as u32).or_insert(0) += 1;
         }
-        *counts.by_mask.entry((mask, id as u32)).or_insert(0) += 1;
-        *counts.total.entry(id as u32).or_insert(0) += 1;
+        counts
     }
-    counts
+}
+
+fn view_counts(vis: &ViewVisibility, masks: &Plane<u32>, ids: &[i32]) -> ViewCounts {
+    let labels: Vec<u32> =
+        vis.pixels.iter().map(|&p| masks.data.get(p as usize).copied().unwrap_or(0)).collect();
+    ViewCounts::new(&vis.gaussians, &labels, ids)
 }
 
 /// Share of the views seeing both `a` and `b` in which one mask holds a good part of each.
@@ -97,7 +109,7 @@ fn contacts(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> BTreeMap<
         if id <= 0 {
             continue;
         }
-        let p = gaussians.means[i] / voxel;
+        let p = gaussians.mean(i) / voxel;
         let v = [p.x.floor() as i64, p.y.floor() as i64, p.z.floor() as i64];
         let cell = cells.entry(voxel_key(v)).or_insert_with(|| (v, Vec::new()));
         if !cell.1.contains(&(id as u32)) {
@@ -150,12 +162,27 @@ pub fn join_touching_objects(
     if features.dim == 0 || config.tau_touching > 1.0 {
         return 0;
     }
+    let counts: Vec<ViewCounts> = views.iter().map(|(v, m)| view_counts(v, m, &lifted.object_ids)).collect();
+    join_touching_counted(gaussians, lifted, features, &counts, config)
+}
+
+/// [`join_touching_objects`] with each view's counts made by the caller ([`ViewCounts::new`],
+/// `[n_views]`, from the ids of `lifted` before the join), for callers that stream the views.
+pub fn join_touching_counted(
+    gaussians: &PreparedGaussians,
+    lifted: &mut Lifted,
+    features: ObjectFeatures,
+    counts: &[ViewCounts],
+    config: &LiftConfig,
+) -> usize {
+    if features.dim == 0 || config.tau_touching > 1.0 {
+        return 0;
+    }
     let voxel = config.contact_voxel_factor * typical_sigma(gaussians);
     if voxel <= 0.0 || !voxel.is_finite() {
         return 0;
     }
     let n_objects = features.n_objects();
-    let counts: Vec<ViewCounts> = views.iter().map(|(v, m)| view_counts(v, m, &lifted.object_ids)).collect();
     let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel)
         .into_iter()
         .filter(|&((a, b), count)| count >= config.min_contact_voxels && (b as usize) <= n_objects && a >= 1)
@@ -165,7 +192,7 @@ pub fn join_touching_objects(
         })
         .filter(|&(cos, _, _, _)| cos >= config.tau_touching)
         .filter(|&(cos, a, b, count)| {
-            let share = together_share(&counts, a, b);
+            let share = together_share(counts, a, b);
             tracing::debug!("touching objects {a} and {b}: cos {cos:.3}, contact {count}, together in {share:.2} of views");
             share >= config.min_together_share
         })

@@ -1,7 +1,7 @@
 //! Which Gaussians a view sees: a depth test against the surface depth of the composited
-//! Gaussian footprints (not the centres alone).
+//! Gaussians (not the centres alone), on the renderer's own projection and compositor.
 //!
-//! The surface depth `D` of a pixel is the depth of the splat at which the front-to-back
+//! The surface depth `D` of a pixel is the depth of the Gaussian at which the front-to-back
 //! transmittance first drops below `surface_transmittance` (0.5: the median depth), or +∞ where
 //! it never does. A Gaussian is visible when its centre projects inside the image and
 //! `z ≤ D · (1 + depth_rel_tol) + depth_sigma_tol · σ_ray` at its centre pixel (σ_ray: its own
@@ -12,10 +12,12 @@
 //! pixels, so `f / z` is pixels per scene unit — near views weigh more) with
 //! `frontal = max(min_frontal, (1 − ρ) + ρ·|n̂ · r̂|)`, ρ the Gaussian's flatness and n̂ its
 //! normal (flat Gaussians seen face-on weigh most; round ones ignore the angle).
+//!
+//! One projection serves both the surface depth and the test ([`view_depth_and_visibility`]).
 
-use crate::composite::{composite, sort_by_depth};
 use crate::config::LiftConfig;
-use crate::project::{project_view, PreparedGaussians, Splat};
+use crate::project::{project_view, raster_settings, PreparedGaussians};
+use splatseg_render::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 use splatseg_scene::{Camera, Plane, Pose};
 
 /// The Gaussians one view sees.
@@ -41,16 +43,44 @@ impl ViewVisibility {
     }
 }
 
-/// Surface depth per pixel (`[height * width]`, +∞ = no surface) of depth-sorted `splats`.
-pub fn surface_depth(splats: &[Splat], width: usize, height: usize, config: &LiftConfig) -> Plane<f32> {
-    let mut depth = Plane::filled(width, height, f32::INFINITY);
-    let stop = config.surface_transmittance;
-    composite(splats, width, height, stop, |p, k, _, t_after| {
-        if t_after < stop {
-            depth.data[p] = splats[k].depth;
+/// Surface depth of one band of 16 rows: `[rows, width]`, the first pixel `first`.
+struct DepthBand<'a> {
+    view: &'a ProjectedView,
+    first: usize,
+    stop: f32,
+    depth: Vec<f32>,
+}
+
+impl ContributionVisitor for DepthBand<'_> {
+    #[inline]
+    fn contribution(&mut self, c: Contribution) -> bool {
+        if c.t_after < self.stop {
+            self.depth[c.pixel - self.first] = self.view.splats[c.gaussian as usize].depth;
+            return false;
+        }
+        true
+    }
+}
+
+/// Surface depth per pixel of a projected view: `[height, width]` metric z (+∞ where
+/// transmittance never drops below `surface_transmittance`).
+pub fn surface_depth(view: &ProjectedView, config: &LiftConfig) -> Plane<f32> {
+    let (width, height) = (view.width, view.height);
+    let band_rows = splatseg_render::bin::TILE_SIZE;
+    let bands = visit_contributions(view, &raster_settings(), |b| {
+        let rows = band_rows.min(height - b * band_rows);
+        DepthBand {
+            view,
+            first: b * band_rows * width,
+            stop: config.surface_transmittance,
+            depth: vec![f32::INFINITY; rows * width],
         }
     });
-    depth
+    let mut data = Vec::with_capacity(width * height);
+    for band in bands {
+        data.extend(band.depth);
+    }
+    Plane { width, height, data }
 }
 
 /// The surface depth of one view from the Gaussians' own footprints: `[height, width]` metric z
@@ -61,9 +91,47 @@ pub fn view_surface_depth(
     world_from_cam: &Pose,
     config: &LiftConfig,
 ) -> Plane<f32> {
-    let mut splats = project_view(gaussians, camera, world_from_cam, config);
-    sort_by_depth(&mut splats);
-    surface_depth(&splats, camera.width as usize, camera.height as usize, config)
+    surface_depth(&project_view(gaussians, camera, world_from_cam, config), config)
+}
+
+/// The visibility test of a projected view against `depth` (`[height, width]` metric z,
+/// 0 / non-finite = no surface).
+pub fn visible_gaussians(
+    gaussians: &PreparedGaussians,
+    view: &ProjectedView,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    depth: &Plane<f32>,
+    config: &LiftConfig,
+) -> ViewVisibility {
+    let (width, height) = (view.width, view.height);
+    let focal = 0.5 * (camera.fx + camera.fy) as f32;
+    let centre = world_from_cam.translation.as_vec3();
+    let alpha_min = raster_settings().alpha_min;
+    let mut out = ViewVisibility::default();
+    for (i, s) in view.splats.iter().enumerate() {
+        if s.is_culled() || s.opacity < alpha_min {
+            continue;
+        }
+        let [u, v] = s.mean2d;
+        if !(u >= 0.0 && v >= 0.0 && u < width as f32 && v < height as f32) {
+            continue;
+        }
+        let p = v as usize * width + u as usize;
+        let d = depth.data[p];
+        let surface = if d.is_finite() && d > 0.0 { d } else { f32::INFINITY };
+        let ray = (gaussians.mean(i) - centre).normalize_or_zero();
+        let sigma_ray = gaussians.sigma_along(i, ray);
+        if s.depth > surface * (1.0 + config.depth_rel_tol) + config.depth_sigma_tol * sigma_ray {
+            continue;
+        }
+        let rho = gaussians.flatness[i];
+        let frontal = ((1.0 - rho) + rho * gaussians.normals[i].dot(ray).abs()).max(config.min_frontal);
+        out.gaussians.push(i as u32);
+        out.pixels.push(p as u32);
+        out.weights.push(frontal * focal / s.depth);
+    }
+    out
 }
 
 /// Visibility of all Gaussians in one view, with the surface depth from their own footprints
@@ -75,39 +143,28 @@ pub fn view_visibility(
     depth: Option<&Plane<f32>>,
     config: &LiftConfig,
 ) -> ViewVisibility {
-    let (width, height) = (camera.width as usize, camera.height as usize);
-    let mut splats = project_view(gaussians, camera, world_from_cam, config);
-    sort_by_depth(&mut splats);
+    let view = project_view(gaussians, camera, world_from_cam, config);
     let own_depth;
     let depth = match depth {
         Some(d) => d,
         None => {
-            own_depth = surface_depth(&splats, width, height, config);
+            own_depth = surface_depth(&view, config);
             &own_depth
         }
     };
-    let focal = 0.5 * (camera.fx + camera.fy) as f32;
-    let mut visible: Vec<(u32, u32, f32)> = Vec::new();
-    for s in &splats {
-        let [u, v] = s.centre_px;
-        if !(u >= 0.0 && v >= 0.0 && u < width as f32 && v < height as f32) {
-            continue;
-        }
-        let p = v as usize * width + u as usize;
-        let d = depth.data[p];
-        let surface = if d.is_finite() && d > 0.0 { d } else { f32::INFINITY };
-        if s.depth > surface * (1.0 + config.depth_rel_tol) + config.depth_sigma_tol * s.sigma_ray {
-            continue;
-        }
-        let i = s.index as usize;
-        let rho = gaussians.flatness[i];
-        let frontal = ((1.0 - rho) + rho * gaussians.normals[i].dot(s.ray).abs()).max(config.min_frontal);
-        visible.push((s.index, p as u32, frontal * focal / s.depth));
-    }
-    visible.sort_unstable_by_key(|v| v.0);
-    ViewVisibility {
-        gaussians: visible.iter().map(|v| v.0).collect(),
-        pixels: visible.iter().map(|v| v.1).collect(),
-        weights: visible.iter().map(|v| v.2).collect(),
-    }
+    visible_gaussians(gaussians, &view, camera, world_from_cam, depth, config)
+}
+
+/// The surface depth of one view (`[height, width]`, as [`view_surface_depth`]) and the
+/// visibility test against it, from one projection.
+pub fn view_depth_and_visibility(
+    gaussians: &PreparedGaussians,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    config: &LiftConfig,
+) -> (Plane<f32>, ViewVisibility) {
+    let view = project_view(gaussians, camera, world_from_cam, config);
+    let depth = surface_depth(&view, config);
+    let visibility = visible_gaussians(gaussians, &view, camera, world_from_cam, &depth, config);
+    (depth, visibility)
 }

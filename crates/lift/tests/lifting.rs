@@ -35,7 +35,7 @@ fn majority_vote_counts_views_not_weights() {
     assert_eq!(lifted.object_ids, vec![1]);
     assert_eq!(lifted.views_seen, vec![3]);
     // Fused feature = weighted mean: (1·f1 + 10·f2 + 1·f1) / 12.
-    let f = &lifted.fused_features.as_ref().unwrap().values;
+    let f = &lifted.fused_features.as_ref().unwrap().to_block().values;
     assert!((f[0] - 2.0 / 12.0).abs() < 1e-6 && (f[1] - 10.0 / 12.0).abs() < 1e-6, "{f:?}");
     // A tie in counts goes to the larger weight.
     let (vis, maps) = single_gaussian_views(&[1, 2], &[1.0, 3.0]);
@@ -188,4 +188,21 @@ fn specks_are_dropped() {
     assert_eq!(drop_small_objects(&mut maps, &mut ids, 3), 1);
     assert_eq!(maps[0].data, vec![1, 1, 0, 0]);
     assert_eq!(ids, vec![1, -1, 3, -1]);
+}
+
+#[test]
+fn votes_accumulated_view_by_view_equal_the_whole_lift_and_bad_lists_are_errors() {
+    let (vis, maps) = single_gaussian_views(&[1, 2, 1, 3], &[1.0, 2.0, 0.5, 1.5]);
+    let config = LiftConfig::default();
+    let whole = lift_labels(1, &vis, &maps, features(), &config).unwrap();
+    let mut votes = splatseg_lift::VoteAccumulator::new(1);
+    for (v, m) in vis.iter().zip(&maps) {
+        votes.add_view(&v.gaussians, &v.weights, &[m.data[0]]).unwrap();
+    }
+    assert_eq!(votes.finish(features(), &config).unwrap(), whole);
+    let mut votes = splatseg_lift::VoteAccumulator::new(3);
+    let err = votes.add_view(&[2, 1], &[1.0, 1.0], &[1, 1]).unwrap_err();
+    assert!(matches!(err, LiftError::VisibleList { view: 0, n_gaussians: 3 }), "{err}");
+    assert!(votes.add_view(&[0, 3], &[1.0, 1.0], &[1, 1]).is_err(), "index past the end");
+    assert!(votes.add_view(&[0], &[1.0, 1.0], &[1]).is_err(), "weights of another length");
 }

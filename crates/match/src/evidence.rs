@@ -8,7 +8,7 @@
 //! of the smaller mask lies in the other mask (same object, or a fragment of it), 0 when the two
 //! masks cover disjoint Gaussians (different objects, however alike they look).
 //!
-//! Work is split over Gaussians: each rayon chunk counts into its own tables, and the integer
+//! Work is split over Gaussians: each thread's share counts into its own tables, and the integer
 //! tables are summed afterwards (exact, so the result does not depend on the split).
 
 use crate::error::{MatchError, MatchResult};
@@ -121,7 +121,10 @@ fn transpose(observations: &[ViewObservations], budget: u64) -> (ObservationsByG
         }
     }
     let pairs: u64 = counts.iter().map(|&k| k as u64 * (k as u64).saturating_sub(1) / 2).sum();
-    let stride = pairs.div_ceil(budget.max(1)).max(1) as u32;
+    // Observations the caller already sampled (every `base`-th Gaussian, e.g. to bound memory over
+    // many views) are subsampled further by whole multiples of `base`.
+    let base = observations.iter().flat_map(|o| &o.gaussians).fold(0u32, |d, &g| gcd(d, g)).max(1);
+    let stride = (pairs.div_ceil(budget.max(1)).max(1) as u32).saturating_mul(base);
     let sampled = |g: u32| g.is_multiple_of(stride);
     let mut starts = Vec::with_capacity(n_gaussians / stride as usize + 2);
     let mut row_of = vec![u32::MAX; n_gaussians.div_ceil(stride as usize)];
@@ -146,6 +149,14 @@ fn transpose(observations: &[ViewObservations], budget: u64) -> (ObservationsByG
     (ObservationsByGaussian { starts, entries }, stride)
 }
 
+/// Greatest common divisor (`gcd(0, x) = x`).
+fn gcd(mut a: u32, mut b: u32) -> u32 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
 /// Counts Gaussian co-occurrence between the masks of `input` (see the module docs).
 pub fn gather_evidence(
     input: &MatchInput,
@@ -158,27 +169,34 @@ pub fn gather_evidence(
     let n_views = input.views.len();
     let (by_gaussian, stride) = transpose(observations, max_pair_samples);
     let n_rows = by_gaussian.starts.len() - 1;
-    let chunk = 4096;
-    let empty = || (vec![0u32; n_masks * n_views], PairMap::default());
-    // Integer counts: the sum is exact whatever order rayon combines the chunks in.
-    let (covisible, shared) = (0..n_rows.div_ceil(chunk))
+    // One pair of tables per thread (not per rayon split: the covisibility table alone is
+    // n_masks × n_views), summed in a fixed order. Integer counts: the sums are exact, so the
+    // result does not depend on the thread count.
+    let parts = rayon::current_num_threads().clamp(1, n_rows.max(1));
+    let per_part = n_rows.div_ceil(parts);
+    let tables: Vec<(Vec<u32>, PairMap)> = (0..parts)
         .into_par_iter()
-        .fold(empty, |(mut covisible, mut shared), c| {
-            for row in c * chunk..((c + 1) * chunk).min(n_rows) {
+        .map(|p| {
+            let (mut covisible, mut shared) = (vec![0u32; n_masks * n_views], PairMap::default());
+            for row in p * per_part..((p + 1) * per_part).min(n_rows) {
                 let obs = &by_gaussian.entries[by_gaussian.starts[row]..by_gaussian.starts[row + 1]];
                 count_gaussian(obs, &offsets, n_views, &mut covisible, &mut shared);
             }
             (covisible, shared)
         })
-        .reduce(empty, |(mut c1, mut s1), (c2, s2)| {
-            for (t, x) in c1.iter_mut().zip(c2) {
-                *t += x;
-            }
-            for (k, x) in s2 {
-                *s1.entry(k).or_insert(0) += x;
-            }
-            (c1, s1)
-        });
+        .collect();
+    drop(by_gaussian);
+    let mut tables = tables.into_iter();
+    let (mut covisible, mut shared) = tables.next().unwrap_or_default();
+    covisible.resize(n_masks * n_views, 0);
+    for (c, s) in tables {
+        for (t, x) in covisible.iter_mut().zip(c) {
+            *t += x;
+        }
+        for (k, x) in s {
+            *shared.entry(k).or_insert(0) += x;
+        }
+    }
     Ok(Evidence { n_views, covisible, shared, stride })
 }
 

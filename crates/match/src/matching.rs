@@ -10,7 +10,8 @@
 //!    A pair with support and overlap < `tau_reject` becomes a cannot-link instead.
 //! 3. With 3D evidence, masks of one view that other views see inside one mask are joined
 //!    first, as fragments of one object ([`crate::fragments`]).
-//! 4. Edges are sorted (tier, score descending, then mask indices) and fed to a union-find that
+//! 4. Edges are taken in order (tier, score descending, then mask indices; each mask's list sorted,
+//!    the lists merged lazily) and fed to a union-find that
 //!    refuses to join clusters holding masks of the same view or spanning a cannot-link.
 //! 5. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
 //!    gets an identity feature: the area-weighted mean of its masks' unit descriptors,
@@ -78,6 +79,52 @@ struct Edge {
     score: f32,
     i: u32,
     j: u32,
+}
+
+/// The order edges are tried in: tier, score descending, then mask indices (a total order).
+fn edge_order(x: &Edge, y: &Edge) -> std::cmp::Ordering {
+    x.tier.cmp(&y.tier).then(y.score.total_cmp(&x.score)).then(x.i.cmp(&y.i)).then(x.j.cmp(&y.j))
+}
+
+/// The head of one mask's sorted edge list in the k-way merge (a min-heap on [`edge_order`]).
+struct Head {
+    edge: Edge,
+    list: usize,
+    pos: usize,
+}
+
+impl PartialEq for Head {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+impl Eq for Head {}
+impl PartialOrd for Head {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Head {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        edge_order(&other.edge, &self.edge)
+    }
+}
+
+/// Every edge of the sorted `lists` in [`edge_order`], as sorting them all into one list would
+/// give (edges of different lists differ in `i`, so there are no ties).
+fn merged_in_order(lists: &[Vec<Edge>]) -> impl Iterator<Item = Edge> + '_ {
+    let mut heap: std::collections::BinaryHeap<Head> = lists
+        .iter()
+        .enumerate()
+        .filter_map(|(list, l)| l.first().map(|&edge| Head { edge, list, pos: 0 }))
+        .collect();
+    std::iter::from_fn(move || {
+        let head = heap.pop()?;
+        if let Some(&edge) = lists[head.list].get(head.pos + 1) {
+            heap.push(Head { edge, list: head.list, pos: head.pos + 1 });
+        }
+        Some(head.edge)
+    })
 }
 
 /// Unit-length copies of all descriptors, `[n_masks, dim]`; zero vectors stay zero.
@@ -153,9 +200,17 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
         Some(obs) => Some(gather_evidence(input, obs, config.max_pair_samples)?),
         None => None,
     };
+    // Each mask's edges sorted; they are merged lazily into the global order below (no global
+    // list: at 1,000 views the candidate edges are tens of millions).
     let per_mask: Vec<(Vec<Edge>, Vec<u32>)> = (0..view_of_mask.len())
         .into_par_iter()
-        .map(|i| edges_of_mask(i, &view_of_mask, &unit, dim, evidence.as_ref(), config))
+        .map(|i| {
+            let (mut edges, cannot) = edges_of_mask(i, &view_of_mask, &unit, dim, evidence.as_ref(), config);
+            edges.sort_by(edge_order);
+            // Kept until the merge: no growth slack (up to half of a list's capacity).
+            edges.shrink_to_fit();
+            (edges, cannot)
+        })
         .collect();
     let mut stats = MatchStats {
         masks: view_of_mask.len(),
@@ -163,13 +218,15 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
         ..MatchStats::default()
     };
     let mut uf = ConstrainedUnionFind::new(&view_of_mask);
-    let mut edges = Vec::new();
+    let mut lists: Vec<Vec<Edge>> = Vec::with_capacity(per_mask.len());
     for (i, (e, cannot)) in per_mask.into_iter().enumerate() {
         for j in cannot {
             uf.add_cannot_link(i as u32, j);
             stats.cannot_links += 1;
         }
-        edges.extend(e);
+        stats.edges_3d += e.iter().filter(|e| e.tier == 0).count();
+        stats.edges_descriptor += e.iter().filter(|e| e.tier != 0).count();
+        lists.push(e);
     }
     if let Some(e) = &evidence {
         let similar = |i: usize, j: usize| dim == 0 || cosine(&unit, dim, i, j) >= config.tau_match;
@@ -179,12 +236,8 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
             }
         }
     }
-    edges.sort_by(|x, y| {
-        x.tier.cmp(&y.tier).then(y.score.total_cmp(&x.score)).then(x.i.cmp(&y.i)).then(x.j.cmp(&y.j))
-    });
-    stats.edges_3d = edges.iter().filter(|e| e.tier == 0).count();
-    stats.edges_descriptor = edges.len() - stats.edges_3d;
-    for e in &edges {
+    drop(evidence);
+    for e in merged_in_order(&lists) {
         match uf.union(e.i, e.j) {
             JoinOutcome::Joined => stats.joins += 1,
             JoinOutcome::SameView => stats.refused_same_view += 1,

@@ -228,3 +228,51 @@ fn one_view_that_merged_two_objects_does_not_make_them_fragments() {
     // O's fragments are still joined (together in all four views).
     assert_eq!(m.global_of_label[0][1], m.global_of_label[0][2]);
 }
+
+/// Keeps the observations of the Gaussians whose index is a multiple of `stride`.
+fn every_nth(input: &MatchInput, stride: u32) -> MatchInput {
+    let observations = input.observations.as_ref().map(|obs| {
+        obs.iter()
+            .map(|o| {
+                let (gaussians, labels) = o
+                    .gaussians
+                    .iter()
+                    .zip(&o.labels)
+                    .filter(|(&g, _)| g % stride == 0)
+                    .map(|(&g, &l)| (g, l))
+                    .unzip();
+                ViewObservations { gaussians, labels }
+            })
+            .collect()
+    });
+    MatchInput { observations, ..input.clone() }
+}
+
+#[test]
+fn observations_a_caller_sampled_are_subsampled_by_multiples_of_their_stride() {
+    let input = every_nth(&random_input(3), 4);
+    let unlimited = MatchConfig { max_pair_samples: u64::MAX, ..MatchConfig::default() };
+    assert_eq!(
+        match_masks(&input, &unlimited).unwrap().stats.evidence_stride,
+        4,
+        "the caller's stride is reported"
+    );
+    // A pair budget that asks for half of the sampled pairs: every 8th Gaussian, not every 4th again.
+    let tight = MatchConfig { max_pair_samples: 1, ..MatchConfig::default() };
+    let halved = every_nth(&input, 8);
+    let pairs_budget = |m: &MatchInput| {
+        let mut per_gaussian = std::collections::BTreeMap::<u32, u64>::new();
+        for o in m.observations.iter().flatten() {
+            for &g in &o.gaussians {
+                *per_gaussian.entry(g).or_default() += 1;
+            }
+        }
+        per_gaussian.values().map(|&k| k * k.saturating_sub(1) / 2).sum::<u64>()
+    };
+    let config = MatchConfig { max_pair_samples: pairs_budget(&input).div_ceil(2), ..tight };
+    let sampled = match_masks(&input, &config).unwrap();
+    assert_eq!(sampled.stats.evidence_stride, 8);
+    let direct = match_masks(&halved, &unlimited).unwrap();
+    assert_eq!(direct.stats.evidence_stride, 8);
+    assert_eq!(sampled.global_of_label, direct.global_of_label, "the same Gaussians were counted");
+}

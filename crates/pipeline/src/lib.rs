@@ -38,6 +38,7 @@ pub mod shard;
 #[cfg(test)]
 mod tests;
 pub mod train_stage;
+mod visible;
 
 use crate::error::bail;
 use cache::{read_json, write_json, KeyHasher};
@@ -49,7 +50,7 @@ use lift_stage::ViewResult;
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
 pub use per_view::{merge_shard, ShardSummary};
 use profile::Profiler;
-pub use profile::{peak_rss_bytes, StageProfile};
+pub use profile::{peak_rss_bytes, PartTimes, StageProfile};
 use rayon::prelude::*;
 pub use results::RunOutputs;
 use serde::{Deserialize, Serialize};
@@ -251,6 +252,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .collect();
     let ply_key = per_view::ply_key(ply_path.as_deref(), &pc.lift)?;
     profiler.next("per view: depth, merge, visibility");
+    let times = profile::PartTimes::default();
     let sources = per_view::MergeSources::new(config, &ply_key);
     let ctx = sources.context(&scene, &load, config);
     let sharded = shard::expected_shards(&config.out, "merge")?;
@@ -261,6 +263,9 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         ctx: &ctx,
         sharded,
         lift: &pc.lift,
+        out: &config.out,
+        sample_stride: prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len())),
+        times: &times,
     };
     let bar = progress(scene.views.len(), "merge");
     let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
@@ -277,6 +282,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let merged_map = |v: usize| cached_map(v, "merged");
 
     // Match, lift, render back.
+    profiler.parts(times.take());
     profiler.next("match");
     let matching = lift_stage::match_views(&mut views, prepared.is_some(), &pc.matching)?;
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
@@ -285,10 +291,15 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         Some(p) => {
             let snap_kind = pc.lift.final_maps.snapped_onto().unwrap_or("merged");
             let snap_map = |v: usize| cached_map(v, snap_kind);
-            Some(lift_stage::lift_and_render(p, &cams, &mut views, &matching, &snap_map, &pc.lift)?)
+            Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &snap_map, &pc.lift, &times)?)
         }
         None => None,
     };
+    profiler.parts(times.take());
+    let spill_dir = cache_dir.join("visible");
+    if spill_dir.is_dir() {
+        std::fs::remove_dir_all(&spill_dir).with_context(|| format!("removing {}", spill_dir.display()))?;
+    }
     let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {
         if views[v].is_none() {
             return Ok(None);
@@ -355,9 +366,12 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     };
     let fused = lifted.as_mut().and_then(|l| l.lifted.fused_features.take());
     if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
-        let g = outputs::labelled_rows(rows, ids, fused);
+        let (finite, n_rows) = (rows.finite_rows(), rows.gaussians.len());
+        let g = outputs::labelled_rows(rows, ids, fused.is_some());
+        let fused = fused.map(|f| outputs::FusedRows::new(f, &finite, n_rows));
         let out_ply = config.out.join("gaussians.ply");
-        splatseg_scene::ply::write_ply_rows(&out_ply, &g)
+        let rows: Option<&dyn splatseg_scene::ply::FeatureRows> = fused.as_ref().map(|f| f as _);
+        splatseg_scene::ply::write_ply_rows_with_features(&out_ply, &g, rows)
             .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
     }
     let final_ids: std::collections::BTreeSet<u32> =

@@ -1,25 +1,28 @@
 //! The global stages on compact per-view results: cross-view matching (with 3D evidence),
 //! lifting, and the label maps rendered back, numbered and written view by view.
 //!
-//! No stage here holds an `[H, W]` map per view: each view keeps its region descriptors, its
-//! visible Gaussians and the merged (view-local) label at each visible Gaussian's pixel
-//! ([`ViewResult`]). Lifting and the touching-objects join only ever read a map at the visible
-//! Gaussians' pixels, so they are given those labels as `[1, n_visible]` maps with the pixel
-//! indices renumbered `0..n_visible` — the same lookups, the same results. The maps rendered back
-//! are kept as runs ([`RunLengths`]) until the speck filter and the numbering (which need every
-//! view) are decided, then decoded one view at a time.
+//! No stage here holds an `[H, W]` map per view, nor every view's visible Gaussians: each view
+//! keeps its region descriptors and a bounded sample of its visible Gaussians with their merged
+//! labels for matching ([`ViewResult`], [`crate::visible::sample_stride`]); its full list is
+//! spilled to `OUT/cache/visible/` by the per-view pass and read back one view at a time, in view
+//! order, to accumulate the votes ([`VoteAccumulator`]) and the touching-objects counts. The maps
+//! rendered back are kept as runs ([`RunLengths`]) until the speck filter and the numbering
+//! (which need every view) are decided, then decoded one view at a time.
 
 use super::progress;
+use crate::profile::PartTimes;
+use crate::visible;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
-    join_touching_objects, lift_labels, render_label_map, render_votes, renumber, snap_to_regions, FinalMaps,
-    LiftConfig, Lifted, ObjectFeatures, PosedCamera, PreparedGaussians, ViewVisibility,
+    join_touching_counted, render_label_map, render_votes, renumber, snap_to_regions, FinalMaps, LiftConfig,
+    Lifted, ObjectFeatures, PosedCamera, PreparedGaussians, ViewCounts, VoteAccumulator,
 };
 use splatseg_match::{match_masks, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
 use splatseg_scene::Plane;
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 
 /// What the global stages keep of one view with masks.
 #[derive(Clone, Debug)]
@@ -32,38 +35,16 @@ pub struct ViewResult {
     pub merged_max: u32,
     /// True when the merge came from the cache.
     pub cached: bool,
-    /// The visible Gaussians (with Gaussians), pixel indices renumbered `0..n_visible`: entry `k`
-    /// reads `[1, n_visible]` maps at `k`.
-    pub visibility: Option<ViewVisibility>,
-    /// `[n_visible]` merged label at each visible Gaussian's pixel.
-    pub local_labels: Vec<u32>,
-}
-
-impl ViewResult {
-    /// `visibility` (with its real pixel indices into the `[H, W]` `merged` map) made compact.
-    pub fn compact(
-        visibility: Option<ViewVisibility>,
-        merged: &Plane<u32>,
-    ) -> (Option<ViewVisibility>, Vec<u32>) {
-        match visibility {
-            Some(mut vis) => {
-                let labels = vis.pixels.iter().map(|&p| merged.data[p as usize]).collect();
-                vis.pixels = (0..vis.pixels.len() as u32).collect();
-                (Some(vis), labels)
-            }
-            None => (None, Vec::new()),
-        }
-    }
-}
-
-/// `labels` as a `[1, n]` map.
-fn row_map(labels: Vec<u32>) -> Plane<u32> {
-    Plane { width: labels.len(), height: 1, data: labels }
+    /// With Gaussians: the sampled visible Gaussians and their merged labels (matching's 3D
+    /// evidence; moved into the matcher).
+    pub observations: Option<ViewObservations>,
+    /// With Gaussians: the file holding every visible Gaussian ([`crate::visible`]).
+    pub spill: Option<PathBuf>,
 }
 
 /// Matches the merged masks of all views. Views without masks (`None`) take no part; with
-/// `with_3d`, the Gaussians each mask sees are the 3D evidence (moved into the matcher's input
-/// and back, not copied).
+/// `with_3d`, the sampled Gaussians each mask sees are the 3D evidence (moved into the matcher's
+/// input, not copied).
 pub fn match_views(
     views: &mut [Option<ViewResult>],
     with_3d: bool,
@@ -87,28 +68,15 @@ pub fn match_views(
         })
         .collect();
     let observations = with_3d.then(|| {
-        views
-            .iter_mut()
-            .map(|m| match m.as_mut().and_then(|m| m.visibility.as_mut().map(|v| (v, &mut m.local_labels))) {
-                Some((v, labels)) => ViewObservations {
-                    gaussians: std::mem::take(&mut v.gaussians),
-                    labels: std::mem::take(labels),
-                },
-                None => ViewObservations::default(),
-            })
-            .collect::<Vec<_>>()
+        views.iter_mut().map(|m| m.as_mut().and_then(|m| m.observations.take()).unwrap_or_default()).collect()
     });
     let input = MatchInput { dim, views: masks, observations };
-    let matching = match_masks(&input, config);
-    for (m, obs) in views.iter_mut().zip(input.observations.into_iter().flatten()) {
-        if let Some((v, labels)) =
-            m.as_mut().and_then(|m| m.visibility.as_mut().map(|v| (v, &mut m.local_labels)))
-        {
-            v.gaussians = obs.gaussians;
-            *labels = obs.labels;
-        }
-    }
-    Ok(matching?)
+    Ok(match_masks(&input, config)?)
+}
+
+/// `labels` as a `[1, n]` map.
+fn row_map(labels: Vec<u32>) -> Plane<u32> {
+    Plane { width: labels.len(), height: 1, data: labels }
 }
 
 /// A label map as runs of equal values in row-major order: `[n_runs]` (value, length).
@@ -171,41 +139,43 @@ impl LiftOutput {
 
 /// Lifts the matched labels of the views with masks onto the Gaussians, renders every view back
 /// (snapping the rendered ids onto the regions read back by `snap_map(v)`: the SAM regions with
-/// `final_maps = "snapped-raw"`, the merged ones with `"snapped"`), drops specks and numbers the ids by first appearance. The views'
-/// visible Gaussians and labels are consumed (moved, not copied).
+/// `final_maps = "snapped-raw"`, the merged ones with `"snapped"`), drops specks and numbers the
+/// ids by first appearance. The views' visible Gaussians are read back from their spill files one
+/// view at a time, in view order.
 pub fn lift_and_render(
     prepared: &PreparedGaussians,
     cams: &[PosedCamera],
-    views: &mut [Option<ViewResult>],
+    views: &[Option<ViewResult>],
     matching: &Matching,
     snap_map: &(dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
     config: &LiftConfig,
+    times: &PartTimes,
 ) -> crate::Result<LiftOutput> {
-    let mut vis: Vec<ViewVisibility> = Vec::new();
-    let mut labels: Vec<Vec<u32>> = Vec::new();
-    let mut tables: Vec<&[u32]> = Vec::new();
-    for (m, table) in views.iter_mut().zip(&matching.global_of_label) {
-        if let Some(m) = m.as_mut() {
-            if let Some(v) = m.visibility.take() {
-                vis.push(v);
-                labels.push(std::mem::take(&mut m.local_labels));
-                tables.push(table);
-            }
-        }
-    }
-    let matched: Vec<Plane<u32>> = labels
+    let spilled: Vec<(&PathBuf, &[u32])> = views
         .iter()
-        .zip(&tables)
-        .map(|(l, table)| row_map(l.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect()))
+        .zip(&matching.global_of_label)
+        .filter_map(|(m, table)| m.as_ref().and_then(|m| m.spill.as_ref()).map(|p| (p, &table[..])))
         .collect();
     let features = ObjectFeatures { dim: matching.dim, values: &matching.object_features };
-    let mut lifted = lift_labels(prepared.len(), &vis, &matched, features, config)?;
-    drop(matched);
-    let local_maps: Vec<Plane<u32>> = labels.into_iter().map(row_map).collect();
-    let local: Vec<(&ViewVisibility, &Plane<u32>)> = vis.iter().zip(&local_maps).collect();
-    let joins = join_touching_objects(prepared, &mut lifted, features, &local, config);
-    drop(local);
-    drop((vis, local_maps));
+    let mut lifted = times.time("votes, fusion, variance filter", || -> crate::Result<Lifted> {
+        let mut votes = VoteAccumulator::new(prepared.len());
+        for &(path, table) in &spilled {
+            let (gaussians, weights, labels) = visible::read(path)?;
+            let ids: Vec<u32> = labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
+            votes.add_view(&gaussians, &weights, &ids)?;
+        }
+        Ok(votes.finish(features, config)?)
+    })?;
+    let joins = times.time("touching objects", || -> crate::Result<usize> {
+        let counts: Vec<ViewCounts> = spilled
+            .par_iter()
+            .map(|&(path, _)| -> crate::Result<ViewCounts> {
+                let (gaussians, _, labels) = visible::read(path)?;
+                Ok(ViewCounts::new(&gaussians, &labels, &lifted.object_ids))
+            })
+            .collect::<crate::Result<_>>()?;
+        Ok(join_touching_counted(prepared, &mut lifted, features, &counts, config))
+    })?;
     tracing::info!("joined {joins} pairs of touching look-alike objects");
     let votes = render_votes(&lifted, config);
     let bar = progress(cams.len(), "render label maps");
@@ -214,9 +184,14 @@ pub fn lift_and_render(
         .enumerate()
         .progress_with(bar.clone())
         .map(|(v, c)| -> crate::Result<RunLengths> {
-            let map = render_label_map(prepared, &votes, c.camera, c.world_from_cam, config);
+            let map = times.time("render back", || {
+                render_label_map(prepared, &votes, c.camera, c.world_from_cam, config)
+            });
             let map = match (&config.final_maps, &views[v]) {
-                (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => snap_to_regions(&snap_map(v)?, &map),
+                (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => {
+                    let regions = times.time("read the region maps back", || snap_map(v))?;
+                    times.time("snap", || snap_to_regions(&regions, &map))
+                }
                 _ => map,
             };
             Ok(RunLengths::encode(&map))

@@ -2,10 +2,10 @@
 
 use super::RunSummary;
 use crate::error::Context;
-use splatseg_scene::gaussians::FeatureBlock;
+use splatseg_lift::FusedFeatures;
 use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
 use splatseg_scene::load::LoadOptions;
-use splatseg_scene::ply::PlyRows;
+use splatseg_scene::ply::{FeatureRows, PlyRows};
 use splatseg_scene::{Gaussians, Plane, Scene};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -20,26 +20,55 @@ pub fn ids_of_every_row(rows: &PlyRows, finite_ids: &[i32]) -> Vec<i32> {
     ids
 }
 
-/// The input rows with `object_id` = `ids` (`[N]`) and, when lifting fused them, `feat_*` from
-/// `finite_features` (`[N - k, D]`, one per finite row; zeros for the skipped rows); otherwise the
-/// input's own `feat_*` stay.
-pub fn labelled_rows(rows: PlyRows, ids: &[i32], finite_features: Option<FeatureBlock>) -> Gaussians {
-    let finite = rows.finite_rows();
+/// The input rows with `object_id` = `ids` (`[N]`). With `fused` features (lifting fused them),
+/// the input's own `feat_*` are dropped (the fused ones are written instead, see
+/// [`FusedRows`]); otherwise they stay.
+pub fn labelled_rows(rows: PlyRows, ids: &[i32], fused: bool) -> Gaussians {
     let mut g = rows.gaussians;
     g.object_ids = Some(ids.to_vec());
-    match finite_features {
-        // Every row is finite: the block is already one row per Gaussian, in order (moved, not copied).
-        Some(f) if finite.len() == g.len() => g.features = Some(f),
-        Some(f) => {
-            let mut values = vec![0.0; g.len() * f.dim];
-            for (k, &row) in finite.iter().enumerate() {
-                values[row * f.dim..(row + 1) * f.dim].copy_from_slice(&f.values[k * f.dim..(k + 1) * f.dim]);
-            }
-            g.features = Some(FeatureBlock { dim: f.dim, values });
-        }
-        None => {}
+    if fused {
+        g.features = None;
     }
     g
+}
+
+/// The fused features of every input row, made row by row while `gaussians.ply` is written:
+/// the finite rows' fused features (one per finite row, in order), zeros for the skipped rows.
+pub struct FusedRows {
+    fused: FusedFeatures,
+    /// `[N]` index among the finite rows, `u32::MAX` for a skipped row (empty: every row finite).
+    finite_index: Vec<u32>,
+}
+
+impl FusedRows {
+    /// `fused` (`[N − k]` rows) spread over the `n_rows` input rows; `finite_rows`: the input rows
+    /// that are finite, in order.
+    pub fn new(fused: FusedFeatures, finite_rows: &[usize], n_rows: usize) -> Self {
+        let finite_index = if finite_rows.len() == n_rows {
+            Vec::new()
+        } else {
+            let mut index = vec![u32::MAX; n_rows];
+            for (k, &row) in finite_rows.iter().enumerate() {
+                index[row] = k as u32;
+            }
+            index
+        };
+        FusedRows { fused, finite_index }
+    }
+}
+
+impl FeatureRows for FusedRows {
+    fn dim(&self) -> usize {
+        self.fused.dim
+    }
+
+    fn row(&self, i: usize, out: &mut [f32]) {
+        match self.finite_index.get(i) {
+            None => self.fused.row(i, out),
+            Some(&u32::MAX) => out.iter_mut().for_each(|x| *x = 0.0),
+            Some(&k) => self.fused.row(k as usize, out),
+        }
+    }
 }
 
 /// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` of view `v`

@@ -5,15 +5,18 @@ use crate::cache::KeyHasher;
 use crate::error::{bail, Context};
 use crate::lift_stage::ViewResult;
 use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
+use crate::profile::PartTimes;
 use crate::shard::{write_manifest, Shard, ShardManifest};
-use crate::{inputs, lock, RunConfig};
+use crate::{inputs, lock, visible, RunConfig};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{view_surface_depth, view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
+use splatseg_lift::{
+    view_depth_and_visibility, view_surface_depth, LiftConfig, PosedCamera, PreparedGaussians,
+};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -136,9 +139,9 @@ impl MergeSources {
 }
 
 /// What `run` does per view, one view at a time on each thread: surface depth from the
-/// Gaussians, the merge (computed, from the cache, or — after `merge --shard` — from the shard
-/// that made it), visibility; only the compact [`ViewResult`] is kept, the merged maps stay in
-/// `OUT/cache/merge/`.
+/// Gaussians and the visibility test against it (one projection), the merge (computed, from the
+/// cache, or — after `merge --shard` — from the shard that made it); only the compact [`ViewResult`] is kept, the merged maps stay in
+/// `OUT/cache/merge/`, the visible Gaussians are spilled to `OUT/cache/visible/`.
 pub struct PerView<'a> {
     /// The Gaussians, when there are some.
     pub prepared: Option<&'a PreparedGaussians>,
@@ -152,30 +155,52 @@ pub struct PerView<'a> {
     pub sharded: Option<usize>,
     /// Lift settings (surface depth, visibility).
     pub lift: &'a LiftConfig,
+    /// Output folder (the visible Gaussians are spilled to `OUT/cache/visible/`).
+    pub out: &'a Path,
+    /// Matching samples every `sample_stride`-th Gaussian ([`visible::sample_stride`]).
+    pub sample_stride: u32,
+    /// Thread time of the parts of the per-view pass.
+    pub times: &'a PartTimes,
 }
 
 impl PerView<'_> {
     /// The compact result of view `v` (which has masks).
     pub fn result(&self, v: usize) -> crate::Result<ViewResult> {
         let c = &self.cams[v];
-        let depth = self.prepared.map(|p| view_surface_depth(p, c.camera, c.world_from_cam, self.lift));
+        // One projection of the Gaussians: the surface depth and the visibility test against it.
+        let (depth, visibility) = match self.prepared {
+            Some(p) => {
+                let (depth, visibility) = self.times.time("surface depth and visibility", || {
+                    view_depth_and_visibility(p, c.camera, c.world_from_cam, self.lift)
+                });
+                (Some(depth), Some(visibility))
+            }
+            None => (None, None),
+        };
         let metric = depth.as_ref().map(finite_depth);
-        let merged = match self.sharded {
-            Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count })?,
-            None => self.sources.merge(self.ctx, v, metric)?,
+        drop(depth);
+        let merged =
+            self.times.time("merge (inputs, cues, merging; or the cache)", || match self.sharded {
+                Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count }),
+                None => self.sources.merge(self.ctx, v, metric),
+            })?;
+        // Every visible Gaussian to disk, a bounded sample of them kept for matching.
+        let (observations, spill) = match visibility {
+            Some(vis) => {
+                let labels: Vec<u32> = vis.pixels.iter().map(|&p| merged.merged.data[p as usize]).collect();
+                let path = visible::spill_path(self.out, &self.ctx.scene.views[v].stem);
+                self.times.time("spill the visible Gaussians", || visible::write(&path, &vis, &labels))?;
+                (Some(visible::sampled(&vis, &labels, self.sample_stride)), Some(path))
+            }
+            None => (None, None),
         };
-        let visibility = match (self.prepared, &depth) {
-            (Some(p), Some(d)) => Some(view_visibility(p, c.camera, c.world_from_cam, Some(d), self.lift)),
-            _ => None,
-        };
-        let (visibility, local_labels) = ViewResult::compact(visibility, &merged.merged);
         Ok(ViewResult {
             raw_max: merged.raw.data.iter().copied().max().unwrap_or(0),
             merged_max: merged.merged.data.iter().copied().max().unwrap_or(0),
             regions: merged.regions,
             cached: merged.cached,
-            visibility,
-            local_labels,
+            observations,
+            spill,
         })
     }
 }

@@ -15,18 +15,53 @@ pub struct StageProfile {
     pub seconds: f64,
     /// Peak resident memory during the stage, bytes (Linux only).
     pub peak_rss_bytes: Option<u64>,
+    /// Thread time of named parts of the stage, seconds summed over threads (parts run in
+    /// parallel, so they may add up to more than the wall time).
+    #[serde(default)]
+    pub parts: Vec<(String, f64)>,
+}
+
+/// Thread time spent in named parts of a stage, summed over the threads that run them.
+#[derive(Debug, Default)]
+pub struct PartTimes {
+    seconds: std::sync::Mutex<Vec<(&'static str, f64)>>,
+}
+
+impl PartTimes {
+    /// Runs `f`, adding its time to part `name`.
+    pub fn time<T>(&self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let started = Instant::now();
+        let out = f();
+        let dt = started.elapsed().as_secs_f64();
+        if let Ok(mut parts) = self.seconds.lock() {
+            match parts.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, s)) => *s += dt,
+                None => parts.push((name, dt)),
+            }
+        }
+        out
+    }
+
+    /// The parts timed so far, in order of first use; resets them.
+    pub fn take(&self) -> Vec<(String, f64)> {
+        self.seconds
+            .lock()
+            .map(|mut p| p.drain(..).map(|(n, s)| (n.to_string(), s)).collect())
+            .unwrap_or_default()
+    }
 }
 
 /// Times stages one after another.
 pub struct Profiler {
     stages: Vec<StageProfile>,
     current: Option<(String, Instant)>,
+    parts: Vec<(String, f64)>,
 }
 
 impl Profiler {
     /// Starts with `first`.
     pub fn start(first: &str) -> Profiler {
-        let mut p = Profiler { stages: Vec::new(), current: None };
+        let mut p = Profiler { stages: Vec::new(), current: None, parts: Vec::new() };
         p.next(first);
         p
     }
@@ -38,6 +73,11 @@ impl Profiler {
         self.current = Some((name.to_string(), Instant::now()));
     }
 
+    /// Attaches the thread time of the current stage's parts ([`PartTimes::take`]).
+    pub fn parts(&mut self, parts: Vec<(String, f64)>) {
+        self.parts.extend(parts);
+    }
+
     fn end(&mut self) {
         if let Some((stage, started)) = self.current.take() {
             let seconds = started.elapsed().as_secs_f64();
@@ -46,7 +86,11 @@ impl Profiler {
                 "stage {stage}: {seconds:.2} s, peak {} MB",
                 peak_rss_bytes.map_or("?".to_string(), |b| (b >> 20).to_string())
             );
-            self.stages.push(StageProfile { stage, seconds, peak_rss_bytes });
+            for (part, s) in &self.parts {
+                tracing::debug!("  {part}: {s:.2} thread s");
+            }
+            let parts = std::mem::take(&mut self.parts);
+            self.stages.push(StageProfile { stage, seconds, peak_rss_bytes, parts });
         }
     }
 

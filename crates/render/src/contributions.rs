@@ -44,8 +44,14 @@ impl ProjectedView {
         camera.validate()?;
         let (width, height) = (camera.width as usize, camera.height as usize);
         let splats = project(gaussians, camera, settings);
+        Ok(Self::from_splats(splats, width, height))
+    }
+
+    /// Bins splats made by [`crate::project::project`] (a caller may move their centres first,
+    /// e.g. by a lens distortion the pinhole projection ignores) for a `width × height` image.
+    pub fn from_splats(splats: Vec<Splat2d>, width: usize, height: usize) -> Self {
         let bins = bin(&splats, width, height);
-        Ok(ProjectedView { splats, bins, width, height })
+        ProjectedView { splats, bins, width, height }
     }
 }
 
@@ -64,8 +70,11 @@ pub struct Contribution {
 
 /// What a contribution pass calls. One visitor serves one band of tiles.
 pub trait ContributionVisitor {
-    /// A Gaussian blended into a pixel (per pixel, front to back).
-    fn contribution(&mut self, c: Contribution);
+    /// A Gaussian blended into a pixel (per pixel, front to back). Returns whether the visitor
+    /// wants the pixel's further contributions: `false` finishes the pixel here (a surface-depth
+    /// pass stops at the first Gaussian that brings transmittance below its threshold), and its
+    /// `pixel_done` then reports the transmittance after this contribution.
+    fn contribution(&mut self, c: Contribution) -> bool;
     /// A pixel is finished: `t_final` is the light left for the background.
     fn pixel_done(&mut self, _pixel: usize, _t_final: f32) {}
 }
@@ -139,13 +148,17 @@ fn visit_tile<V: ContributionVisitor>(
                     n_done += 1;
                     continue;
                 }
-                visitor.contribution(Contribution {
+                let more = visitor.contribution(Contribution {
                     pixel: py * view.width + px,
                     gaussian: gid,
                     weight: a.alpha * t[li],
                     t_after: next_t,
                 });
                 t[li] = next_t;
+                if !more {
+                    done[li] = true;
+                    n_done += 1;
+                }
             }
         }
     }
@@ -188,8 +201,9 @@ mod tests {
     }
 
     impl ContributionVisitor for Record {
-        fn contribution(&mut self, c: Contribution) {
+        fn contribution(&mut self, c: Contribution) -> bool {
             self.blends.push(c);
+            true
         }
         fn pixel_done(&mut self, pixel: usize, t_final: f32) {
             self.finals.push((pixel, t_final));
@@ -256,5 +270,51 @@ mod tests {
             assert!((c.t_after - t_before * (1.0 - alpha)).abs() < 1e-6);
             last.insert(c.pixel, (depth, c.t_after));
         }
+    }
+
+    /// Stops each pixel at the first contribution that brings transmittance below 0.5.
+    #[derive(Default)]
+    struct StopAtHalf(Record);
+
+    impl ContributionVisitor for StopAtHalf {
+        fn contribution(&mut self, c: Contribution) -> bool {
+            self.0.blends.push(c);
+            c.t_after >= 0.5
+        }
+        fn pixel_done(&mut self, pixel: usize, t_final: f32) {
+            self.0.finals.push((pixel, t_final));
+        }
+    }
+
+    /// A visitor that declines a pixel's further contributions gets the full pass's
+    /// contributions up to and including that one, and nothing after it.
+    #[test]
+    fn a_visitor_can_finish_a_pixel_early() {
+        let (g, camera) = scene();
+        let settings = RasterSettings::default();
+        let view = ProjectedView::new(&g, &camera, &settings).expect("valid camera");
+        let full = visit_contributions(&view, &settings, |_| Record::default());
+        let early = visit_contributions(&view, &settings, |_| StopAtHalf::default());
+        let per_pixel = |blends: &mut dyn Iterator<Item = Contribution>| {
+            let mut m: std::collections::BTreeMap<usize, Vec<Contribution>> = Default::default();
+            for c in blends {
+                m.entry(c.pixel).or_default().push(c);
+            }
+            m
+        };
+        let full_px = per_pixel(&mut full.iter().flat_map(|b| b.blends.iter().copied()));
+        let early_px = per_pixel(&mut early.iter().flat_map(|b| b.0.blends.iter().copied()));
+        let finals: std::collections::HashMap<usize, f32> =
+            early.iter().flat_map(|b| b.0.finals.iter().copied()).collect();
+        let mut stopped = 0;
+        for (p, all) in &full_px {
+            let cut = all.iter().position(|c| c.t_after < 0.5).map_or(all.len(), |k| k + 1);
+            assert_eq!(early_px.get(p).map_or(&[][..], |v| &v[..]), &all[..cut], "pixel {p}");
+            if cut < all.len() {
+                stopped += 1;
+                assert_eq!(finals[p], all[cut - 1].t_after, "pixel {p}");
+            }
+        }
+        assert!(stopped > 20, "only {stopped} pixels stopped early: the scene proves little");
     }
 }

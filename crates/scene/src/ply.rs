@@ -25,7 +25,7 @@ mod scalar;
 mod validate;
 
 pub use decode::{parse_ply_bytes, parse_ply_bytes_rows, read_ply, read_ply_rows, PlyRows};
-pub use encode::{to_ply_bytes, write_ply, write_ply_rows};
+pub use encode::{to_ply_bytes, write_ply, write_ply_rows, write_ply_rows_with_features, FeatureRows};
 
 /// Format name used in error messages.
 pub(crate) const FORMAT: &str = "3DGS PLY";

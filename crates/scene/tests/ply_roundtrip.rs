@@ -313,3 +313,31 @@ fn crlf_header_and_fixed_size_elements_around_the_vertices_are_accepted() {
     bytes.extend_from_slice(&[0u8; 4]);
     check_shuffled(&parse_ply_bytes(&bytes).unwrap());
 }
+
+/// Features of the block, served row by row.
+struct Rows<'a>(&'a FeatureBlock);
+
+impl splatseg_scene::ply::FeatureRows for Rows<'_> {
+    fn dim(&self) -> usize {
+        self.0.dim
+    }
+    fn row(&self, i: usize, out: &mut [f32]) {
+        out.copy_from_slice(&self.0.values[i * self.0.dim..(i + 1) * self.0.dim]);
+    }
+}
+
+#[test]
+fn features_given_row_by_row_write_the_same_bytes() {
+    let shape =
+        Shape { n: 70_000, sh_degree: 1, normals: false, object_ids: true, feature_dim: 5, extras: true };
+    let g = random_gaussians(&shape, 11);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (whole, rows) = (dir.path().join("whole.ply"), dir.path().join("rows.ply"));
+    splatseg_scene::ply::write_ply_rows(&whole, &g).expect("writes");
+    let block = g.features.clone().expect("features");
+    let bare = Gaussians { features: None, ..g.clone() };
+    splatseg_scene::ply::write_ply_rows_with_features(&rows, &bare, Some(&Rows(&block))).expect("writes");
+    assert_eq!(std::fs::read(&whole).expect("reads"), std::fs::read(&rows).expect("reads"));
+    let err = splatseg_scene::ply::write_ply_rows_with_features(&rows, &g, Some(&Rows(&block))).unwrap_err();
+    assert!(err.to_string().contains("features given twice"), "{err}");
+}

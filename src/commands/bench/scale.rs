@@ -14,7 +14,9 @@ pub const LONG_ABOUT: &str = "Measure `splatseg run` on a synthetic capture of N
 Writes the capture once into DIR/scene-<N>v-<W>x<H>-<G>g-s<seed>/ (a `rooms` scene with SAM JSON masks, \
 `.npy` features and depth, as a user brings them; reused when it is there), then runs `splatseg run` on it \
 in a child process with a fresh output folder, and prints the wall time and peak resident memory of the whole \
-run and of each stage (from its --profile: VmHWM reset at each stage; the run's peak is the largest).
+run and of each stage (from its --profile: VmHWM reset at each stage; the run's peak is the largest), \
+with the thread time of each stage's parts (surface depth and visibility, merge, votes, render back…; \
+summed over threads, so parts may add up to more than the stage's wall time).
 
 The scene has min(N, --distinct-views) distinct views; beyond that, views repeat the distinct ones (same \
 image, masks, cues and pose under a new name), so a 1,000-view capture costs the disk of 100. The Gaussians \
@@ -96,6 +98,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for st in &stages {
         let mb = st.peak_rss_bytes.map_or("–".into(), |b| format!("{:.0}", b as f64 / 1048576.0));
         println!("| {} | {:.2} | {mb} |", st.stage, st.seconds);
+        for (part, secs) in &st.parts {
+            println!("| ↳ {part} (thread s, summed over threads) | {secs:.2} | |");
+        }
     }
     // The child resets its peak at every stage (and with it the kernel's maximum RSS of the
     // process), so the whole run's peak is the largest of the stages' and the child's.

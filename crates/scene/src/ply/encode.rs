@@ -29,14 +29,37 @@ pub fn write_ply(path: &Path, g: &Gaussians) -> SceneResult<()> {
 /// read): they are written as they are, so the output keeps every row of its input. Every
 /// other check of [`Gaussians::validate`] still applies.
 pub fn write_ply_rows(path: &Path, g: &Gaussians) -> SceneResult<()> {
-    let plan = RowPlan::new(g).map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
+    write_ply_rows_with_features(path, g, None)
+}
+
+/// Per-Gaussian feature rows made on demand while a PLY is written (`feat_*`), so a caller need
+/// not hold the whole `[N, dim]` block.
+pub trait FeatureRows: Sync {
+    /// Feature dimension D.
+    fn dim(&self) -> usize;
+    /// Writes row `i` (`[dim]`) into `out`.
+    fn row(&self, i: usize, out: &mut [f32]);
+}
+
+/// [`write_ply_rows`] with the `feat_*` columns from `features` (made row by row as the file is
+/// written) instead of `g.features`, which must then be `None`.
+pub fn write_ply_rows_with_features(
+    path: &Path,
+    g: &Gaussians,
+    features: Option<&dyn FeatureRows>,
+) -> SceneResult<()> {
+    if features.is_some() && g.features.is_some() {
+        return Err(SceneError::invalid(FORMAT, path, "features given twice (in the Gaussians and as rows)"));
+    }
+    let plan = RowPlan::new(g, features.map(|f| f.dim()))
+        .map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
     write_atomic(path, |w| {
         w.write_all(plan.header.as_bytes())?;
         let mut buffer = vec![0u8; ROWS_PER_WRITE.min(g.len()) * plan.stride];
         for first in (0..g.len()).step_by(ROWS_PER_WRITE) {
             let rows = ROWS_PER_WRITE.min(g.len() - first);
             let chunk = &mut buffer[..rows * plan.stride];
-            encode_rows(g, &plan, first, chunk);
+            encode_rows(g, features, &plan, first, chunk);
             w.write_all(chunk)?;
         }
         Ok(())
@@ -46,11 +69,11 @@ pub fn write_ply_rows(path: &Path, g: &Gaussians) -> SceneResult<()> {
 /// The bytes of the file [`write_ply`] writes. The error says what is wrong with `g`.
 pub fn to_ply_bytes(g: &Gaussians) -> Result<Vec<u8>, String> {
     g.validate()?;
-    let plan = RowPlan::new(g)?;
+    let plan = RowPlan::new(g, None)?;
     let mut bytes = vec![0u8; plan.header.len() + g.len() * plan.stride];
     let (head, body) = bytes.split_at_mut(plan.header.len());
     head.copy_from_slice(plan.header.as_bytes());
-    encode_rows(g, &plan, 0, body);
+    encode_rows(g, None, &plan, 0, body);
     Ok(bytes)
 }
 
@@ -62,8 +85,9 @@ struct RowPlan {
 }
 
 impl RowPlan {
-    /// Validates `g`'s structure (not its values) and plans its rows.
-    fn new(g: &Gaussians) -> Result<RowPlan, String> {
+    /// Validates `g`'s structure (not its values) and plans its rows; `feature_rows`: the
+    /// dimension of features given as rows instead of `g.features`.
+    fn new(g: &Gaussians, feature_rows: Option<usize>) -> Result<RowPlan, String> {
         g.validate_structure()?;
         let extra_types: Vec<ScalarType> = g
             .extra
@@ -72,26 +96,38 @@ impl RowPlan {
                 ScalarType::from_name(&e.ply_type).ok_or_else(|| format!("unknown type '{}'", e.ply_type))
             })
             .collect::<Result<_, _>>()?;
-        Ok(RowPlan { header: header_text(g), stride: row_bytes(g, &extra_types), extra_types })
+        let dim = feature_rows.or(g.features.as_ref().map(|f| f.dim));
+        Ok(RowPlan { header: header_text(g, dim), stride: row_bytes(g, dim, &extra_types), extra_types })
     }
 }
 
 /// Encodes Gaussians `first..first + rows` into `out` (`[rows * stride]` bytes), in parallel
 /// tasks.
-fn encode_rows(g: &Gaussians, plan: &RowPlan, first: usize, out: &mut [u8]) {
+fn encode_rows(
+    g: &Gaussians,
+    features: Option<&dyn FeatureRows>,
+    plan: &RowPlan,
+    first: usize,
+    out: &mut [u8],
+) {
     if plan.stride == 0 {
         return;
     }
     out.par_chunks_mut(ROWS_PER_TASK * plan.stride).enumerate().for_each(|(task, rows)| {
         let start = first + task * ROWS_PER_TASK;
+        let mut scratch = vec![0f32; features.map_or(0, |f| f.dim())];
         for (k, row) in rows.chunks_exact_mut(plan.stride).enumerate() {
-            encode_row(g, start + k, &plan.extra_types, row);
+            let made = features.map(|f| {
+                f.row(start + k, &mut scratch);
+                &scratch[..]
+            });
+            encode_row(g, start + k, made, &plan.extra_types, row);
         }
     });
 }
 
 /// The header text, ending with `end_header\n`.
-fn header_text(g: &Gaussians) -> String {
+fn header_text(g: &Gaussians, feature_dim: Option<usize>) -> String {
     let mut h = String::new();
     let mut prop = |ty: &str, name: &str| {
         // Writing into a String cannot fail.
@@ -121,10 +157,8 @@ fn header_text(g: &Gaussians) -> String {
     if g.object_ids.is_some() {
         prop("int", "object_id");
     }
-    if let Some(f) = &g.features {
-        for d in 0..f.dim {
-            prop("float", &format!("feat_{d}"));
-        }
+    for d in 0..feature_dim.unwrap_or(0) {
+        prop("float", &format!("feat_{d}"));
     }
     for e in &g.extra {
         prop(&e.ply_type, &e.name);
@@ -133,7 +167,7 @@ fn header_text(g: &Gaussians) -> String {
 }
 
 /// Bytes per vertex row.
-fn row_bytes(g: &Gaussians, extra_types: &[ScalarType]) -> usize {
+fn row_bytes(g: &Gaussians, feature_dim: Option<usize>, extra_types: &[ScalarType]) -> usize {
     let floats = 3
         + if g.normals.is_some() { 3 } else { 0 }
         + 3
@@ -141,7 +175,7 @@ fn row_bytes(g: &Gaussians, extra_types: &[ScalarType]) -> usize {
         + 1
         + 3
         + 4
-        + g.features.as_ref().map_or(0, |f| f.dim);
+        + feature_dim.unwrap_or(0);
     let ids = if g.object_ids.is_some() { 4 } else { 0 };
     4 * floats + ids + extra_types.iter().map(|t| t.size()).sum::<usize>()
 }
@@ -167,8 +201,9 @@ impl RowWriter<'_> {
     }
 }
 
-/// Encodes Gaussian `i` into `row` (`[stride]` bytes).
-fn encode_row(g: &Gaussians, i: usize, extra_types: &[ScalarType], row: &mut [u8]) {
+/// Encodes Gaussian `i` into `row` (`[stride]` bytes); `made`: its features, when they come as
+/// rows rather than from `g.features`.
+fn encode_row(g: &Gaussians, i: usize, made: Option<&[f32]>, extra_types: &[ScalarType], row: &mut [u8]) {
     let k3 = 3 * g.rest_per_channel();
     let mut w = RowWriter { row, pos: 0 };
     w.floats(&g.means[i]);
@@ -183,7 +218,9 @@ fn encode_row(g: &Gaussians, i: usize, extra_types: &[ScalarType], row: &mut [u8
     if let Some(ids) = &g.object_ids {
         w.bytes(&ids[i].to_le_bytes());
     }
-    if let Some(f) = &g.features {
+    if let Some(f) = made {
+        w.floats(f);
+    } else if let Some(f) = &g.features {
         w.floats(&f.values[i * f.dim..(i + 1) * f.dim]);
     }
     for (e, ty) in g.extra.iter().zip(extra_types) {

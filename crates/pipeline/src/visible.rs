@@ -1,0 +1,122 @@
+//! The visible Gaussians of one view, spilled to `OUT/cache/visible/<stem>.bin` by the per-view
+//! pass and read back one view at a time by lifting (votes, then the touching-objects counts),
+//! so no stage holds every view's list at once: memory does not grow with the number of views.
+//!
+//! Layout (little-endian): `b"SSVIS1\0\0"`, `n: u64`, then `gaussians: [n] u32` (strictly
+//! increasing), `weights: [n] f32` (fusion weights), `labels: [n] u32` (merged, view-local label
+//! at each centre pixel, 0 = none). Written to a temporary file and renamed; removed once the run
+//! has lifted.
+//!
+//! Matching keeps, in memory, a deterministic sample of every view's list instead
+//! ([`sample_stride`]): the Gaussians whose index is a multiple of a power-of-two stride chosen
+//! from the number of Gaussians and views alone, so the sample is the same whatever order the
+//! views finish in and whichever shard merged them.
+
+use crate::error::{bail, Context};
+use splatseg_lift::ViewVisibility;
+use splatseg_match::ViewObservations;
+use std::path::{Path, PathBuf};
+
+const MAGIC: &[u8; 8] = b"SSVIS1\0\0";
+
+/// Upper bound on the (Gaussian, view) observations matching keeps in memory: 2^24 (128 MiB).
+pub const MAX_SAMPLED_OBSERVATIONS: u64 = 1 << 24;
+
+/// The power-of-two stride of the Gaussians matching samples: the smallest with
+/// `n_gaussians · n_views / stride ≤ MAX_SAMPLED_OBSERVATIONS` (1 = every Gaussian).
+pub fn sample_stride(n_gaussians: usize, n_views: usize) -> u32 {
+    let worst = n_gaussians as u64 * n_views as u64;
+    let need = worst.div_ceil(MAX_SAMPLED_OBSERVATIONS).max(1);
+    need.next_power_of_two().min(1 << 31) as u32
+}
+
+/// The observations of `vis` / `labels` (`[n_visible]` each) whose Gaussian index is a multiple
+/// of `stride`.
+pub fn sampled(vis: &ViewVisibility, labels: &[u32], stride: u32) -> ViewObservations {
+    let keep = |g: u32| g.is_multiple_of(stride);
+    let (gaussians, labels) =
+        vis.gaussians.iter().zip(labels).filter(|(&g, _)| keep(g)).map(|(&g, &l)| (g, l)).unzip();
+    ViewObservations { gaussians, labels }
+}
+
+/// Where view `stem`'s list goes under `out`.
+pub fn spill_path(out: &Path, stem: &str) -> PathBuf {
+    out.join("cache").join("visible").join(format!("{stem}.bin"))
+}
+
+/// Writes `vis` (gaussians and weights) and `labels` (`[n_visible]`) to `path`.
+pub fn write(path: &Path, vis: &ViewVisibility, labels: &[u32]) -> crate::Result<()> {
+    let n = vis.gaussians.len();
+    let mut bytes = Vec::with_capacity(16 + 12 * n);
+    bytes.extend_from_slice(MAGIC);
+    bytes.extend_from_slice(&(n as u64).to_le_bytes());
+    bytes.extend(vis.gaussians.iter().flat_map(|g| g.to_le_bytes()));
+    bytes.extend(vis.weights.iter().flat_map(|w| w.to_le_bytes()));
+    bytes.extend(labels.iter().flat_map(|l| l.to_le_bytes()));
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    splatseg_scene::atomic::write_bytes_atomic(path, &bytes)
+        .with_context(|| format!("writing the visible Gaussians to {}", path.display()))?;
+    Ok(())
+}
+
+/// One view's spilled list: `(gaussians, weights, labels)`, `[n_visible]` each.
+pub type Spilled = (Vec<u32>, Vec<f32>, Vec<u32>);
+
+/// Reads back what [`write`] wrote.
+pub fn read(path: &Path) -> crate::Result<Spilled> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        bail!("not a list of visible Gaussians (bad header): {}", path.display());
+    }
+    let n = u64::from_le_bytes(bytes[8..16].try_into().unwrap_or_default()) as usize;
+    if n.checked_mul(12).and_then(|b| b.checked_add(16)) != Some(bytes.len()) {
+        bail!(
+            "list of visible Gaussians truncated ({n} entries declared, {} bytes): {}",
+            bytes.len(),
+            path.display()
+        );
+    }
+    let words = |k: usize| bytes[16 + 4 * n * k..16 + 4 * n * (k + 1)].chunks_exact(4);
+    let word = |c: &[u8]| [c[0], c[1], c[2], c[3]];
+    let gaussians = words(0).map(|c| u32::from_le_bytes(word(c))).collect();
+    let weights = words(1).map(|c| f32::from_le_bytes(word(c))).collect();
+    let labels = words(2).map(|c| u32::from_le_bytes(word(c))).collect();
+    Ok((gaussians, weights, labels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_spilled_list_reads_back_and_a_truncated_one_is_an_error() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = spill_path(dir.path(), "view_7");
+        let vis =
+            ViewVisibility { gaussians: vec![2, 5, 9], pixels: vec![0, 1, 2], weights: vec![0.5, 1.25, 3.0] };
+        write(&path, &vis, &[1, 0, 4]).expect("writes");
+        let (g, w, l) = read(&path).expect("reads");
+        assert_eq!((g, w, l), (vec![2, 5, 9], vec![0.5, 1.25, 3.0], vec![1, 0, 4]));
+        let bytes = std::fs::read(&path).expect("bytes");
+        std::fs::write(&path, &bytes[..bytes.len() - 4]).expect("truncates");
+        let err = read(&path).expect_err("truncated").to_string();
+        assert!(err.contains("truncated") && err.contains("view_7.bin"), "{err}");
+    }
+
+    #[test]
+    fn the_sample_stride_bounds_the_observations_and_is_one_when_they_fit() {
+        assert_eq!(sample_stride(100_000, 100), 1);
+        for (n, views) in [(1_000_000, 100), (3_000_000, 1_000), (1, 1)] {
+            let s = sample_stride(n, views) as u64;
+            assert!(s.is_power_of_two());
+            assert!((n as u64 * views as u64).div_ceil(s) <= MAX_SAMPLED_OBSERVATIONS, "{n} × {views}: {s}");
+            assert!(s == 1 || (n as u64 * views as u64).div_ceil(s / 2) > MAX_SAMPLED_OBSERVATIONS);
+        }
+        let vis =
+            ViewVisibility { gaussians: vec![0, 3, 4, 8, 9], pixels: vec![0; 5], weights: vec![1.0; 5] };
+        let obs = sampled(&vis, &[1, 2, 3, 4, 5], 4);
+        assert_eq!((obs.gaussians, obs.labels), (vec![0, 4, 8], vec![1, 3, 4]));
+    }
+}
