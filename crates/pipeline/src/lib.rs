@@ -268,11 +268,14 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         times: &times,
     };
     let bar = progress(scene.views.len(), "merge");
-    let mut views: Vec<Option<ViewResult>> = (0..scene.views.len())
+    // Every view's result, then the first error in view order: which view an error names does
+    // not depend on the thread count or on which thread failed first.
+    let results: Vec<crate::Result<Option<ViewResult>>> = (0..scene.views.len())
         .into_par_iter()
         .progress_with(bar.clone())
         .map(|v| has_masks[v].then(|| per_view.result(v)).transpose())
-        .collect::<crate::Result<_>>()?;
+        .collect();
+    let mut views: Vec<Option<ViewResult>> = results.into_iter().collect::<crate::Result<_>>()?;
     bar.finish_and_clear();
     let cached_views = views.iter().flatten().filter(|m| m.cached).count();
     let raw_masks = views.iter().flatten().map(|m| m.raw_max as usize).sum::<usize>();

@@ -254,7 +254,9 @@ pub fn merge_shard(config: &RunConfig, shard: Shard) -> crate::Result<ShardSumma
             bar.inc(1);
             Ok(merged.cached)
         })
-        .collect::<crate::Result<Vec<bool>>>()?;
+        .collect::<Vec<crate::Result<bool>>>()
+        .into_iter()
+        .collect::<crate::Result<Vec<bool>>>()?; // the first error in view order
     bar.finish_and_clear();
     let views = mine.iter().map(|&v| scene.views[v].stem.clone()).collect();
     write_manifest(&config.out, &ShardManifest { stage: "merge".into(), shard, views })?;
