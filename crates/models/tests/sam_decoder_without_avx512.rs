@@ -6,26 +6,12 @@
 
 mod common;
 
-use candle_core::{Device, Tensor};
-use common::fixture;
-use rand::{Rng, SeedableRng};
+use common::{fixture, random, worst_difference};
+use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
 use splatseg_models::skinny::{disable_avx512_kernels, has_avx512};
 use splatseg_models::weights::Weights;
 use splatseg_models::ModelKind;
-
-fn random(shape: &[usize], rng: &mut rand_chacha::ChaCha8Rng) -> Tensor {
-    let n: usize = shape.iter().product();
-    let data: Vec<f32> = (0..n).map(|_| rng.gen_range(-1.0f32..1.0)).collect();
-    Tensor::from_vec(data, shape, &Device::Cpu).unwrap()
-}
-
-fn worst_difference(ours: &Tensor, reference: &Tensor) -> f32 {
-    assert_eq!(ours.dims(), reference.dims());
-    let a = ours.flatten_all().unwrap().to_vec1::<f32>().unwrap();
-    let b = reference.flatten_all().unwrap().to_vec1::<f32>().unwrap();
-    a.iter().zip(&b).map(|(x, y)| (x - y).abs() / y.abs().max(1.0)).fold(0.0, f32::max)
-}
 
 #[test]
 fn gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder() {

@@ -5,26 +5,13 @@
 
 mod common;
 
-use candle_core::{DType, Device, Tensor};
-use common::{fixture, read_io};
-use rand::{Rng, SeedableRng};
+use candle_core::DType;
+use common::{fixture, random, read_io, worst_difference};
+use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
 use splatseg_models::sam::{generate_masks_using, AmgConfig, DecoderPath, Sam};
 use splatseg_models::weights::Weights;
 use splatseg_models::ModelKind;
-
-fn random(shape: &[usize], rng: &mut rand_chacha::ChaCha8Rng) -> Tensor {
-    let n: usize = shape.iter().product();
-    let data: Vec<f32> = (0..n).map(|_| rng.gen_range(-1.0f32..1.0)).collect();
-    Tensor::from_vec(data, shape, &Device::Cpu).unwrap()
-}
-
-fn worst_difference(ours: &Tensor, reference: &Tensor) -> f32 {
-    assert_eq!(ours.dims(), reference.dims());
-    let a = ours.flatten_all().unwrap().to_vec1::<f32>().unwrap();
-    let b = reference.flatten_all().unwrap().to_vec1::<f32>().unwrap();
-    a.iter().zip(&b).map(|(x, y)| (x - y).abs() / y.abs().max(1.0)).fold(0.0, f32::max)
-}
 
 /// Random image embedding (non-square grid), positional encoding and prompt tokens: every mask
 /// output of every prompt, and the IoU head, through both decoders.

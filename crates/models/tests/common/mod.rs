@@ -30,3 +30,19 @@ pub fn assert_close(label: &str, actual: &Tensor, expected: &Tensor, atol: f32, 
     }
     worst
 }
+
+/// `shape` filled with uniform values in [-1, 1) from `rng`.
+pub fn random(shape: &[usize], rng: &mut rand_chacha::ChaCha8Rng) -> Tensor {
+    use rand::Rng;
+    let n: usize = shape.iter().product();
+    let data: Vec<f32> = (0..n).map(|_| rng.gen_range(-1.0f32..1.0)).collect();
+    Tensor::from_vec(data, shape, &Device::Cpu).unwrap()
+}
+
+/// Largest `|a − b| / max(1, |b|)` of two tensors of the same shape.
+pub fn worst_difference(ours: &Tensor, reference: &Tensor) -> f32 {
+    assert_eq!(ours.dims(), reference.dims());
+    let a = ours.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+    let b = reference.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+    a.iter().zip(&b).map(|(x, y)| (x - y).abs() / y.abs().max(1.0)).fold(0.0, f32::max)
+}
