@@ -29,7 +29,7 @@ pub struct LiftConfig {
     /// blending weight scaled by this (reliable ones: 1).
     pub unreliable_render_weight: f32,
     /// Touching objects ([`crate::touching`]) whose identity features have at least this
-    /// cosine become one object (values above 1 switch the step off). 0.95 is measured, not
+    /// cosine become one object (values above 1, with `tau_seam` above 1 too, switch the step off). 0.95 is measured, not
     /// the paper's: on the synthetic scenes (seeds 0–4) pieces of one object left apart by the
     /// per-view merge have cos 0.99–1.0, while the two different boxes touching at the same
     /// depth reach 0.88–0.94 (their patch features mix at the seam).
@@ -41,6 +41,26 @@ pub struct LiftConfig {
     /// Touching objects are joined only when at least this share of the views seeing both
     /// has one merged mask over both (see [`crate::touching`]).
     pub min_together_share: f32,
+    /// Touching objects whose contact is a smooth seam (one surface continuing: the normals on
+    /// both sides within `seam_max_angle_deg`, no step between them, on at least
+    /// `seam_smooth_share` of the measured contact voxel pairs) join when their identity
+    /// features have at least this cosine: a floor or a wall left in pieces by the per-view
+    /// merge (SAM's cuts) and by matching's one-mask-per-view rule continues itself in 3D,
+    /// where a box standing on the floor or another box meets it at a crease.
+    pub tau_seam: f32,
+    /// See `tau_seam`.
+    pub seam_smooth_share: f32,
+    /// See `tau_seam`.
+    pub seam_max_angle_deg: f32,
+    /// Split objects whose labelled Gaussians form clusters apart in 3D ([`crate::split`]): a
+    /// per-view merge that joined two objects meeting in the image in most views (a thin post in
+    /// front of a cylinder) leaves one id over both, which only 3D can undo.
+    pub split_disconnected: bool,
+    /// Voxel edge of the split's connectivity, in median Gaussian standard deviations.
+    pub split_voxel_factor: f32,
+    /// A cluster split off an object must hold at least this many Gaussians (smaller ones are
+    /// strays and keep their id).
+    pub min_split_gaussians: usize,
     /// Objects covering fewer pixels than this over all rendered-back label maps are specks
     /// and are dropped (pixels 0, Gaussians -1): less than two minimal SAM regions.
     pub min_object_px: u64,
@@ -100,6 +120,12 @@ impl Default for LiftConfig {
             tau_touching: 0.95,
             min_together_share: 0.0,
             min_object_px: 64,
+            tau_seam: 0.8,
+            seam_smooth_share: 0.9,
+            seam_max_angle_deg: 10.0,
+            split_disconnected: true,
+            split_voxel_factor: 3.0,
+            min_split_gaussians: 32,
             contact_voxel_factor: 3.0,
             min_contact_voxels: 8,
             min_views: 1,

@@ -23,6 +23,7 @@ pub mod numbering;
 pub mod project;
 pub mod render_labels;
 pub mod snap;
+pub mod split;
 pub mod touching;
 pub mod visibility;
 
@@ -35,6 +36,7 @@ pub use numbering::{drop_small_objects, renumber};
 pub use project::{project_view, raster_settings, PreparedGaussians};
 pub use render_labels::{label_map_of_view, render_label_map, render_votes, RenderVotes};
 pub use snap::snap_to_regions;
+pub use split::{split_disconnected_objects, SplitStats};
 pub use touching::{join_touching_counted, join_touching_objects, ViewCounts};
 pub use visibility::{
     surface_depth, view_depth_and_visibility, view_surface_depth, view_visibility, visible_gaussians,

@@ -15,8 +15,9 @@ use crate::visible;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
-    join_touching_counted, render_label_map, render_votes, renumber, snap_to_regions, FinalMaps, LiftConfig,
-    Lifted, ObjectFeatures, PosedCamera, PreparedGaussians, ViewCounts, VoteAccumulator,
+    join_touching_counted, render_label_map, render_votes, renumber, snap_to_regions,
+    split_disconnected_objects, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
+    PreparedGaussians, ViewCounts, VoteAccumulator,
 };
 use splatseg_match::{match_masks, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
@@ -176,7 +177,16 @@ pub fn lift_and_render(
             .collect::<crate::Result<_>>()?;
         Ok(join_touching_counted(prepared, &mut lifted, features, &counts, config))
     })?;
-    tracing::info!("joined {joins} pairs of touching look-alike objects");
+    tracing::info!("joined {joins} pairs of touching objects");
+    let split = times.time("split objects apart in 3D", || {
+        let reserved = matching.object_features.len().checked_div(matching.dim).unwrap_or(0) as u32;
+        split_disconnected_objects(prepared, &mut lifted, reserved, config)
+    });
+    tracing::info!(
+        "split {} objects into {} more, whose Gaussians lie apart in 3D",
+        split.objects_split,
+        split.parents.len()
+    );
     let votes = render_votes(&lifted, config);
     let bar = progress(cams.len(), "render label maps");
     let maps: Vec<RunLengths> = cams

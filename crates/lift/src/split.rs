@@ -1,0 +1,184 @@
+//! Splitting objects whose Gaussians lie in separate places in 3D.
+//!
+//! A per-view merge that joins two objects meeting in the image (a thin post standing in front of
+//! a cylinder, two white objects one behind the other) makes one mask of both. When it does so in
+//! most views, matching and voting give both objects' Gaussians one id, and nothing downstream
+//! can separate them again. In 3D they are plainly two things: their Gaussians form clusters with
+//! empty space between them. Rule: an object's labelled Gaussians are grouped into clusters that
+//! are connected through occupied voxels (26-neighbourhood; voxel edge = `split_voxel_factor` ×
+//! the median Gaussian standard deviation, each Gaussian occupying the voxels within its largest
+//! standard deviation, at most two voxels either way). The largest cluster keeps the id; every
+//! other cluster of at least `min_split_gaussians` Gaussians becomes an object of its own; smaller
+//! clusters (stray Gaussians, floaters) keep the id. Objects touching in 3D are one cluster, so
+//! walls, floors and objects occluded in some views are never cut.
+//!
+//! Deterministic: clusters are ordered by their smallest Gaussian index and new ids are handed out
+//! in order of (object id, cluster), whatever the thread count.
+
+use crate::config::LiftConfig;
+use crate::lifting::Lifted;
+use crate::project::PreparedGaussians;
+use std::collections::{BTreeMap, HashMap};
+
+/// Voxels a Gaussian may reach on each side of the one holding its mean.
+const MAX_REACH_VOXELS: i64 = 2;
+
+/// What the split did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SplitStats {
+    /// Objects that were split.
+    pub objects_split: usize,
+    /// `[new_objects]` (new id, the id it was split from), new ids ascending.
+    pub parents: Vec<(u32, u32)>,
+}
+
+/// Splits the objects of `lifted` whose labelled Gaussians form separate clusters in 3D (module
+/// docs). New ids follow the largest id in use or `reserved` (callers with `[n_objects, dim]` object
+/// features give each new id its parent's row, [`SplitStats::parents`]). `object_ids`, and `majority_ids` of Gaussians
+/// whose centre voxel belongs to a split-off cluster, take the new ids.
+pub fn split_disconnected_objects(
+    gaussians: &PreparedGaussians,
+    lifted: &mut Lifted,
+    reserved: u32,
+    config: &LiftConfig,
+) -> SplitStats {
+    let voxel = config.split_voxel_factor * crate::touching::typical_sigma(gaussians);
+    if !config.split_disconnected || voxel <= 0.0 || !voxel.is_finite() {
+        return SplitStats::default();
+    }
+    let cells = occupied_voxels(gaussians, &lifted.object_ids, voxel);
+    let mut sets = DisjointSets::new(cells.len());
+    for (&(id, v), &index) in &cells {
+        for n in forward_neighbours(v) {
+            if let Some(&other) = cells.get(&(id, n)) {
+                sets.union(index, other);
+            }
+        }
+    }
+    // Per object: clusters keyed by root, with (size, smallest Gaussian index).
+    let centre = |i: usize| voxel_of(gaussians.mean(i).to_array(), voxel);
+    let mut clusters: BTreeMap<u32, BTreeMap<u32, (usize, usize)>> = BTreeMap::new();
+    for (i, &id) in lifted.object_ids.iter().enumerate() {
+        if id <= 0 {
+            continue;
+        }
+        let Some(&cell) = cells.get(&(id as u32, centre(i))) else { continue };
+        let entry = clusters.entry(id as u32).or_default().entry(sets.find(cell)).or_insert((0, i));
+        entry.0 += 1;
+    }
+    let mut next_id = lifted
+        .object_ids
+        .iter()
+        .map(|&id| id.max(0) as u32)
+        .chain(lifted.majority_ids.iter().copied())
+        .max()
+        .unwrap_or(0)
+        .max(reserved);
+    let mut new_id_of_root: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut stats = SplitStats::default();
+    for (&id, roots) in &clusters {
+        let mut ordered: Vec<(u32, usize, usize)> =
+            roots.iter().map(|(&r, &(n, first))| (r, n, first)).collect();
+        ordered.sort_by_key(|&(_, n, first)| (std::cmp::Reverse(n), first));
+        let mut split_off: Vec<(u32, usize)> = ordered[1..]
+            .iter()
+            .filter(|&&(_, n, _)| n >= config.min_split_gaussians)
+            .map(|&(r, _, first)| (r, first))
+            .collect();
+        if split_off.is_empty() {
+            continue;
+        }
+        split_off.sort_by_key(|&(_, first)| first);
+        stats.objects_split += 1;
+        for (root, _) in split_off {
+            next_id += 1;
+            new_id_of_root.insert((id, root), next_id);
+            stats.parents.push((next_id, id));
+        }
+    }
+    if new_id_of_root.is_empty() {
+        return stats;
+    }
+    for i in 0..lifted.object_ids.len() {
+        let id = lifted.object_ids[i];
+        let old = if id > 0 { id as u32 } else { lifted.majority_ids[i] };
+        if old == 0 {
+            continue;
+        }
+        let Some(&cell) = cells.get(&(old, centre(i))) else { continue };
+        if let Some(&new) = new_id_of_root.get(&(old, sets.find(cell))) {
+            if id > 0 {
+                lifted.object_ids[i] = new as i32;
+            }
+            if lifted.majority_ids[i] == old {
+                lifted.majority_ids[i] = new;
+            }
+        }
+    }
+    stats
+}
+
+/// `(object id, voxel)` → index of every voxel an object's labelled Gaussians occupy.
+fn occupied_voxels(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> HashMap<(u32, [i64; 3]), u32> {
+    let mut cells: HashMap<(u32, [i64; 3]), u32> = HashMap::new();
+    for (i, &id) in ids.iter().enumerate() {
+        if id <= 0 {
+            continue;
+        }
+        let mean = gaussians.mean(i).to_array();
+        let c = gaussians.cov3d[i];
+        let sigma = c[0].max(c[3]).max(c[5]).max(0.0).sqrt();
+        let reach = ((sigma / voxel).floor() as i64).clamp(0, MAX_REACH_VOXELS);
+        let v = voxel_of(mean, voxel);
+        for dz in -reach..=reach {
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    let key = (id as u32, [v[0] + dx, v[1] + dy, v[2] + dz]);
+                    let next = cells.len() as u32;
+                    cells.entry(key).or_insert(next);
+                }
+            }
+        }
+    }
+    cells
+}
+
+fn voxel_of(p: [f32; 3], voxel: f32) -> [i64; 3] {
+    [(p[0] / voxel).floor() as i64, (p[1] / voxel).floor() as i64, (p[2] / voxel).floor() as i64]
+}
+
+/// The 13 neighbours of `v` that come after it (each unordered neighbour pair once).
+fn forward_neighbours(v: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
+    (-1..=1i64)
+        .flat_map(|dz| (-1..=1i64).flat_map(move |dy| (-1..=1i64).map(move |dx| (dx, dy, dz))))
+        .filter(|&d| d > (0, 0, 0))
+        .map(move |(dx, dy, dz)| [v[0] + dx, v[1] + dy, v[2] + dz])
+}
+
+/// Union-find whose roots are the smallest index of their set (so the result does not depend on
+/// the order unions are made in).
+struct DisjointSets {
+    parent: Vec<u32>,
+}
+
+impl DisjointSets {
+    fn new(n: usize) -> Self {
+        DisjointSets { parent: (0..n as u32).collect() }
+    }
+
+    fn find(&mut self, mut x: u32) -> u32 {
+        while self.parent[x as usize] != x {
+            let up = self.parent[self.parent[x as usize] as usize];
+            self.parent[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            self.parent[ra.max(rb) as usize] = ra.min(rb);
+        }
+    }
+}

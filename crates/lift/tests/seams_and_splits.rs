@@ -1,0 +1,181 @@
+//! Objects joined where one surface continues across a smooth seam, and objects split where
+//! their Gaussians lie apart in 3D.
+
+mod common;
+use common::gaussians;
+use splatseg_lift::{
+    join_touching_objects, split_disconnected_objects, GaussianStatus, LiftConfig, LiftStats, Lifted,
+    ObjectFeatures, PreparedGaussians,
+};
+
+/// Objects 1 and 2 with cos 0.85: alike enough for a seam (τ_seam 0.8), not for the
+/// look-alike rule (τ_touching 0.95).
+const FEATURES: [f32; 4] = [1.0, 0.0, 0.85, 0.526_78];
+
+/// Grid spacing of the patches (m); Gaussians are 0.02 wide in-plane, 0.002 across.
+const STEP: f32 = 0.02;
+
+/// A `nu × nv` grid from `origin` along `u` and `v` (unit axis vectors).
+fn grid(origin: [f32; 3], u: [f32; 3], v: [f32; 3], nu: usize, nv: usize) -> Vec<[f32; 3]> {
+    let mut out = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let (a, b) = (i as f32 * STEP, j as f32 * STEP);
+            out.push([0, 1, 2].map(|k| origin[k] + a * u[k] + b * v[k]));
+        }
+    }
+    out
+}
+
+/// Flat Gaussians at `means`, each with its thin axis along its own `normals` entry (unit).
+fn flat(means: &[[f32; 3]], normals: &[[f32; 3]]) -> PreparedGaussians {
+    let mut g = gaussians(means, STEP, 0.9);
+    for (k, n) in normals.iter().enumerate() {
+        g.log_scales[k] = [STEP.ln(), STEP.ln(), (0.1 * STEP).ln()];
+        // The rotation taking +z onto `n` (unit quaternion, w first).
+        let z = glam::Vec3::Z;
+        let q = glam::Quat::from_rotation_arc(z, glam::Vec3::from(*n));
+        g.rotations[k] = [q.w, q.x, q.y, q.z];
+    }
+    PreparedGaussians::new(&g).expect("finite Gaussians")
+}
+
+fn lifted(ids: Vec<i32>) -> Lifted {
+    let n = ids.len();
+    Lifted {
+        majority_ids: ids.iter().map(|&i| i.max(0) as u32).collect(),
+        object_ids: ids,
+        status: vec![GaussianStatus::Labelled; n],
+        variances: vec![0.0; n],
+        views_seen: vec![1; n],
+        fused_features: None,
+        stats: LiftStats::default(),
+    }
+}
+
+fn join(prepared: &PreparedGaussians, ids: Vec<i32>) -> (usize, Lifted) {
+    let mut l = lifted(ids);
+    let features = ObjectFeatures { dim: 2, values: &FEATURES };
+    let joins = join_touching_objects(prepared, &mut l, features, &[], &LiftConfig::default());
+    (joins, l)
+}
+
+const X: [f32; 3] = [1.0, 0.0, 0.0];
+const Y: [f32; 3] = [0.0, 1.0, 0.0];
+const Z: [f32; 3] = [0.0, 0.0, 1.0];
+
+#[test]
+fn two_pieces_of_one_floor_join_across_a_smooth_seam() {
+    // A floor (normal y) cut at x = 0.4 into objects 1 and 2.
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.0, 0.0], X, Z, 20, 20));
+    let normals = vec![Y; means.len()];
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (joins, l) = join(&flat(&means, &normals), ids);
+    assert_eq!(joins, 1);
+    assert!(l.object_ids.iter().all(|&i| i == 1));
+}
+
+#[test]
+fn a_box_side_standing_on_the_floor_meets_it_at_a_crease_and_stays_apart() {
+    // Floor (normal y) and a wall-like side (normal z) rising from its far edge.
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    let mut normals = vec![Y; means.len()];
+    means.extend(grid([0.0, STEP, 0.4], X, Y, 20, 20));
+    normals.extend(vec![Z; 400]);
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (joins, l) = join(&flat(&means, &normals), ids.clone());
+    assert_eq!(joins, 0);
+    assert_eq!(l.object_ids, ids);
+}
+
+#[test]
+fn a_cylinder_touching_a_wall_along_a_line_is_not_a_seam() {
+    // A wall in the plane z = 0 (normal z) and a cylinder of radius 0.2 with its axis along y,
+    // touching the wall along the line x = 0.2, z = 0.2 − 0.2 = 0: where they touch, the
+    // cylinder's normals are the wall's, but the cylinder as a whole is not a plane.
+    let mut means = grid([0.0, 0.0, 0.0], X, Y, 20, 20);
+    let mut normals = vec![Z; means.len()];
+    let (r, centre) = (0.2f32, [0.2f32, 0.2f32]);
+    for j in 0..20 {
+        for k in 0..64 {
+            let t = k as f32 / 64.0 * std::f32::consts::TAU;
+            let (s, c) = t.sin_cos();
+            means.push([centre[0] + r * s, j as f32 * STEP, centre[1] - r * c]);
+            normals.push([s, 0.0, -c]);
+        }
+    }
+    let n = means.len();
+    let ids: Vec<i32> = (0..n).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (joins, _) = join(&flat(&means, &normals), ids);
+    assert_eq!(joins, 0);
+}
+
+#[test]
+fn an_object_whose_gaussians_lie_in_two_places_is_split_and_strays_keep_their_id() {
+    // Object 5: a patch at the origin, a patch 1 m away and 5 stray Gaussians 2 m away;
+    // object 2: a patch touching the first one (it is another object, so never merged in).
+    let mut means = grid([0.0, 0.0, 0.0], X, Y, 20, 20);
+    means.extend(grid([0.0, 0.0, 1.0], X, Y, 20, 20));
+    means.extend((0..5).map(|k| [2.0 + k as f32 * STEP, 0.0, 0.0]));
+    means.extend(grid([0.4, 0.0, 0.0], X, Y, 20, 20));
+    let normals = vec![Z; means.len()];
+    let mut ids: Vec<i32> = (0..means.len()).map(|i| if i < 805 { 5 } else { 2 }).collect();
+    // One Gaussian of the far patch is unreliable (-1) but its majority is 5.
+    ids[410] = -1;
+    let prepared = flat(&means, &normals);
+    let mut l = lifted(ids);
+    l.majority_ids[410] = 5;
+    let stats = split_disconnected_objects(&prepared, &mut l, 7, &LiftConfig::default());
+    assert_eq!(stats.objects_split, 1);
+    // The new id follows the largest in use or reserved (7).
+    assert_eq!(stats.parents, vec![(8, 5)]);
+    assert!(
+        l.object_ids[..400].iter().all(|&i| i == 5),
+        "the first (largest, earliest) cluster keeps the id"
+    );
+    assert!(l.object_ids[400..800].iter().enumerate().all(|(k, &i)| i == if k == 10 { -1 } else { 8 }));
+    assert_eq!(l.majority_ids[410], 8, "an unreliable Gaussian's majority follows its cluster");
+    assert!(
+        l.object_ids[800..805].iter().all(|&i| i == 5),
+        "fewer than min_split_gaussians: strays keep the id"
+    );
+    assert!(l.object_ids[805..].iter().all(|&i| i == 2));
+
+    // Switched off: nothing changes.
+    let mut off = lifted(l.object_ids.iter().map(|&i| if i == 8 { 5 } else { i }).collect());
+    let config = LiftConfig { split_disconnected: false, ..LiftConfig::default() };
+    let before = off.clone();
+    assert_eq!(split_disconnected_objects(&prepared, &mut off, 7, &config).parents, vec![]);
+    assert_eq!(off, before);
+}
+
+#[test]
+fn an_object_in_one_piece_is_not_split() {
+    // An L of two touching patches under one id.
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    let mut normals = vec![Y; means.len()];
+    means.extend(grid([0.0, STEP, 0.4], X, Y, 20, 20));
+    normals.extend(vec![Z; 400]);
+    let mut l = lifted(vec![3; 800]);
+    let stats = split_disconnected_objects(&flat(&means, &normals), &mut l, 3, &LiftConfig::default());
+    assert_eq!(stats.objects_split, 0);
+    assert!(l.object_ids.iter().all(|&i| i == 3));
+}
+
+#[test]
+fn a_box_that_took_a_skirt_of_floor_gaussians_does_not_join_the_floor() {
+    // Floor (object 1) and a box side (object 2, normal x) whose label spread over a strip of
+    // floor at its foot: the strip meets the floor at a perfectly smooth seam, but object 2 as a
+    // whole is not a plane, so it is not a piece of the floor.
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    let mut normals = vec![Y; means.len()];
+    means.extend(grid([0.4, 0.0, 0.0], X, Z, 4, 20));
+    normals.extend(vec![Y; 80]);
+    means.extend(grid([0.48, STEP, 0.0], Y, Z, 20, 20));
+    normals.extend(vec![X; 400]);
+    let ids: Vec<i32> = (0..means.len()).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (joins, l) = join(&flat(&means, &normals), ids.clone());
+    assert_eq!(joins, 0);
+    assert_eq!(l.object_ids, ids);
+}
