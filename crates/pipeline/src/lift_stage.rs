@@ -200,7 +200,7 @@ pub fn lift_and_render(
             let map = match (&config.final_maps, &views[v]) {
                 (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => {
                     let regions = times.time("read the region maps back", || snap_map(v))?;
-                    times.time("snap", || snap_to_regions(&regions, &map))
+                    times.time("snap", || snap_to_regions(&regions, &map, config.snap_split_share))
                 }
                 _ => map,
             };
