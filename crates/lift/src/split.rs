@@ -10,7 +10,10 @@
 //! standard deviation, at most two voxels either way). The largest cluster keeps the id; every
 //! other cluster of at least `min_split_gaussians` Gaussians becomes an object of its own; smaller
 //! clusters (stray Gaussians, floaters) keep the id. Objects touching in 3D are one cluster, so
-//! walls, floors and objects occluded in some views are never cut.
+//! walls, floors and objects occluded in some views are never cut. One exception: in an object
+//! that is a plane by its normals (as the seam join decides: a floor, a wall), Gaussians more than
+//! two voxels off its plane connect only among themselves, so a post standing on a piece of floor
+//! that the per-view merge joined to it splits off, though it touches the floor.
 //!
 //! Deterministic: clusters are ordered by their smallest Gaussian index and new ids are handed out
 //! in order of (object id, cluster), whatever the thread count.
@@ -46,11 +49,19 @@ pub fn split_disconnected_objects(
     if !config.split_disconnected || voxel <= 0.0 || !voxel.is_finite() {
         return SplitStats::default();
     }
-    let cells = occupied_voxels(gaussians, &lifted.object_ids, voxel);
+    let layers = PlaneLayers::new(gaussians, &lifted.object_ids, voxel, config);
+    let group = |i: usize, id: u32| ((id as u64) << 1) | layers.off_plane(gaussians, i, id) as u64;
+    let groups: Vec<u64> = lifted
+        .object_ids
+        .iter()
+        .enumerate()
+        .map(|(i, &id)| if id > 0 { group(i, id as u32) } else { 0 })
+        .collect();
+    let cells = occupied_voxels(gaussians, &groups, voxel);
     let mut sets = DisjointSets::new(cells.len());
-    for (&(id, v), &index) in &cells {
+    for (&(g, v), &index) in &cells {
         for n in forward_neighbours(v) {
-            if let Some(&other) = cells.get(&(id, n)) {
+            if let Some(&other) = cells.get(&(g, n)) {
                 sets.union(index, other);
             }
         }
@@ -62,7 +73,7 @@ pub fn split_disconnected_objects(
         if id <= 0 {
             continue;
         }
-        let Some(&cell) = cells.get(&(id as u32, centre(i))) else { continue };
+        let Some(&cell) = cells.get(&(groups[i], centre(i))) else { continue };
         let entry = clusters.entry(id as u32).or_default().entry(sets.find(cell)).or_insert((0, i));
         entry.0 += 1;
     }
@@ -105,7 +116,7 @@ pub fn split_disconnected_objects(
         if old == 0 {
             continue;
         }
-        let Some(&cell) = cells.get(&(old, centre(i))) else { continue };
+        let Some(&cell) = cells.get(&(group(i, old), centre(i))) else { continue };
         if let Some(&new) = new_id_of_root.get(&(old, sets.find(cell))) {
             if id > 0 {
                 lifted.object_ids[i] = new as i32;
@@ -118,11 +129,61 @@ pub fn split_disconnected_objects(
     stats
 }
 
-/// `(object id, voxel)` → index of every voxel an object's labelled Gaussians occupy.
-fn occupied_voxels(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> HashMap<(u32, [i64; 3]), u32> {
-    let mut cells: HashMap<(u32, [i64; 3]), u32> = HashMap::new();
-    for (i, &id) in ids.iter().enumerate() {
-        if id <= 0 {
+/// Objects that are planes (a floor, a wall; by their normals, as the seam join decides) and the
+/// offset of their plane: their Gaussians more than [`OFF_PLANE_VOXELS`] voxels off it (a post
+/// standing on a piece of floor that was merged with it in the views) are connected only among
+/// themselves, so they split off as objects of their own.
+struct PlaneLayers {
+    /// Object id → (unit normal, median offset `n·x` of its labelled Gaussians).
+    planes: HashMap<u32, (glam::Vec3, f32)>,
+    /// Off-plane distance, in world units.
+    distance: f32,
+}
+
+/// See [`PlaneLayers`].
+const OFF_PLANE_VOXELS: f32 = 2.0;
+
+impl PlaneLayers {
+    fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32, config: &LiftConfig) -> Self {
+        let normals: HashMap<u32, glam::Vec3> =
+            crate::touching::planarity(gaussians, ids, config.seam_max_angle_deg)
+                .into_iter()
+                .filter(|&(_, (n, share))| share >= config.seam_smooth_share && n != glam::Vec3::ZERO)
+                .map(|(id, (n, _))| (id, n))
+                .collect();
+        let mut offsets: HashMap<u32, Vec<f32>> = HashMap::new();
+        for (i, &id) in ids.iter().enumerate() {
+            if let Some(n) = (id > 0).then(|| normals.get(&(id as u32))).flatten() {
+                offsets.entry(id as u32).or_default().push(n.dot(gaussians.mean(i)));
+            }
+        }
+        let planes = offsets
+            .into_iter()
+            .map(|(id, mut o)| {
+                let mid = o.len() / 2;
+                let median = *o.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+                (id, (normals[&id], median))
+            })
+            .collect();
+        PlaneLayers { planes, distance: OFF_PLANE_VOXELS * voxel }
+    }
+
+    /// True when Gaussian `i` of object `id` lies off its object's plane.
+    fn off_plane(&self, gaussians: &PreparedGaussians, i: usize, id: u32) -> bool {
+        self.planes.get(&id).is_some_and(|&(n, m)| (n.dot(gaussians.mean(i)) - m).abs() > self.distance)
+    }
+}
+
+/// `(group, voxel)` → index of every voxel a group's labelled Gaussians occupy (`groups: [N]`,
+/// 0 = none).
+fn occupied_voxels(
+    gaussians: &PreparedGaussians,
+    groups: &[u64],
+    voxel: f32,
+) -> HashMap<(u64, [i64; 3]), u32> {
+    let mut cells: HashMap<(u64, [i64; 3]), u32> = HashMap::new();
+    for (i, &id) in groups.iter().enumerate() {
+        if id == 0 {
             continue;
         }
         let mean = gaussians.mean(i).to_array();
@@ -133,7 +194,7 @@ fn occupied_voxels(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> Ha
         for dz in -reach..=reach {
             for dy in -reach..=reach {
                 for dx in -reach..=reach {
-                    let key = (id as u32, [v[0] + dx, v[1] + dy, v[2] + dz]);
+                    let key = (id, [v[0] + dx, v[1] + dy, v[2] + dz]);
                     let next = cells.len() as u32;
                     cells.entry(key).or_insert(next);
                 }

@@ -179,3 +179,43 @@ fn a_box_that_took_a_skirt_of_floor_gaussians_does_not_join_the_floor() {
     assert_eq!(joins, 0);
     assert_eq!(l.object_ids, ids);
 }
+
+#[test]
+fn a_post_standing_on_a_piece_of_floor_under_the_same_id_splits_off() {
+    // A floor (normal y) and a post of 60 round Gaussians rising from its middle, all object 4
+    // (the per-view merge joined the post to the floor in most views).
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 30, 30);
+    let mut normals = vec![Y; means.len()];
+    let floor = means.len();
+    means.extend((1..=60).map(|k| [0.3, k as f32 * STEP, 0.3]));
+    normals.extend(vec![Y; 60]);
+    let mut g = gaussians(&means, STEP, 0.9);
+    for (k, n) in normals.iter().enumerate().take(floor) {
+        let q = glam::Quat::from_rotation_arc(glam::Vec3::Z, glam::Vec3::from(*n));
+        g.log_scales[k] = [STEP.ln(), STEP.ln(), (0.1 * STEP).ln()];
+        g.rotations[k] = [q.w, q.x, q.y, q.z];
+    }
+    let prepared = PreparedGaussians::new(&g).expect("finite");
+    let mut l = lifted(vec![4; means.len()]);
+    let stats = split_disconnected_objects(&prepared, &mut l, 4, &LiftConfig::default());
+    assert_eq!(stats.parents, vec![(5, 4)]);
+    assert!(l.object_ids[..floor].iter().all(|&i| i == 4));
+    // The post's foot (within two voxels of the floor) stays with the floor; the rest is object 5.
+    let post = &l.object_ids[floor..];
+    assert!(post.iter().filter(|&&i| i == 5).count() >= 50, "{post:?}");
+    assert_eq!(post.last(), Some(&5));
+
+    // A post of 10 Gaussians (under min_split_gaussians) keeps the floor's id.
+    let short: Vec<[f32; 3]> = means[..floor + 10].to_vec();
+    let mut g = gaussians(&short, STEP, 0.9);
+    for (k, n) in normals.iter().enumerate().take(floor) {
+        let q = glam::Quat::from_rotation_arc(glam::Vec3::Z, glam::Vec3::from(*n));
+        g.log_scales[k] = [STEP.ln(), STEP.ln(), (0.1 * STEP).ln()];
+        g.rotations[k] = [q.w, q.x, q.y, q.z];
+    }
+    let mut l = lifted(vec![4; short.len()]);
+    let stats =
+        split_disconnected_objects(&PreparedGaussians::new(&g).unwrap(), &mut l, 4, &LiftConfig::default());
+    assert!(stats.parents.is_empty());
+    assert!(l.object_ids.iter().all(|&i| i == 4));
+}
