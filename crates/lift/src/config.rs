@@ -62,7 +62,9 @@ pub struct LiftConfig {
     /// strays and keep their id).
     pub min_split_gaussians: usize,
     /// Objects covering fewer pixels than this over all rendered-back label maps are specks
-    /// and are dropped (pixels 0, Gaussians -1): less than two minimal SAM regions.
+    /// and are dropped (pixels 0, Gaussians -1): less than two minimal SAM regions. In pixels of
+    /// a 320×240 view: larger views scale it by their mean pixel count / 76,800
+    /// ([`LiftConfig::min_object_px_for`]).
     pub min_object_px: u64,
     /// Gaussians seen in fewer views than this get no id.
     pub min_views: u32,
@@ -117,6 +119,18 @@ impl FinalMaps {
     }
 }
 
+/// The view size [`LiftConfig::min_object_px`] is given for.
+pub const SPECK_REFERENCE_PX: u64 = 320 * 240;
+
+impl LiftConfig {
+    /// The speck threshold for views of `mean_view_px` pixels on average: `min_object_px` scaled
+    /// by `mean_view_px / 76,800`, never below `min_object_px`.
+    pub fn min_object_px_for(&self, mean_view_px: u64) -> u64 {
+        let scaled = self.min_object_px as u128 * mean_view_px as u128 / SPECK_REFERENCE_PX as u128;
+        (scaled.min(u64::MAX as u128) as u64).max(self.min_object_px)
+    }
+}
+
 impl Default for LiftConfig {
     fn default() -> Self {
         LiftConfig {
@@ -142,5 +156,18 @@ impl Default for LiftConfig {
             final_maps: FinalMaps::default(),
             snap_split_share: 0.25,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_speck_threshold_scales_with_the_view_size_and_never_falls_below_its_value() {
+        let c = LiftConfig::default();
+        assert_eq!(c.min_object_px_for(320 * 240), c.min_object_px);
+        assert_eq!(c.min_object_px_for(1280 * 960), 16 * c.min_object_px);
+        assert_eq!(c.min_object_px_for(100 * 100), c.min_object_px);
     }
 }

@@ -208,7 +208,10 @@ pub fn lift_and_render(
         })
         .collect::<crate::Result<_>>()?;
     bar.finish_and_clear();
-    let new_of_old = drop_specks_and_number(&maps, &mut lifted.object_ids, config.min_object_px);
+    let mean_view_px =
+        maps.iter().map(|m| (m.width * m.height) as u64).sum::<u64>() / maps.len().max(1) as u64;
+    let new_of_old =
+        drop_specks_and_number(&maps, &mut lifted.object_ids, config.min_object_px_for(mean_view_px));
     Ok(LiftOutput { lifted, maps, new_of_old })
 }
 
