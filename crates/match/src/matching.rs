@@ -14,7 +14,7 @@
 //!    `max(MIN_KEPT_PER_MASK, max_candidate_edges / n_masks)` edges (in the order of step 4) and as
 //!    many cannot-links (the best-looking pairs first: those a descriptor chain could join), and a
 //!    pair is kept when either of its masks keeps it. On captures where no mask has more candidates
-//!    than that (every capture of up to ~1,000 masks) nothing is dropped and the result is that
+//!    than that (every capture of up to ~700 masks) nothing is dropped and the result is that
 //!    of scoring every pair.
 //! 3. With 3D evidence, masks of one view that other views see inside one mask are joined
 //!    first, as fragments of one object ([`crate::fragments`]).
@@ -30,7 +30,7 @@ use crate::config::MatchConfig;
 use crate::error::{MatchError, MatchResult};
 use crate::evidence::{gather_evidence, mask_offsets, Evidence, MaskCounts};
 use crate::fragments::{containers_of_mask, fragment_pairs_of_view};
-use crate::input::MatchInput;
+use crate::input::{MatchInput, ViewMasks};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -171,27 +171,33 @@ pub const MIN_KEPT_PER_MASK: usize = 16;
 
 /// Unit-length copies of all descriptors, `[n_masks, dim]`; zero vectors stay zero.
 fn unit_features(input: &MatchInput) -> MatchResult<Vec<f32>> {
-    let dim = input.dim;
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(input.views.iter().map(|v| v.len() * input.dim).sum());
     for (view, masks) in input.views.iter().enumerate() {
-        if masks.features.len() != masks.len() * dim {
-            return Err(MatchError::Shape {
-                view,
-                what: "features",
-                got: masks.features.len(),
-                expected: masks.len() * dim,
-            });
-        }
-        for (k, f) in masks.features.chunks(dim.max(1)).enumerate().take(masks.len()) {
-            if f.iter().any(|x| !x.is_finite()) {
-                return Err(MatchError::NonFinite { view, label: k as u32 + 1 });
-            }
-            let norm = f.iter().map(|x| x * x).sum::<f32>().sqrt();
-            let scale = if norm > 1e-12 { 1.0 / norm } else { 0.0 };
-            out.extend(f.iter().map(|x| x * scale));
-        }
+        append_unit(view, masks, input.dim, &mut out)?;
     }
     Ok(out)
+}
+
+/// Appends the unit-length copies of `masks`' descriptors (`[n_masks, dim]`) of view `view` to
+/// `out`, after checking their shape and values.
+fn append_unit(view: usize, masks: &ViewMasks, dim: usize, out: &mut Vec<f32>) -> MatchResult<()> {
+    if masks.features.len() != masks.len() * dim {
+        return Err(MatchError::Shape {
+            view,
+            what: "features",
+            got: masks.features.len(),
+            expected: masks.len() * dim,
+        });
+    }
+    for (k, f) in masks.features.chunks(dim.max(1)).enumerate().take(masks.len()) {
+        if f.iter().any(|x| !x.is_finite()) {
+            return Err(MatchError::NonFinite { view, label: k as u32 + 1 });
+        }
+        let norm = f.iter().map(|x| x * x).sum::<f32>().sqrt();
+        let scale = if norm > 1e-12 { 1.0 / norm } else { 0.0 };
+        out.extend(f.iter().map(|x| x * scale));
+    }
+    Ok(())
 }
 
 fn cosine(unit: &[f32], dim: usize, i: usize, j: usize) -> f32 {
@@ -340,9 +346,10 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
 /// [`match_masks`] on an input it may consume: the descriptors are dropped once normalised, so one
 /// copy of the `[n_masks, dim]` descriptors is held while matching instead of two.
 pub fn match_masks_owned(mut input: MatchInput, config: &MatchConfig) -> MatchResult<Matching> {
-    let unit = unit_features(&input)?;
-    for view in &mut input.views {
-        view.features = Vec::new();
+    let mut unit = Vec::with_capacity(input.views.iter().map(|v| v.len() * input.dim).sum());
+    for (view, masks) in input.views.iter_mut().enumerate() {
+        append_unit(view, masks, input.dim, &mut unit)?;
+        masks.features = Vec::new();
     }
     match_unit_masks(&input, unit, config)
 }
@@ -378,8 +385,10 @@ fn match_unit_masks(input: &MatchInput, unit: Vec<f32>, config: &MatchConfig) ->
         ..MatchStats::default()
     };
     drop(evidence);
-    let mut edges = Vec::new();
-    let mut cannot = Vec::new();
+    // Sized once: each view's findings are freed as they are moved in, so resident memory stays
+    // about one copy of the kept edges.
+    let mut edges = Vec::with_capacity(per_view.iter().map(|f| f.edges.len()).sum());
+    let mut cannot = Vec::with_capacity(per_view.iter().map(|f| f.cannot.len()).sum());
     let mut fragments = Vec::new();
     for found in per_view {
         stats.edges_3d += found.edges_3d;

@@ -321,7 +321,7 @@ fn a_tight_candidate_budget_keeps_memory_bounded_and_still_finds_every_object() 
 
 #[test]
 fn the_default_budget_keeps_every_candidate_on_small_captures() {
-    // 25 views × 4 masks: 100 masks, 24 candidates each, well under 1,000,000 / 100 kept per mask.
+    // 25 views × 4 masks: 100 masks, 24 candidates each, well under 500,000 / 100 kept per mask.
     let input = many_views(25, 6);
     let default = match_masks(&input, &MatchConfig::default()).unwrap();
     let all = match_masks(&input, &MatchConfig { max_candidate_edges: u64::MAX, ..MatchConfig::default() })

@@ -64,10 +64,12 @@ pub fn match_views(
         .map(|m| match m {
             Some(m) => {
                 let regions = std::mem::take(&mut m.regions);
-                ViewMasks {
-                    features: regions.iter().flat_map(|r| r.descriptor.iter().copied()).collect(),
-                    areas_px: regions.iter().map(|r| r.area).collect(),
+                // `[n_masks, dim]`, allocated once at its size (no growth slack held while matching).
+                let mut features = Vec::with_capacity(regions.len() * dim);
+                for r in &regions {
+                    features.extend_from_slice(&r.descriptor);
                 }
+                ViewMasks { features, areas_px: regions.iter().map(|r| r.area).collect() }
             }
             None => ViewMasks::default(),
         })
