@@ -19,8 +19,8 @@
 //! 3. With 3D evidence, masks of one view that other views see inside one mask are joined
 //!    first, as fragments of one object ([`crate::fragments`]).
 //! 4. Edges are taken in order (tier, score descending, then mask indices) and fed to a
-//!    union-find that
-//!    refuses to join clusters holding masks of the same view or spanning a cannot-link.
+//!    union-find that refuses to join clusters holding masks of the same view or spanning a
+//!    cannot-link.
 //! 5. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
 //!    gets an identity feature: the area-weighted mean of its masks' unit descriptors,
 //!    re-normalised.
