@@ -35,6 +35,11 @@ pub struct MatchConfig {
     /// Upper bound on Gaussian view pairs counted for 3D evidence; Gaussians are subsampled with a
     /// fixed stride above it (keeps matching fast on million-Gaussian scenes).
     pub max_pair_samples: u64,
+    /// Bound on the candidate edges (and on the cannot-links) kept for the union-find: each mask
+    /// keeps its best `max(16, max_candidate_edges / n_masks)`, so memory does not grow with the
+    /// pairs of masks (quadratic in views). Captures where no mask has more candidates than that
+    /// (every capture of up to ~700 masks) keep every pair.
+    pub max_candidate_edges: u64,
 }
 
 impl Default for MatchConfig {
@@ -48,6 +53,7 @@ impl Default for MatchConfig {
             min_fragment_views: 2,
             fragment_majority: 0.9,
             max_pair_samples: 40_000_000,
+            max_candidate_edges: 500_000,
         }
     }
 }

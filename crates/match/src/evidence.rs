@@ -8,63 +8,38 @@
 //! of the smaller mask lies in the other mask (same object, or a fragment of it), 0 when the two
 //! masks cover disjoint Gaussians (different objects, however alike they look).
 //!
-//! Work is split over Gaussians: each thread's share counts into its own tables, and the integer
-//! tables are summed afterwards (exact, so the result does not depend on the split).
+//! Nothing of size `n_masks × n_views` or `n_masks²` is built: [`Evidence`] keeps the sampled
+//! observations grouped by Gaussian, and the counts of one view's masks against every other mask
+//! are made on demand ([`Evidence::view_counts`], [`Evidence::mask_counts`]) into scratch vectors
+//! of `n_masks` and `n_views` entries, so matching's memory grows with the masks, not with the
+//! pairs of masks. Counts are exact integers: the result does not depend on the thread count.
 
 use crate::error::{MatchError, MatchResult};
 use crate::input::{MatchInput, ViewObservations};
-use rayon::prelude::*;
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 
-/// A multiply-shift hasher for `u64` pair keys (std's SipHash is several times slower here).
-#[derive(Default)]
-struct PairKeyHasher(u64);
-
-impl Hasher for PairKeyHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0.rotate_left(5) ^ b as u64).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-        }
-    }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (x ^ (x >> 29)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    }
-}
-
-type PairMap = HashMap<u64, u32, BuildHasherDefault<PairKeyHasher>>;
-
-/// Gaussian co-occurrence counts between masks, over (a deterministic subsample of) the Gaussians.
+/// The sampled observations, grouped by Gaussian and by view.
 #[derive(Clone, Debug, Default)]
 pub struct Evidence {
-    n_views: usize,
-    /// `[n_masks, n_views]`: `covisible[m * n_views + v]` = `|S_m ∩ V_v|`.
-    covisible: Vec<u32>,
-    /// `|S_i ∩ S_j|` keyed by `(i << 32) | j` with `i < j` (global mask indices).
-    shared: PairMap,
+    /// `[n_views + 1]` index of each view's first mask in the global numbering.
+    offsets: Vec<usize>,
+    /// `[n_rows + 1]` row starts into `entries`; row `r` is Gaussian `r · stride`.
+    starts: Vec<usize>,
+    /// `(view, local label)` of every sampled observation, grouped by Gaussian, views increasing.
+    entries: Vec<(u32, u32)>,
     /// Every `stride`-th Gaussian was counted.
     pub stride: u32,
 }
 
-impl Evidence {
-    /// `|S_mask ∩ V_view|`: Gaussians of `mask` that `view` sees.
-    pub fn covisible(&self, mask: usize, view: usize) -> u32 {
-        self.covisible[mask * self.n_views + view]
-    }
-
-    /// Every pair with shared Gaussians: `(i, j, |S_i ∩ S_j|)`, `i < j` (in no particular order).
-    pub fn shared_pairs(&self) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
-        self.shared.iter().map(|(&k, &n)| ((k >> 32) as u32, k as u32, n))
-    }
-
-    /// `|S_i ∩ S_j|` for global mask indices `i`, `j`.
-    pub fn shared(&self, i: usize, j: usize) -> u32 {
-        let (lo, hi) = if i < j { (i, j) } else { (j, i) };
-        self.shared.get(&(((lo as u64) << 32) | hi as u64)).copied().unwrap_or(0)
-    }
+/// The counts of one mask `i` (of view `a`) against every view and every mask: scratch reused
+/// from mask to mask.
+#[derive(Clone, Debug, Default)]
+pub struct MaskCounts {
+    /// `[n_views]`: `covisible[v]` = `|S_i ∩ V_v|` (0 for `v = a`).
+    pub covisible: Vec<u32>,
+    /// `[n_masks]`: `shared[j]` = `|S_i ∩ S_j|` (0 for masks of view `a`).
+    pub shared: Vec<u32>,
+    /// Masks with a non-zero `shared` entry, so clearing costs what filling did.
+    touched: Vec<u32>,
 }
 
 /// Index of each view's first mask in the global mask numbering: `[n_views + 1]`.
@@ -103,15 +78,22 @@ fn validate(input: &MatchInput, observations: &[ViewObservations]) -> MatchResul
     Ok(())
 }
 
-/// Per-Gaussian observation lists `(view, label)` of the sampled Gaussians, CSR layout.
-struct ObservationsByGaussian {
-    /// `[n_sampled + 1]` row starts into `entries`.
-    starts: Vec<usize>,
-    /// `(view, local label)` pairs, grouped by Gaussian, views increasing within a group.
-    entries: Vec<(u32, u32)>,
+/// Greatest common divisor (`gcd(0, x) = x`).
+fn gcd(mut a: u32, mut b: u32) -> u32 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
 }
 
-fn transpose(observations: &[ViewObservations], budget: u64) -> (ObservationsByGaussian, u32) {
+/// Groups the observations by Gaussian, keeping every `stride`-th Gaussian, the stride chosen so
+/// that at most about `budget` Gaussian view pairs are counted.
+pub fn gather_evidence(
+    input: &MatchInput,
+    observations: &[ViewObservations],
+    budget: u64,
+) -> MatchResult<Evidence> {
+    validate(input, observations)?;
     let n_gaussians =
         observations.iter().filter_map(|o| o.gaussians.last()).map(|&g| g as usize + 1).max().unwrap_or(0);
     let mut counts = vec![0u32; n_gaussians];
@@ -125,103 +107,115 @@ fn transpose(observations: &[ViewObservations], budget: u64) -> (ObservationsByG
     // many views) are subsampled further by whole multiples of `base`.
     let base = observations.iter().flat_map(|o| &o.gaussians).fold(0u32, |d, &g| gcd(d, g)).max(1);
     let stride = (pairs.div_ceil(budget.max(1)).max(1) as u32).saturating_mul(base);
-    let sampled = |g: u32| g.is_multiple_of(stride);
     let mut starts = Vec::with_capacity(n_gaussians / stride as usize + 2);
-    let mut row_of = vec![u32::MAX; n_gaussians.div_ceil(stride as usize)];
     let mut total = 0usize;
     for g in (0..n_gaussians).step_by(stride as usize) {
-        row_of[g / stride as usize] = starts.len() as u32;
         starts.push(total);
         total += counts[g] as usize;
     }
     starts.push(total);
+    drop(counts);
     let mut fill: Vec<usize> = starts[..starts.len() - 1].to_vec();
     let mut entries = vec![(0u32, 0u32); total];
     for (view, obs) in observations.iter().enumerate() {
         for (&g, &label) in obs.gaussians.iter().zip(&obs.labels) {
-            if sampled(g) {
-                let row = row_of[(g / stride) as usize] as usize;
+            if g.is_multiple_of(stride) {
+                let row = (g / stride) as usize;
                 entries[fill[row]] = (view as u32, label);
                 fill[row] += 1;
             }
         }
     }
-    (ObservationsByGaussian { starts, entries }, stride)
+    Ok(Evidence { offsets: mask_offsets(input), starts, entries, stride })
 }
 
-/// Greatest common divisor (`gcd(0, x) = x`).
-fn gcd(mut a: u32, mut b: u32) -> u32 {
-    while b != 0 {
-        (a, b) = (b, a % b);
+impl Evidence {
+    fn n_masks(&self) -> usize {
+        *self.offsets.last().unwrap_or(&0)
     }
-    a
-}
 
-/// Counts Gaussian co-occurrence between the masks of `input` (see the module docs).
-pub fn gather_evidence(
-    input: &MatchInput,
-    observations: &[ViewObservations],
-    max_pair_samples: u64,
-) -> MatchResult<Evidence> {
-    validate(input, observations)?;
-    let offsets = mask_offsets(input);
-    let n_masks = *offsets.last().unwrap_or(&0);
-    let n_views = input.views.len();
-    let (by_gaussian, stride) = transpose(observations, max_pair_samples);
-    let n_rows = by_gaussian.starts.len() - 1;
-    // One pair of tables per thread (not per rayon split: the covisibility table alone is
-    // n_masks × n_views), summed in a fixed order. Integer counts: the sums are exact, so the
-    // result does not depend on the thread count.
-    let parts = rayon::current_num_threads().clamp(1, n_rows.max(1));
-    let per_part = n_rows.div_ceil(parts);
-    let tables: Vec<(Vec<u32>, PairMap)> = (0..parts)
-        .into_par_iter()
-        .map(|p| {
-            let (mut covisible, mut shared) = (vec![0u32; n_masks * n_views], PairMap::default());
-            for row in p * per_part..((p + 1) * per_part).min(n_rows) {
-                let obs = &by_gaussian.entries[by_gaussian.starts[row]..by_gaussian.starts[row + 1]];
-                count_gaussian(obs, &offsets, n_views, &mut covisible, &mut shared);
-            }
-            (covisible, shared)
-        })
-        .collect();
-    drop(by_gaussian);
-    let mut tables = tables.into_iter();
-    let (mut covisible, mut shared) = tables.next().unwrap_or_default();
-    covisible.resize(n_masks * n_views, 0);
-    for (c, s) in tables {
-        for (t, x) in covisible.iter_mut().zip(c) {
-            *t += x;
+    fn n_views(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// The observations `(view, label)` of sampled row `row`.
+    fn row(&self, row: usize) -> &[(u32, u32)] {
+        &self.entries[self.starts[row]..self.starts[row + 1]]
+    }
+
+    /// Global index of local label `label ≥ 1` of `view`.
+    fn mask(&self, view: u32, label: u32) -> usize {
+        self.offsets[view as usize] + label as usize - 1
+    }
+
+    /// The sampled rows view `view` sees, grouped by the local label there: `(starts, rows)` with
+    /// `starts: [n_labels + 2]` (label 0 = in no mask) and `rows` the row indices, increasing.
+    pub fn rows_of_view(&self, view: usize, observations: &ViewObservations) -> (Vec<usize>, Vec<u32>) {
+        let n_labels = self.offsets[view + 1] - self.offsets[view];
+        let sampled = || {
+            observations
+                .gaussians
+                .iter()
+                .zip(&observations.labels)
+                .filter(|(&g, _)| g.is_multiple_of(self.stride))
+                .map(|(&g, &l)| (g / self.stride, l as usize))
+        };
+        let mut starts = vec![0usize; n_labels + 2];
+        for (_, l) in sampled() {
+            starts[l + 1] += 1;
         }
-        for (k, x) in s {
-            *shared.entry(k).or_insert(0) += x;
+        for l in 0..=n_labels {
+            starts[l + 1] += starts[l];
+        }
+        let mut fill = starts.clone();
+        let mut rows = vec![0u32; starts[n_labels + 1]];
+        for (row, l) in sampled() {
+            rows[fill[l]] = row;
+            fill[l] += 1;
+        }
+        (starts, rows)
+    }
+
+    /// `out[j]` = `|S_j ∩ V_view|` for every mask `j` (`[n_masks]`; 0 for masks of `view`), from
+    /// `rows`: every sampled row `view` sees.
+    pub fn view_counts(&self, view: usize, rows: &[u32], out: &mut Vec<u32>) {
+        out.clear();
+        out.resize(self.n_masks(), 0);
+        for &row in rows {
+            for &(v, l) in self.row(row as usize) {
+                if l > 0 && v as usize != view {
+                    out[self.mask(v, l)] += 1;
+                }
+            }
         }
     }
-    Ok(Evidence { n_views, covisible, shared, stride })
-}
 
-/// Adds one Gaussian's observations `(view, label)` to the tables.
-fn count_gaussian(
-    obs: &[(u32, u32)],
-    offsets: &[usize],
-    n_views: usize,
-    covisible: &mut [u32],
-    shared: &mut PairMap,
-) {
-    let mask = |(view, label): (u32, u32)| (label > 0).then(|| offsets[view as usize] + label as usize - 1);
-    for (x, &a) in obs.iter().enumerate() {
-        let mask_a = mask(a);
-        for &b in &obs[x + 1..] {
-            let mask_b = mask(b);
-            if let Some(i) = mask_a {
-                covisible[i * n_views + b.0 as usize] += 1;
-            }
-            if let Some(j) = mask_b {
-                covisible[j * n_views + a.0 as usize] += 1;
-            }
-            if let (Some(i), Some(j)) = (mask_a, mask_b) {
-                let (lo, hi) = if i < j { (i, j) } else { (j, i) };
-                *shared.entry(((lo as u64) << 32) | hi as u64).or_insert(0) += 1;
+    /// The counts of the mask of `view` whose sampled rows are `rows` (its `S_i`) against every view
+    /// and every mask of the other views, into `out`.
+    pub fn mask_counts(&self, view: usize, rows: &[u32], out: &mut MaskCounts) {
+        out.covisible.clear();
+        out.covisible.resize(self.n_views(), 0);
+        if out.shared.len() != self.n_masks() {
+            out.shared = vec![0; self.n_masks()];
+            out.touched.clear();
+        }
+        for &j in &out.touched {
+            out.shared[j as usize] = 0;
+        }
+        out.touched.clear();
+        for &row in rows {
+            for &(v, l) in self.row(row as usize) {
+                if v as usize == view {
+                    continue;
+                }
+                out.covisible[v as usize] += 1;
+                if l > 0 {
+                    let j = self.mask(v, l);
+                    if out.shared[j] == 0 {
+                        out.touched.push(j as u32);
+                    }
+                    out.shared[j] += 1;
+                }
             }
         }
     }

@@ -21,92 +21,85 @@
 //! pairs come out sorted, so the result does not depend on the thread count.
 
 use crate::config::MatchConfig;
-use crate::evidence::Evidence;
+use crate::evidence::MaskCounts;
 use std::collections::BTreeMap;
 
-/// The container of every mask in every other view: `[n_masks, n_views]`, `u32::MAX` = none.
-fn containers(
-    evidence: &Evidence,
-    view_of_mask: &[u32],
+/// The container of one mask of view `view` in every view (`out: [n_views]`, `u32::MAX` = none),
+/// from its counts against every mask (`offsets: [n_views + 1]` first global mask of each view).
+pub fn containers_of_mask(
+    counts: &MaskCounts,
+    view: usize,
     offsets: &[usize],
     config: &MatchConfig,
-) -> Vec<u32> {
-    let n_views = offsets.len() - 1;
-    let n_masks = view_of_mask.len();
-    // Best (shared count, mask) per (mask, view), from the pair table.
-    let mut best = vec![(0u32, u32::MAX); n_masks * n_views];
-    for (i, j, shared) in evidence.shared_pairs() {
-        for (m, other) in [(i, j), (j, i)] {
-            let slot = &mut best[m as usize * n_views + view_of_mask[other as usize] as usize];
-            // Ties: the smaller mask index.
-            if shared > slot.0 || (shared == slot.0 && other < slot.1) {
-                *slot = (shared, other);
+    out: &mut [u32],
+) {
+    for (b, slot) in out.iter_mut().enumerate() {
+        *slot = u32::MAX;
+        if b == view {
+            continue;
+        }
+        // Best shared count of view b's masks; ties: the smaller mask index.
+        let (mut shared, mut best) = (0u32, u32::MAX);
+        for j in offsets[b]..offsets[b + 1] {
+            if counts.shared[j] > shared {
+                (shared, best) = (counts.shared[j], j as u32);
             }
         }
-    }
-    let mut out = vec![u32::MAX; n_masks * n_views];
-    for m in 0..n_masks {
-        for b in 0..n_views {
-            let (shared, j) = best[m * n_views + b];
-            let support = evidence.covisible(m, b);
-            if j != u32::MAX
-                && support >= config.min_support.max(1)
-                && shared as f32 >= config.tau_overlap * support as f32
-            {
-                out[m * n_views + b] = j;
-            }
+        let support = counts.covisible[b];
+        if best != u32::MAX
+            && support >= config.min_support.max(1)
+            && shared as f32 >= config.tau_overlap * support as f32
+        {
+            *slot = best;
         }
     }
-    out
 }
 
-/// Pairs `(i, i')` of global mask indices, `i < i'`, of one view that are fragments of one
-/// object (see the module docs), sorted.
-pub fn fragment_pairs(
-    evidence: &Evidence,
-    view_of_mask: &[u32],
-    offsets: &[usize],
+/// Pairs `(i, i')` of global mask indices, `i < i'`, of view `view` that are fragments of one
+/// object (see the module docs), sorted. `containers: [n_masks of the view, n_views]` from
+/// [`containers_of_mask`]; `first_mask` is the view's first global mask index.
+pub fn fragment_pairs_of_view(
+    containers: &[u32],
+    n_views: usize,
+    view: usize,
+    first_mask: usize,
     similar: impl Fn(usize, usize) -> bool,
     config: &MatchConfig,
 ) -> Vec<(u32, u32)> {
-    if config.fragment_majority > 1.0 {
+    if config.fragment_majority > 1.0 || n_views == 0 {
         return Vec::new();
     }
-    let n_views = offsets.len() - 1;
-    let container = containers(evidence, view_of_mask, offsets, config);
-    let mut pairs = Vec::new();
-    for a in 0..n_views {
-        let masks = offsets[a]..offsets[a + 1];
-        // (together, apart) per pair of masks of view a that both have containers.
-        let mut counts: BTreeMap<(u32, u32), (u32, u32)> = BTreeMap::new();
-        for b in (0..n_views).filter(|&b| b != a) {
-            for i in masks.clone() {
-                let ci = container[i * n_views + b];
-                if ci == u32::MAX {
+    let n = containers.len() / n_views;
+    // (together, apart) per pair of masks of the view that both have containers.
+    let mut counts: BTreeMap<(u32, u32), (u32, u32)> = BTreeMap::new();
+    for b in (0..n_views).filter(|&b| b != view) {
+        for i in 0..n {
+            let ci = containers[i * n_views + b];
+            if ci == u32::MAX {
+                continue;
+            }
+            for k in i + 1..n {
+                let ck = containers[k * n_views + b];
+                if ck == u32::MAX {
                     continue;
                 }
-                for k in i + 1..masks.end {
-                    let ck = container[k * n_views + b];
-                    if ck == u32::MAX {
-                        continue;
-                    }
-                    let entry = counts.entry((i as u32, k as u32)).or_default();
-                    if ci == ck {
-                        entry.0 += 1;
-                    } else {
-                        entry.1 += 1;
-                    }
+                let entry = counts.entry(((first_mask + i) as u32, (first_mask + k) as u32)).or_default();
+                if ci == ck {
+                    entry.0 += 1;
+                } else {
+                    entry.1 += 1;
                 }
             }
         }
-        for ((i, k), (together, apart)) in counts {
-            let seen = together + apart;
-            if together >= config.min_fragment_views
-                && together as f32 >= config.fragment_majority * seen as f32
-                && similar(i as usize, k as usize)
-            {
-                pairs.push((i, k));
-            }
+    }
+    let mut pairs = Vec::new();
+    for ((i, k), (together, apart)) in counts {
+        let seen = together + apart;
+        if together >= config.min_fragment_views
+            && together as f32 >= config.fragment_majority * seen as f32
+            && similar(i as usize, k as usize)
+        {
+            pairs.push((i, k));
         }
     }
     pairs

@@ -37,4 +37,4 @@ pub mod matching;
 pub use config::MatchConfig;
 pub use error::{MatchError, MatchResult};
 pub use input::{MatchInput, ViewMasks, ViewObservations};
-pub use matching::{match_masks, MatchStats, Matching};
+pub use matching::{match_masks, match_masks_owned, MatchStats, Matching};

@@ -2,17 +2,25 @@
 //!
 //! 1. Every pair of masks from different views is scored: descriptor cosine, and — when
 //!    Gaussian observations are given and the pair has enough support — the 3D containment
-//!    overlap of [`crate::evidence`].
+//!    overlap of [`crate::evidence`]. Views are scored in parallel, each mask against every
+//!    mask of the other views.
 //! 2. A pair becomes a candidate edge when
 //!    - it has 3D support, overlap ≥ `tau_overlap` and cos ≥ `tau_match_with_3d` (tier 0), or
 //!    - it has no 3D support and cos > `tau_match` (tier 1, the paper's rule).
 //!
 //!    A pair with support and overlap < `tau_reject` becomes a cannot-link instead.
+//!
+//!    Memory does not grow with the pairs of masks: each mask keeps its best
+//!    `max(MIN_KEPT_PER_MASK, max_candidate_edges / n_masks)` edges (in the order of step 4) and as
+//!    many cannot-links (the best-looking pairs first: those a descriptor chain could join), and a
+//!    pair is kept when either of its masks keeps it. On captures where no mask has more candidates
+//!    than that (every capture of up to ~700 masks) nothing is dropped and the result is that
+//!    of scoring every pair.
 //! 3. With 3D evidence, masks of one view that other views see inside one mask are joined
 //!    first, as fragments of one object ([`crate::fragments`]).
-//! 4. Edges are taken in order (tier, score descending, then mask indices; each mask's list sorted,
-//!    the lists merged lazily) and fed to a union-find that
-//!    refuses to join clusters holding masks of the same view or spanning a cannot-link.
+//! 4. Edges are taken in order (tier, score descending, then mask indices) and fed to a
+//!    union-find that refuses to join clusters holding masks of the same view or spanning a
+//!    cannot-link.
 //! 5. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
 //!    gets an identity feature: the area-weighted mean of its masks' unit descriptors,
 //!    re-normalised.
@@ -20,9 +28,9 @@
 use crate::cluster::{ConstrainedUnionFind, JoinOutcome};
 use crate::config::MatchConfig;
 use crate::error::{MatchError, MatchResult};
-use crate::evidence::{gather_evidence, mask_offsets, Evidence};
-use crate::fragments::fragment_pairs;
-use crate::input::MatchInput;
+use crate::evidence::{gather_evidence, mask_offsets, Evidence, MaskCounts};
+use crate::fragments::{containers_of_mask, fragment_pairs_of_view};
+use crate::input::{MatchInput, ViewMasks};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -86,113 +94,269 @@ fn edge_order(x: &Edge, y: &Edge) -> std::cmp::Ordering {
     x.tier.cmp(&y.tier).then(y.score.total_cmp(&x.score)).then(x.i.cmp(&y.i)).then(x.j.cmp(&y.j))
 }
 
-/// The head of one mask's sorted edge list in the k-way merge (a min-heap on [`edge_order`]).
-struct Head {
-    edge: Edge,
-    list: usize,
-    pos: usize,
-}
+/// An edge ranked by [`edge_order`] (greater = tried later), for [`BestK`].
+#[derive(Clone, Copy, Debug)]
+struct RankedEdge(Edge);
 
-impl PartialEq for Head {
+impl PartialEq for RankedEdge {
     fn eq(&self, other: &Self) -> bool {
         self.cmp(other) == std::cmp::Ordering::Equal
     }
 }
-impl Eq for Head {}
-impl PartialOrd for Head {
+impl Eq for RankedEdge {}
+impl PartialOrd for RankedEdge {
     fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
         Some(self.cmp(other))
     }
 }
-impl Ord for Head {
+impl Ord for RankedEdge {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        edge_order(&other.edge, &self.edge)
+        edge_order(&self.0, &other.0)
     }
 }
 
-/// Every edge of the sorted `lists` in [`edge_order`], as sorting them all into one list would
-/// give (edges of different lists differ in `i`, so there are no ties).
-fn merged_in_order(lists: &[Vec<Edge>]) -> impl Iterator<Item = Edge> + '_ {
-    let mut heap: std::collections::BinaryHeap<Head> = lists
-        .iter()
-        .enumerate()
-        .filter_map(|(list, l)| l.first().map(|&edge| Head { edge, list, pos: 0 }))
-        .collect();
-    std::iter::from_fn(move || {
-        let head = heap.pop()?;
-        if let Some(&edge) = lists[head.list].get(head.pos + 1) {
-            heap.push(Head { edge, list: head.list, pos: head.pos + 1 });
-        }
-        Some(head.edge)
-    })
+/// A cannot-link pair `(lo, hi)` ranked by descriptor cosine, most alike first (greater = less
+/// alike), for [`BestK`].
+#[derive(Clone, Copy, Debug)]
+struct RankedCannot {
+    cos: f32,
+    pair: (u32, u32),
 }
+
+impl PartialEq for RankedCannot {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+impl Eq for RankedCannot {}
+impl PartialOrd for RankedCannot {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for RankedCannot {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.cos.total_cmp(&self.cos).then(self.pair.cmp(&other.pair))
+    }
+}
+
+/// The `k` smallest items pushed (a max-heap of at most `k` items; the largest is dropped).
+struct BestK<T: Ord> {
+    k: usize,
+    heap: std::collections::BinaryHeap<T>,
+}
+
+impl<T: Ord> BestK<T> {
+    fn new(k: usize) -> Self {
+        BestK { k, heap: std::collections::BinaryHeap::new() }
+    }
+
+    fn push(&mut self, item: T) {
+        if self.heap.len() < self.k {
+            self.heap.push(item);
+        } else if self.heap.peek().is_some_and(|worst| item < *worst) {
+            self.heap.pop();
+            self.heap.push(item);
+        }
+    }
+
+    /// The kept items (in no particular order); the heap is left empty for the next mask.
+    fn drain(&mut self) -> impl Iterator<Item = T> + '_ {
+        self.heap.drain()
+    }
+}
+
+/// Fewest edges (and cannot-links) each mask keeps, whatever the number of masks.
+pub const MIN_KEPT_PER_MASK: usize = 16;
 
 /// Unit-length copies of all descriptors, `[n_masks, dim]`; zero vectors stay zero.
 fn unit_features(input: &MatchInput) -> MatchResult<Vec<f32>> {
-    let dim = input.dim;
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(input.views.iter().map(|v| v.len() * input.dim).sum());
     for (view, masks) in input.views.iter().enumerate() {
-        if masks.features.len() != masks.len() * dim {
-            return Err(MatchError::Shape {
-                view,
-                what: "features",
-                got: masks.features.len(),
-                expected: masks.len() * dim,
-            });
-        }
-        for (k, f) in masks.features.chunks(dim.max(1)).enumerate().take(masks.len()) {
-            if f.iter().any(|x| !x.is_finite()) {
-                return Err(MatchError::NonFinite { view, label: k as u32 + 1 });
-            }
-            let norm = f.iter().map(|x| x * x).sum::<f32>().sqrt();
-            let scale = if norm > 1e-12 { 1.0 / norm } else { 0.0 };
-            out.extend(f.iter().map(|x| x * scale));
-        }
+        append_unit(view, masks, input.dim, &mut out)?;
     }
     Ok(out)
+}
+
+/// Appends the unit-length copies of `masks`' descriptors (`[n_masks, dim]`) of view `view` to
+/// `out`, after checking their shape and values.
+fn append_unit(view: usize, masks: &ViewMasks, dim: usize, out: &mut Vec<f32>) -> MatchResult<()> {
+    if masks.features.len() != masks.len() * dim {
+        return Err(MatchError::Shape {
+            view,
+            what: "features",
+            got: masks.features.len(),
+            expected: masks.len() * dim,
+        });
+    }
+    for (k, f) in masks.features.chunks(dim.max(1)).enumerate().take(masks.len()) {
+        if f.iter().any(|x| !x.is_finite()) {
+            return Err(MatchError::NonFinite { view, label: k as u32 + 1 });
+        }
+        let norm = f.iter().map(|x| x * x).sum::<f32>().sqrt();
+        let scale = if norm > 1e-12 { 1.0 / norm } else { 0.0 };
+        out.extend(f.iter().map(|x| x * scale));
+    }
+    Ok(())
 }
 
 fn cosine(unit: &[f32], dim: usize, i: usize, j: usize) -> f32 {
     unit[i * dim..(i + 1) * dim].iter().zip(&unit[j * dim..(j + 1) * dim]).map(|(a, b)| a * b).sum()
 }
 
-/// Scores all cross-view pairs of mask `i`; returns its edges and cannot-link partners.
-fn edges_of_mask(
-    i: usize,
-    view_of_mask: &[u32],
-    unit: &[f32],
-    dim: usize,
-    evidence: Option<&Evidence>,
-    config: &MatchConfig,
-) -> (Vec<Edge>, Vec<u32>) {
-    let mut edges = Vec::new();
-    let mut cannot = Vec::new();
-    let a = view_of_mask[i] as usize;
-    for (j, &b) in view_of_mask.iter().enumerate().skip(i + 1) {
-        let b = b as usize;
-        if a == b {
-            continue;
-        }
-        let cos = if dim > 0 { cosine(unit, dim, i, j) } else { 0.0 };
-        let support = evidence.map_or(0, |e| e.covisible(i, b).min(e.covisible(j, a)));
-        if let (Some(e), true) = (evidence, support >= config.min_support.max(1)) {
-            let overlap = e.shared(i, j) as f32 / support as f32;
-            if overlap >= config.tau_overlap && (dim == 0 || cos >= config.tau_match_with_3d) {
-                edges.push(Edge { tier: 0, score: overlap + cos, i: i as u32, j: j as u32 });
-            } else if overlap < config.tau_reject {
-                cannot.push(j as u32);
+/// `out[j]` = [`cosine`]`(unit, dim, i, j)` for every mask `j` (`unit: [n_masks, dim]`, `out:
+/// [n_masks]`), bit for bit: eight sums at a time, each in [`cosine`]'s order from the same
+/// starting value (independent sums keep the core busy; one sum at a time waits on each add).
+fn cosines_of_mask(unit: &[f32], dim: usize, i: usize, out: &mut Vec<f32>) {
+    const LANES: usize = 8;
+    let n = unit.len().checked_div(dim).unwrap_or(0);
+    out.clear();
+    out.resize(n, 0.0);
+    let a = &unit[i * dim..(i + 1) * dim];
+    let start: f32 = std::iter::empty::<f32>().sum();
+    let mut j = 0;
+    while j + LANES <= n {
+        let rows: [&[f32]; LANES] = std::array::from_fn(|l| &unit[(j + l) * dim..(j + l + 1) * dim]);
+        let mut acc = [start; LANES];
+        for (d, &x) in a.iter().enumerate() {
+            for (sum, row) in acc.iter_mut().zip(&rows) {
+                *sum += x * row[d];
             }
-        } else if dim > 0 && cos > config.tau_match {
-            edges.push(Edge { tier: 1, score: cos, i: i as u32, j: j as u32 });
         }
+        out[j..j + LANES].copy_from_slice(&acc);
+        j += LANES;
     }
-    (edges, cannot)
+    for (k, o) in out.iter_mut().enumerate().skip(j) {
+        *o = cosine(unit, dim, i, k);
+    }
+}
+
+/// What scoring the masks of one view found.
+#[derive(Default)]
+struct ViewFindings {
+    /// Edges some mask of the view keeps, `i < j`.
+    edges: Vec<Edge>,
+    /// Cannot-link pairs `(lo, hi)` some mask of the view keeps.
+    cannot: Vec<(u32, u32)>,
+    /// Fragment pairs of the view, sorted ([`crate::fragments`]).
+    fragments: Vec<(u32, u32)>,
+    /// Candidate edges `(i, j)`, `i` of this view, `j > i`: backed by 3D overlap / descriptors only.
+    edges_3d: usize,
+    edges_descriptor: usize,
+    /// Cannot-link pairs `(i, j)`, `i` of this view, `j > i`.
+    cannot_links: usize,
+}
+
+/// Everything the scoring of one view reads.
+struct Scoring<'a> {
+    input: &'a MatchInput,
+    config: &'a MatchConfig,
+    offsets: &'a [usize],
+    view_of_mask: &'a [u32],
+    unit: &'a [f32],
+    evidence: Option<&'a Evidence>,
+    /// Edges and cannot-links each mask keeps.
+    keep: usize,
+}
+
+/// Scratch of one scoring task, reused from view to view.
+#[derive(Default)]
+struct Scratch {
+    /// `[n_masks]` `|S_j ∩ V_a|` for the view `a` being scored.
+    view_counts: Vec<u32>,
+    counts: MaskCounts,
+    /// `[n_masks of the view, n_views]` containers ([`crate::fragments`]).
+    containers: Vec<u32>,
+    /// `[n_masks]` cosines of the mask being scored with every mask.
+    cosines: Vec<f32>,
+}
+
+impl Scoring<'_> {
+    /// Scores every mask of view `a` against every mask of the other views.
+    fn view(&self, a: usize, scratch: &mut Scratch) -> ViewFindings {
+        let (dim, config) = (self.input.dim, self.config);
+        let n_views = self.input.views.len();
+        let masks = self.offsets[a]..self.offsets[a + 1];
+        let mut found = ViewFindings::default();
+        let rows = match (self.evidence, &self.input.observations) {
+            (Some(e), Some(obs)) => {
+                let (starts, rows) = e.rows_of_view(a, &obs[a]);
+                e.view_counts(a, &rows, &mut scratch.view_counts);
+                Some((e, starts, rows))
+            }
+            _ => None,
+        };
+        let fragments_on = rows.is_some() && config.fragment_majority <= 1.0;
+        if fragments_on {
+            scratch.containers.clear();
+            scratch.containers.resize(masks.len() * n_views, u32::MAX);
+        }
+        let mut edges = BestK::new(self.keep);
+        let mut cannot = BestK::new(self.keep);
+        for (k, i) in masks.clone().enumerate() {
+            if let Some((e, starts, rows)) = &rows {
+                e.mask_counts(a, &rows[starts[k + 1]..starts[k + 2]], &mut scratch.counts);
+                if fragments_on {
+                    let out = &mut scratch.containers[k * n_views..(k + 1) * n_views];
+                    containers_of_mask(&scratch.counts, a, self.offsets, config, out);
+                }
+            }
+            cosines_of_mask(self.unit, dim, i, &mut scratch.cosines);
+            for (j, &b) in self.view_of_mask.iter().enumerate() {
+                let b = b as usize;
+                if a == b {
+                    continue;
+                }
+                let cos = if dim > 0 { scratch.cosines[j] } else { 0.0 };
+                let (lo, hi) = if i < j { (i as u32, j as u32) } else { (j as u32, i as u32) };
+                let support =
+                    rows.as_ref().map_or(0, |_| scratch.counts.covisible[b].min(scratch.view_counts[j]));
+                if rows.is_some() && support >= config.min_support.max(1) {
+                    let overlap = scratch.counts.shared[j] as f32 / support as f32;
+                    if overlap >= config.tau_overlap && (dim == 0 || cos >= config.tau_match_with_3d) {
+                        edges.push(RankedEdge(Edge { tier: 0, score: overlap + cos, i: lo, j: hi }));
+                        found.edges_3d += usize::from(j > i);
+                    } else if overlap < config.tau_reject {
+                        cannot.push(RankedCannot { cos, pair: (lo, hi) });
+                        found.cannot_links += usize::from(j > i);
+                    }
+                } else if dim > 0 && cos > config.tau_match {
+                    edges.push(RankedEdge(Edge { tier: 1, score: cos, i: lo, j: hi }));
+                    found.edges_descriptor += usize::from(j > i);
+                }
+            }
+            found.edges.extend(edges.drain().map(|r| r.0));
+            found.cannot.extend(cannot.drain().map(|r| r.pair));
+        }
+        if fragments_on {
+            let similar = |i: usize, j: usize| dim == 0 || cosine(self.unit, dim, i, j) >= config.tau_match;
+            found.fragments =
+                fragment_pairs_of_view(&scratch.containers, n_views, a, masks.start, similar, config);
+        }
+        found
+    }
 }
 
 /// Matches the masks of all views into global objects (see the module docs for the rule).
 pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matching> {
     let unit = unit_features(input)?;
-    let dim = input.dim;
+    match_unit_masks(input, unit, config)
+}
+
+/// [`match_masks`] on an input it may consume: the descriptors are dropped once normalised, so one
+/// copy of the `[n_masks, dim]` descriptors is held while matching instead of two.
+pub fn match_masks_owned(mut input: MatchInput, config: &MatchConfig) -> MatchResult<Matching> {
+    let mut unit = Vec::with_capacity(input.views.iter().map(|v| v.len() * input.dim).sum());
+    for (view, masks) in input.views.iter_mut().enumerate() {
+        append_unit(view, masks, input.dim, &mut unit)?;
+        masks.features = Vec::new();
+    }
+    match_unit_masks(&input, unit, config)
+}
+
+/// Matching once the descriptors are normalised (`unit: [n_masks, dim]`); reads no
+/// `input.views[_].features`.
+fn match_unit_masks(input: &MatchInput, unit: Vec<f32>, config: &MatchConfig) -> MatchResult<Matching> {
     let offsets = mask_offsets(input);
     let view_of_mask: Vec<u32> =
         input.views.iter().enumerate().flat_map(|(v, m)| std::iter::repeat_n(v as u32, m.len())).collect();
@@ -200,44 +364,55 @@ pub fn match_masks(input: &MatchInput, config: &MatchConfig) -> MatchResult<Matc
         Some(obs) => Some(gather_evidence(input, obs, config.max_pair_samples)?),
         None => None,
     };
-    // Each mask's edges sorted; they are merged lazily into the global order below (no global
-    // list: at 1,000 views the candidate edges are tens of millions).
-    let per_mask: Vec<(Vec<Edge>, Vec<u32>)> = (0..view_of_mask.len())
+    let n_masks = view_of_mask.len();
+    let keep = ((config.max_candidate_edges / n_masks.max(1) as u64) as usize).max(MIN_KEPT_PER_MASK);
+    let scoring = Scoring {
+        input,
+        config,
+        offsets: &offsets,
+        view_of_mask: &view_of_mask,
+        unit: &unit,
+        evidence: evidence.as_ref(),
+        keep,
+    };
+    let per_view: Vec<ViewFindings> = (0..input.views.len())
         .into_par_iter()
-        .map(|i| {
-            let (mut edges, cannot) = edges_of_mask(i, &view_of_mask, &unit, dim, evidence.as_ref(), config);
-            edges.sort_by(edge_order);
-            // Kept until the merge: no growth slack (up to half of a list's capacity).
-            edges.shrink_to_fit();
-            (edges, cannot)
-        })
+        .map_init(Scratch::default, |scratch, a| scoring.view(a, scratch))
         .collect();
     let mut stats = MatchStats {
-        masks: view_of_mask.len(),
+        masks: n_masks,
         evidence_stride: evidence.as_ref().map_or(0, |e| e.stride),
         ..MatchStats::default()
     };
-    let mut uf = ConstrainedUnionFind::new(&view_of_mask);
-    let mut lists: Vec<Vec<Edge>> = Vec::with_capacity(per_mask.len());
-    for (i, (e, cannot)) in per_mask.into_iter().enumerate() {
-        for j in cannot {
-            uf.add_cannot_link(i as u32, j);
-            stats.cannot_links += 1;
-        }
-        stats.edges_3d += e.iter().filter(|e| e.tier == 0).count();
-        stats.edges_descriptor += e.iter().filter(|e| e.tier != 0).count();
-        lists.push(e);
-    }
-    if let Some(e) = &evidence {
-        let similar = |i: usize, j: usize| dim == 0 || cosine(&unit, dim, i, j) >= config.tau_match;
-        for (i, j) in fragment_pairs(e, &view_of_mask, &offsets, similar, config) {
-            if uf.union_fragments(i, j) == JoinOutcome::Joined {
-                stats.fragment_joins += 1;
-            }
-        }
-    }
     drop(evidence);
-    for e in merged_in_order(&lists) {
+    // Sized once: each view's findings are freed as they are moved in, so resident memory stays
+    // about one copy of the kept edges.
+    let mut edges = Vec::with_capacity(per_view.iter().map(|f| f.edges.len()).sum());
+    let mut cannot = Vec::with_capacity(per_view.iter().map(|f| f.cannot.len()).sum());
+    let mut fragments = Vec::new();
+    for found in per_view {
+        stats.edges_3d += found.edges_3d;
+        stats.edges_descriptor += found.edges_descriptor;
+        stats.cannot_links += found.cannot_links;
+        edges.extend(found.edges);
+        cannot.extend(found.cannot);
+        fragments.extend(found.fragments);
+    }
+    // A pair both masks keep comes twice, with the same score (the scoring is symmetric).
+    edges.sort_unstable_by(edge_order);
+    edges.dedup_by(|x, y| (x.i, x.j) == (y.i, y.j));
+    cannot.sort_unstable();
+    cannot.dedup();
+    let mut uf = ConstrainedUnionFind::new(&view_of_mask);
+    for (i, j) in cannot {
+        uf.add_cannot_link(i, j);
+    }
+    for (i, j) in fragments {
+        if uf.union_fragments(i, j) == JoinOutcome::Joined {
+            stats.fragment_joins += 1;
+        }
+    }
+    for e in edges {
         match uf.union(e.i, e.j) {
             JoinOutcome::Joined => stats.joins += 1,
             JoinOutcome::SameView => stats.refused_same_view += 1,
@@ -302,4 +477,25 @@ fn number_clusters(
         })
         .collect();
     Ok(Matching { global_of_label, n_objects, dim, object_features, stats })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosines_of_a_mask_equal_one_at_a_time_bit_for_bit() {
+        // 21 masks (two blocks of eight and a tail), some with zero or negative descriptors.
+        let dim = 13;
+        let mut unit: Vec<f32> = (0..21 * dim).map(|k| ((k * 7919 % 211) as f32 - 105.0) / 37.0).collect();
+        unit[3 * dim..4 * dim].iter_mut().for_each(|x| *x = 0.0);
+        unit[17 * dim..18 * dim].iter_mut().for_each(|x| *x = -0.0);
+        let mut out = Vec::new();
+        for i in 0..21 {
+            cosines_of_mask(&unit, dim, i, &mut out);
+            for (j, &c) in out.iter().enumerate() {
+                assert_eq!(c.to_bits(), cosine(&unit, dim, i, j).to_bits(), "masks {i}, {j}");
+            }
+        }
+    }
 }

@@ -276,3 +276,55 @@ fn observations_a_caller_sampled_are_subsampled_by_multiples_of_their_stride() {
     assert_eq!(direct.stats.evidence_stride, 8);
     assert_eq!(sampled.global_of_label, direct.global_of_label, "the same Gaussians were counted");
 }
+
+/// `n_views` views of the same four objects (descriptors with a little noise), each object's
+/// Gaussians seen in every view inside its mask.
+fn many_views(n_views: usize, seed: u64) -> MatchInput {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let centres = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+    let mut views = Vec::new();
+    let mut observations = Vec::new();
+    for _ in 0..n_views {
+        let mut masks = ViewMasks::default();
+        for c in &centres {
+            masks.features.extend(c.iter().map(|x| x + rng.gen_range(-0.1..0.1)));
+            masks.areas_px.push(100);
+        }
+        views.push(masks);
+        observations.push(observed(&[(0, 30, 1), (30, 30, 2), (60, 30, 3), (90, 30, 4)]));
+    }
+    MatchInput { dim: 4, views, observations: Some(observations) }
+}
+
+#[test]
+fn a_tight_candidate_budget_keeps_memory_bounded_and_still_finds_every_object() {
+    // 80 views × 4 masks: each mask has 79 candidate partners, the budget keeps 16 per mask.
+    for with_3d in [false, true] {
+        let mut input = many_views(80, 5);
+        if !with_3d {
+            input.observations = None;
+        }
+        let tight = MatchConfig { max_candidate_edges: 1, ..MatchConfig::default() };
+        let all = MatchConfig { max_candidate_edges: u64::MAX, ..MatchConfig::default() };
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let bounded = one.install(|| match_masks(&input, &tight).unwrap());
+        assert_eq!(bounded, two.install(|| match_masks(&input, &tight).unwrap()), "thread count");
+        let candidates = bounded.stats.edges_3d + bounded.stats.edges_descriptor;
+        assert_eq!(candidates, 4 * 80 * 79 / 2, "every candidate is counted (3D: {with_3d})");
+        // The union-find saw at most 16 edges per mask (of 79), yet every object is found.
+        assert_eq!(bounded.n_objects, 4, "3D: {with_3d}");
+        let unbounded = match_masks(&input, &all).unwrap();
+        assert_eq!(bounded.global_of_label, unbounded.global_of_label, "3D: {with_3d}");
+    }
+}
+
+#[test]
+fn the_default_budget_keeps_every_candidate_on_small_captures() {
+    // 25 views × 4 masks: 100 masks, 24 candidates each, well under 500,000 / 100 kept per mask.
+    let input = many_views(25, 6);
+    let default = match_masks(&input, &MatchConfig::default()).unwrap();
+    let all = match_masks(&input, &MatchConfig { max_candidate_edges: u64::MAX, ..MatchConfig::default() })
+        .unwrap();
+    assert_eq!(default, all);
+}

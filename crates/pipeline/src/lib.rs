@@ -338,9 +338,15 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
                 }),
             };
             outputs::write_view_maps(&config.out, &scene, &load, v, &final_map)?;
-            let mut ids: Vec<u32> = final_map.data.iter().copied().filter(|&x| x > 0).collect();
-            ids.sort_unstable();
-            ids.dedup();
+            // The view's distinct ids (kept for every view: a few, not a pixel's worth each).
+            let ids: Vec<u32> = final_map
+                .data
+                .iter()
+                .copied()
+                .filter(|&x| x > 0)
+                .collect::<std::collections::BTreeSet<u32>>()
+                .into_iter()
+                .collect();
             let counts = match &eval {
                 Some(e) => {
                     let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {

@@ -19,7 +19,7 @@ use splatseg_lift::{
     split_disconnected_objects, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
     PreparedGaussians, ViewCounts, VoteAccumulator,
 };
-use splatseg_match::{match_masks, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
+use splatseg_match::{match_masks_owned, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
 use splatseg_scene::Plane;
 use std::collections::BTreeMap;
@@ -28,7 +28,8 @@ use std::path::PathBuf;
 /// What the global stages keep of one view with masks.
 #[derive(Clone, Debug)]
 pub struct ViewResult {
-    /// `[k]` merged regions (descriptor, area, …), `regions[i].id == i + 1`.
+    /// `[k]` merged regions (descriptor, area, …), `regions[i].id == i + 1`; moved into the matcher
+    /// by [`match_views`].
     pub regions: Vec<RegionSummary>,
     /// Largest raw (SAM region) label of the view.
     pub raw_max: u32,
@@ -44,8 +45,9 @@ pub struct ViewResult {
 }
 
 /// Matches the merged masks of all views. Views without masks (`None`) take no part; with
-/// `with_3d`, the sampled Gaussians each mask sees are the 3D evidence (moved into the matcher's
-/// input, not copied).
+/// `with_3d`, the sampled Gaussians each mask sees are the 3D evidence. The regions' descriptors
+/// and the observations are moved into the matcher (and dropped there once used), not copied;
+/// `views[_].regions` are empty afterwards.
 pub fn match_views(
     views: &mut [Option<ViewResult>],
     with_3d: bool,
@@ -59,12 +61,17 @@ pub fn match_views(
         .next()
         .unwrap_or(0);
     let masks = views
-        .iter()
+        .iter_mut()
         .map(|m| match m {
-            Some(m) => ViewMasks {
-                features: m.regions.iter().flat_map(|r| r.descriptor.iter().copied()).collect(),
-                areas_px: m.regions.iter().map(|r| r.area).collect(),
-            },
+            Some(m) => {
+                let regions = std::mem::take(&mut m.regions);
+                // `[n_masks, dim]`, allocated once at its size (no growth slack held while matching).
+                let mut features = Vec::with_capacity(regions.len() * dim);
+                for r in &regions {
+                    features.extend_from_slice(&r.descriptor);
+                }
+                ViewMasks { features, areas_px: regions.iter().map(|r| r.area).collect() }
+            }
             None => ViewMasks::default(),
         })
         .collect();
@@ -72,7 +79,7 @@ pub fn match_views(
         views.iter_mut().map(|m| m.as_mut().and_then(|m| m.observations.take()).unwrap_or_default()).collect()
     });
     let input = MatchInput { dim, views: masks, observations };
-    Ok(match_masks(&input, config)?)
+    Ok(match_masks_owned(input, config)?)
 }
 
 /// `labels` as a `[1, n]` map.

@@ -69,6 +69,7 @@ impl Profiler {
     /// Ends the current stage and starts `name`.
     pub fn next(&mut self, name: &str) {
         self.end();
+        release_freed_memory();
         reset_peak_rss();
         self.current = Some((name.to_string(), Instant::now()));
     }
@@ -98,6 +99,18 @@ impl Profiler {
     pub fn finish(mut self) -> Vec<StageProfile> {
         self.end();
         self.stages
+    }
+}
+
+/// Returns the heap memory the finished stage freed to the operating system (glibc keeps freed
+/// chunks resident otherwise: after matching on 1,000 views that was ~70 MB the later stages
+/// never used). No-op where the allocator is not glibc's.
+pub fn release_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only returns free heap pages to the kernel; it touches no live
+    // allocation and may be called at any time from any thread.
+    unsafe {
+        libc::malloc_trim(0);
     }
 }
 

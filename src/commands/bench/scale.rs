@@ -102,9 +102,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!("| ↳ {part} (thread s, summed over threads) | {secs:.2} | |");
         }
     }
-    // The child resets its peak at every stage (and with it the kernel's maximum RSS of the
-    // process), so the whole run's peak is the largest of the stages' and the child's.
-    let peak = stages.iter().filter_map(|s| s.peak_rss_bytes).chain(peak).max();
+    // The child resets its peak at every stage, so the whole run's peak is the largest of the
+    // stages'. The child's own maximum RSS from the kernel is only a fallback (no stage peaks
+    // outside Linux): it also counts this process's peak at the moment the child was spawned (the
+    // kernel records the spawning image's high-water mark at exec), which after writing a large
+    // capture in this process is the capture writer's memory, not the run's.
+    let stage_peak = stages.iter().filter_map(|s| s.peak_rss_bytes).max();
+    let peak = stage_peak.or(peak);
     let peak_mb = peak.map_or("–".into(), |b| format!("{:.0}", b as f64 / 1048576.0));
     println!("| **whole run** (child process) | **{seconds:.2}** | **{peak_mb}** |");
     println!("\nrow: | {} | {w}×{h} | {} | {seconds:.1} | {peak_mb} |", args.views, args.gaussians);
