@@ -29,6 +29,7 @@ pub mod kernels;
 pub mod resample;
 pub mod sam;
 pub mod skinny;
+mod softmax512;
 pub mod weights;
 
 pub use error::{ModelKind, ModelsError, ModelsResult};
