@@ -125,9 +125,9 @@ mod imp {
         while c < cols {
             let m = lane_mask(cols - c);
             let mut max = _mm512_set1_ps(f32::NEG_INFINITY);
-            for r in 0..rows {
-                strip[r] = _mm512_mul_ps(_mm512_maskz_loadu_ps(m, ptr.add(r * cols + c)), scale_v);
-                max = _mm512_max_ps(max, strip[r]);
+            for (r, v) in strip.iter_mut().enumerate().take(rows) {
+                *v = _mm512_mul_ps(_mm512_maskz_loadu_ps(m, ptr.add(r * cols + c)), scale_v);
+                max = _mm512_max_ps(max, *v);
             }
             let mut total = _mm512_setzero_ps();
             for v in strip.iter_mut().take(rows) {
