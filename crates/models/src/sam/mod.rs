@@ -8,6 +8,7 @@
 pub mod amg;
 pub mod image_encoder;
 mod image_panels;
+mod image_update;
 pub mod mask_decoder;
 pub mod mask_output;
 pub mod masks;

@@ -24,8 +24,9 @@ use std::sync::Arc;
 use candle_core::{Device, Tensor};
 
 use super::image_panels::{ImageKeys, ImageValues};
+use super::image_update::{update_tokens, OnlineAttention, TILE};
 use super::mask_decoder::{MaskDecoder, NUM_HEADS};
-use super::packed_decoder::{add_into, added, project, PackedDecoder};
+use super::packed_decoder::{add_into, added, project, PackedAttention, PackedDecoder};
 use super::second_block::{second_image_scores, second_token_to_image, FirstBlockTrace};
 use crate::dense::{matmul, softmax_columns, softmax_runs, Linear, View, ViewMut};
 use crate::error::{ModelsError, ModelsResult};
@@ -248,9 +249,8 @@ impl MaskDecoder {
         let mut prompts = Vec::with_capacity(b);
         let mut iou = Vec::with_capacity(b * packed.num_masks);
         for prompt in sparse.chunks_exact(t_sparse * d) {
-            let decoded = decode_prompt(packed, image, prompt);
-            let final_tokens = final_attention(packed, image, &decoded, &[0]);
-            iou.extend(packed.iou(&final_tokens));
+            let (decoded, iou_token) = decode_prompt(packed, image, prompt);
+            iou.extend(packed.iou(&iou_token));
             prompts.push(decoded);
         }
         let iou = Tensor::from_vec(iou, (b, packed.num_masks), &Device::Cpu)?;
@@ -294,8 +294,9 @@ impl MaskDecoder {
     }
 }
 
-/// One prompt (`sparse` `[T', D]`) through both blocks.
-fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -> DecodedPrompt {
+/// One prompt (`sparse` `[T', D]`) through both blocks, and the IoU token through the final attention
+/// (`[D]`, fused with the last update of the image tokens).
+fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -> (DecodedPrompt, Vec<f32>) {
     let d = packed.dim;
     let n = image.cells();
     let mut tokens = packed.output_tokens.clone();
@@ -331,24 +332,12 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
         image.first_queries.head_scores(&mut a_first[h * t * n..(h + 1) * t * n], &k, t, (h, dh));
     }
     softmax_columns(&mut a_first, t, n, attn.scale());
-    let mut keys = image.first_residual.clone();
-    matmul(
-        n,
-        d,
-        ht,
-        ViewMut::rows(&mut keys, 0, d),
-        View::transposed(&a_first, 0, n),
-        View::rows(&u_first, 0, d),
-        true,
-        1.0,
-    );
+    let mut keys = Vec::new();
     let mut mean = vec![0f32; n];
     let mut inv_std = vec![0f32; n];
-    for (i, row) in keys.chunks_exact_mut(d).enumerate() {
-        let (m, s) = first.norm4.row(row);
-        mean[i] = m;
-        inv_std[i] = 1.0 / s;
-    }
+    let stats = (&mut mean[..], &mut inv_std[..]);
+    let residual = Some(&image.first_residual[..]);
+    update_tokens(&mut keys, residual, (&a_first, &u_first), None, &first.norm4, stats, |_, _| {});
     let gamma = &first.norm4.gamma;
     let scaled_rows: Vec<f32> =
         u_first.chunks_exact(d).flat_map(|row| row.iter().zip(gamma).map(|(u, g)| u * g)).collect();
@@ -366,25 +355,18 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
     let k = project(&attn.k, &added(&queries, &tokens), t, true);
     let weights = second_image_scores(packed, image, &trace, &k, t);
     let u_second = attn.output_rows(&project(&attn.v, &queries, t, true), t);
-    matmul(
-        n,
-        d,
-        ht,
-        ViewMut::rows(&mut keys, 0, d),
-        View::transposed(&weights, 0, n),
-        View::rows(&u_second, 0, d),
-        true,
-        1.0,
-    );
     let mut second_mean = vec![0f32; n];
     let mut second_inv_std = vec![0f32; n];
-    for (i, row) in keys.chunks_exact_mut(d).enumerate() {
-        add_into(row, &attn.out.bias);
-        let (m, s) = second.norm4.row(row);
-        second_mean[i] = m;
-        second_inv_std[i] = 1.0 / s;
-    }
-    DecodedPrompt {
+    // the IoU token's final attention reads each tile of the updated image tokens while it is in cache
+    let query = final_query(packed, image, (&queries, &tokens), &[0]);
+    let mut attention = query.attention(&packed.final_attn);
+    let stats = (&mut second_mean[..], &mut second_inv_std[..]);
+    let (rows, bias) = ((&weights[..], &u_second[..]), Some(&attn.out.bias[..]));
+    update_tokens(&mut keys, None, rows, bias, &second.norm4, stats, |cell0, tile| {
+        attention.add(cell0, tile)
+    });
+    let iou_token = final_output(packed, &query, attention.finish());
+    let decoded = DecodedPrompt {
         tokens,
         queries,
         keys,
@@ -396,7 +378,8 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
         second_rows: u_second,
         second_mean,
         second_inv_std,
-    }
+    };
+    (decoded, iou_token)
 }
 
 /// Attention output rows `[R, D]` through the scaled first transposed convolution `W'`: `[R, 4·c1]`.
@@ -466,65 +449,68 @@ fn first_upscaling_layer(
     }
 }
 
-/// The final token→image attention and norm for the tokens `which` (indices into the `T` tokens) of
-/// a decoded prompt: `[S, D]`.
-fn final_attention(
+/// The final token→image attention's query side for some of a prompt's tokens.
+struct FinalQuery {
+    /// The selected tokens `[S, D]` (the residual).
+    selected: Vec<f32>,
+    /// `[S, H·d]` queries with biases.
+    q: Vec<f32>,
+    /// Row `h·S + s`: `W_k,hᵀ q_s,h` `[H·S, D]`.
+    folded: Vec<f32>,
+    /// `q_s,h · (P·W_k,hᵀ)ᵢ` `[H·S, N]`.
+    pe_scores: Vec<f32>,
+    /// `q_s,h · b_k,h` `[H·S]`.
+    from_bias: Vec<f32>,
+}
+
+impl FinalQuery {
+    /// The attention over the image tokens, to be fed tile by tile.
+    fn attention<'a>(&'a self, attn: &PackedAttention) -> OnlineAttention<'a> {
+        OnlineAttention::new(&self.folded, &self.pe_scores, &self.from_bias, attn.scale())
+    }
+}
+
+/// [`FinalQuery`] of the tokens `which` (indices into the `T` tokens) of a prompt's tokens after the
+/// last block, `queries` `[T, D]`, with their positional terms `tokens` `[T, D]`.
+fn final_query(
     packed: &PackedDecoder,
     image: &DecoderImage,
-    prompt: &DecodedPrompt,
+    (queries, tokens): (&[f32], &[f32]),
     which: &[usize],
-) -> Vec<f32> {
+) -> FinalQuery {
     let d = packed.dim;
     let n = image.cells();
     let attn = &packed.final_attn;
     let (ci, dh) = (attn.internal, attn.head_dim());
     let ts = which.len();
     let row = |x: &[f32], i: usize| x[i * d..(i + 1) * d].to_vec();
-    let selected: Vec<f32> = which.iter().flat_map(|&i| row(&prompt.queries, i)).collect();
-    let with_pe: Vec<f32> =
-        which.iter().flat_map(|&i| added(&row(&prompt.queries, i), &row(&prompt.tokens, i))).collect();
+    let selected: Vec<f32> = which.iter().flat_map(|&i| row(queries, i)).collect();
+    let with_pe: Vec<f32> = which.iter().flat_map(|&i| added(&row(queries, i), &row(tokens, i))).collect();
     let q = project(&attn.q, &with_pe, ts, true);
-    // folded[(h, s)] = W_k,hᵀ q_s,h, [H·S, D]
     let mut folded = vec![0f32; NUM_HEADS * ts * d];
-    let mut scores = vec![0f32; NUM_HEADS * ts * n];
+    let mut pe_scores = vec![0f32; NUM_HEADS * ts * n];
+    let mut from_bias = vec![0f32; NUM_HEADS * ts];
     for h in 0..NUM_HEADS {
         let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
         let out = ViewMut { data: &mut folded, offset: h * ts * d, rs: d, cs: 1 };
         matmul(ts, d, dh, out, head, View::rows(&attn.k.weight, h * dh * d, d), false, 1.0);
-        image.final_pe_keys.head_scores(&mut scores[h * ts * n..(h + 1) * ts * n], &q, ts, (h, dh));
-    }
-    let keys = &prompt.keys;
-    matmul(
-        NUM_HEADS * ts,
-        n,
-        d,
-        ViewMut::rows(&mut scores, 0, n),
-        View::rows(&folded, 0, d),
-        View::transposed(keys, 0, d),
-        true,
-        1.0,
-    );
-    let scale = attn.scale();
-    for h in 0..NUM_HEADS {
+        image.final_pe_keys.head_scores(&mut pe_scores[h * ts * n..(h + 1) * ts * n], &q, ts, (h, dh));
         for s in 0..ts {
-            let from_bias =
+            from_bias[h * ts + s] =
                 dot(&q[s * ci + h * dh..s * ci + (h + 1) * dh], &attn.k.bias[h * dh..(h + 1) * dh]);
-            let r = h * ts + s;
-            scores[r * n..(r + 1) * n].iter_mut().for_each(|v| *v = (*v + from_bias) * scale);
         }
     }
-    softmax_runs(&mut scores, n, 1.0);
-    let mut mixed = vec![0f32; NUM_HEADS * ts * d];
-    matmul(
-        NUM_HEADS * ts,
-        d,
-        n,
-        ViewMut::rows(&mut mixed, 0, d),
-        View::rows(&scores, 0, n),
-        View::rows(keys, 0, d),
-        false,
-        1.0,
-    );
+    FinalQuery { selected, q, folded, pe_scores, from_bias }
+}
+
+/// The final attention's output for a [`FinalQuery`] from the attention's weighted means of the
+/// image tokens `mixed` `[H·S, D]` (row `h·S + s`): values, output projection, residual and norm,
+/// `[S, D]`.
+fn final_output(packed: &PackedDecoder, query: &FinalQuery, mixed: Vec<f32>) -> Vec<f32> {
+    let d = packed.dim;
+    let attn = &packed.final_attn;
+    let (ci, dh) = (attn.internal, attn.head_dim());
+    let ts = query.q.len() / ci;
     let mut heads = vec![0f32; ts * ci];
     for h in 0..NUM_HEADS {
         let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
@@ -542,8 +528,25 @@ fn final_attention(
     for row in heads.chunks_exact_mut(ci) {
         add_into(row, &attn.v.bias);
     }
-    let mut out = selected;
+    let mut out = query.selected.clone();
     add_into(&mut out, &project(&attn.out, &heads, ts, true));
     packed.final_norm.rows(&mut out);
     out
+}
+
+/// The final token→image attention and norm for the tokens `which` (indices into the `T` tokens) of
+/// a decoded prompt, over its stored image tokens: `[S, D]`.
+fn final_attention(
+    packed: &PackedDecoder,
+    image: &DecoderImage,
+    prompt: &DecodedPrompt,
+    which: &[usize],
+) -> Vec<f32> {
+    let d = packed.dim;
+    let query = final_query(packed, image, (&prompt.queries, &prompt.tokens), which);
+    let mut attention = query.attention(&packed.final_attn);
+    for (tile, cell0) in prompt.keys.chunks(TILE * d).zip((0..).step_by(TILE)) {
+        attention.add(cell0, tile);
+    }
+    final_output(packed, &query, attention.finish())
 }
