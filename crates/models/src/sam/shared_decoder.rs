@@ -31,6 +31,7 @@ use super::second_block::{second_image_scores, second_token_to_image, FirstBlock
 use crate::dense::{matmul, softmax_columns, softmax_runs, Linear, View, ViewMut};
 use crate::error::{ModelsError, ModelsResult};
 use crate::kernels::dot;
+use crate::skinny::MAX_ROWS;
 
 /// Per-image, prompt-independent inputs of the decoder's attentions; projections are `[N, H·d]`.
 #[derive(Debug, Clone)]
@@ -248,10 +249,15 @@ impl MaskDecoder {
         let sparse = sparse.flatten_all()?.to_vec1::<f32>()?;
         let mut prompts = Vec::with_capacity(b);
         let mut iou = Vec::with_capacity(b * packed.num_masks);
-        for prompt in sparse.chunks_exact(t_sparse * d) {
-            let (decoded, iou_token) = decode_prompt(packed, image, prompt);
-            iou.extend(packed.iou(&iou_token));
-            prompts.push(decoded);
+        // batches whose B·T rows the few-row kernel takes in one call
+        let t = packed.output_tokens.len() / d + t_sparse;
+        let batch = (MAX_ROWS / t.max(1)).max(1);
+        for chunk in sparse.chunks(batch * t_sparse * d) {
+            let count = chunk.len() / (t_sparse * d).max(1);
+            for (decoded, iou_token) in decode_batch(packed, image, chunk, count) {
+                iou.extend(packed.iou(&iou_token));
+                prompts.push(decoded);
+            }
         }
         let iou = Tensor::from_vec(iou, (b, packed.num_masks), &Device::Cpu)?;
         Ok(DecodedTokens { prompts, iou })
@@ -294,14 +300,26 @@ impl MaskDecoder {
     }
 }
 
-/// One prompt (`sparse` `[T', D]`) through both blocks, and the IoU token through the final attention
-/// (`[D]`, fused with the last update of the image tokens).
-fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -> (DecodedPrompt, Vec<f32>) {
+/// A batch of prompts (`sparse` `[B, T', D]`) through both blocks, and each one's IoU token through
+/// the final attention (`[D]`, fused with the last update of its image tokens). The token-side layers
+/// and the products with the per-image panels run on the `B·T` rows of the whole batch (each weight
+/// matrix and panel read once per batch); what involves a prompt's own image tokens, per prompt.
+fn decode_batch(
+    packed: &PackedDecoder,
+    image: &DecoderImage,
+    sparse: &[f32],
+    prompts: usize,
+) -> Vec<(DecodedPrompt, Vec<f32>)> {
     let d = packed.dim;
     let n = image.cells();
-    let mut tokens = packed.output_tokens.clone();
-    tokens.extend_from_slice(sparse);
-    let t = tokens.len() / d;
+    let per_prompt = sparse.len() / prompts.max(1);
+    let mut tokens = Vec::with_capacity(prompts * (packed.output_tokens.len() + per_prompt));
+    for prompt in sparse.chunks_exact(per_prompt) {
+        tokens.extend_from_slice(&packed.output_tokens);
+        tokens.extend_from_slice(prompt);
+    }
+    let bt = tokens.len() / d;
+    let t = bt / prompts;
     let ht = NUM_HEADS * t;
     let [first, second] = &packed.blocks;
     let mut queries = tokens.clone();
@@ -310,76 +328,99 @@ fn decode_prompt(packed: &PackedDecoder, image: &DecoderImage, sparse: &[f32]) -
     first.self_attention(&mut queries, &tokens, t);
     let attn = &first.token_to_image;
     let (ci, dh) = (attn.internal, attn.head_dim());
-    let q = project(&attn.q, &added(&queries, &tokens), t, true);
-    let mut scores = vec![0f32; t * n];
-    let mut heads = vec![0f32; t * ci];
+    let q = project(&attn.q, &added(&queries, &tokens), bt, true);
+    let mut scores = vec![0f32; bt * n];
+    let mut heads = vec![0f32; bt * ci];
     for h in 0..NUM_HEADS {
-        image.first_keys.head_scores(&mut scores, &q, t, (h, dh));
+        image.first_keys.head_scores(&mut scores, &q, bt, (h, dh));
         softmax_runs(&mut scores, n, attn.scale());
-        image.first_values.head_mix(&mut heads, (&scores, 0), t, (h, dh));
+        image.first_values.head_mix(&mut heads, (&scores, 0), bt, (h, dh));
     }
-    add_into(&mut queries, &project(&attn.out, &heads, t, true));
+    drop(scores);
+    add_into(&mut queries, &project(&attn.out, &heads, bt, true));
     first.norm2.rows(&mut queries);
-    first.mlp(&mut queries, t);
+    first.mlp(&mut queries, bt);
 
     let attn = &first.image_to_token;
     let dh = attn.head_dim();
-    let k = project(&attn.k, &added(&queries, &tokens), t, true);
-    let u_first = attn.output_rows(&project(&attn.v, &queries, t, true), t);
-    // A₁ᵀ [H·T, N]: each head's T rows of scores, softmax down each column
-    let mut a_first = vec![0f32; ht * n];
+    let k = project(&attn.k, &added(&queries, &tokens), bt, true);
+    let v = project(&attn.v, &queries, bt, true);
+    // A₁ᵀ [H·T, N] per prompt: each head's T rows of scores, softmax down each column
+    let mut a_first = vec![vec![0f32; ht * n]; prompts];
     for h in 0..NUM_HEADS {
-        image.first_queries.head_scores(&mut a_first[h * t * n..(h + 1) * t * n], &k, t, (h, dh));
+        let mut blocks: Vec<&mut [f32]> =
+            a_first.iter_mut().map(|a| &mut a[h * t * n..(h + 1) * t * n]).collect();
+        image.first_queries.head_scores_batch(&mut blocks, &k, t, (h, dh));
     }
-    softmax_columns(&mut a_first, t, n, attn.scale());
-    let mut keys = Vec::new();
-    let mut mean = vec![0f32; n];
-    let mut inv_std = vec![0f32; n];
-    let stats = (&mut mean[..], &mut inv_std[..]);
-    let residual = Some(&image.first_residual[..]);
-    update_tokens(&mut keys, residual, (&a_first, &u_first), None, &first.norm4, stats, |_, _| {});
     let gamma = &first.norm4.gamma;
-    let scaled_rows: Vec<f32> =
-        u_first.chunks_exact(d).flat_map(|row| row.iter().zip(gamma).map(|(u, g)| u * g)).collect();
-    let trace =
-        FirstBlockTrace { weights: &a_first, scaled_rows: &scaled_rows, mean: &mean, inv_std: &inv_std };
+    let mut firsts = Vec::with_capacity(prompts);
+    for (p, a_first) in a_first.into_iter().enumerate() {
+        let mut a_first = a_first;
+        softmax_columns(&mut a_first, t, n, attn.scale());
+        let u_first = attn.output_rows(&v[p * t * ci..(p + 1) * t * ci], t);
+        let mut keys = Vec::new();
+        let mut mean = vec![0f32; n];
+        let mut inv_std = vec![0f32; n];
+        let stats = (&mut mean[..], &mut inv_std[..]);
+        let residual = Some(&image.first_residual[..]);
+        update_tokens(&mut keys, residual, (&a_first, &u_first), None, &first.norm4, stats, |_, _| {});
+        let scaled_rows: Vec<f32> =
+            u_first.chunks_exact(d).flat_map(|row| row.iter().zip(gamma).map(|(u, g)| u * g)).collect();
+        firsts.push((keys, a_first, scaled_rows, mean, inv_std));
+    }
+    let traces: Vec<FirstBlockTrace> = firsts
+        .iter()
+        .map(|(_, weights, scaled_rows, mean, inv_std)| FirstBlockTrace {
+            weights,
+            scaled_rows,
+            mean,
+            inv_std,
+        })
+        .collect();
 
     // ---- second block: the image side through the first block's weights
     second.self_attention(&mut queries, &tokens, t);
-    let attended = second_token_to_image(packed, image, &trace, &added(&queries, &tokens), t);
+    let attended = second_token_to_image(packed, image, &traces, &added(&queries, &tokens), t);
     add_into(&mut queries, &attended);
     second.norm2.rows(&mut queries);
-    second.mlp(&mut queries, t);
+    second.mlp(&mut queries, bt);
 
     let attn = &second.image_to_token;
-    let k = project(&attn.k, &added(&queries, &tokens), t, true);
-    let weights = second_image_scores(packed, image, &trace, &k, t);
-    let u_second = attn.output_rows(&project(&attn.v, &queries, t, true), t);
-    let mut second_mean = vec![0f32; n];
-    let mut second_inv_std = vec![0f32; n];
-    // the IoU token's final attention reads each tile of the updated image tokens while it is in cache
-    let query = final_query(packed, image, (&queries, &tokens), &[0]);
-    let mut attention = query.attention(&packed.final_attn);
-    let stats = (&mut second_mean[..], &mut second_inv_std[..]);
-    let (rows, bias) = ((&weights[..], &u_second[..]), Some(&attn.out.bias[..]));
-    update_tokens(&mut keys, None, rows, bias, &second.norm4, stats, |cell0, tile| {
-        attention.add(cell0, tile)
-    });
-    let iou_token = final_output(packed, &query, attention.finish());
-    let decoded = DecodedPrompt {
-        tokens,
-        queries,
-        keys,
-        first_weights: a_first,
-        first_scaled_rows: scaled_rows,
-        first_mean: mean,
-        first_inv_std: inv_std,
-        second_weights: weights,
-        second_rows: u_second,
-        second_mean,
-        second_inv_std,
-    };
-    (decoded, iou_token)
+    let k = project(&attn.k, &added(&queries, &tokens), bt, true);
+    let weights = second_image_scores(packed, image, &traces, &k, t);
+    drop(traces);
+    let v = project(&attn.v, &queries, bt, true);
+    let final_queries = final_queries(packed, image, (&queries, &tokens), t, &[0]);
+    let mut out = Vec::with_capacity(prompts);
+    let parts = firsts.into_iter().zip(weights).zip(final_queries).enumerate();
+    for (p, (((mut keys, a_first, scaled_rows, mean, inv_std), weights), query)) in parts {
+        let u_second = attn.output_rows(&v[p * t * ci..(p + 1) * t * ci], t);
+        let mut second_mean = vec![0f32; n];
+        let mut second_inv_std = vec![0f32; n];
+        // the IoU token's final attention reads each tile of the updated image tokens while it is in cache
+        let mut attention = query.attention(&packed.final_attn);
+        let stats = (&mut second_mean[..], &mut second_inv_std[..]);
+        let (rows, bias) = ((&weights[..], &u_second[..]), Some(&attn.out.bias[..]));
+        update_tokens(&mut keys, None, rows, bias, &second.norm4, stats, |cell0, tile| {
+            attention.add(cell0, tile)
+        });
+        let iou_token = final_output(packed, &query, attention.finish());
+        let decoded = DecodedPrompt {
+            tokens: tokens[p * t * d..(p + 1) * t * d].to_vec(),
+            queries: queries[p * t * d..(p + 1) * t * d].to_vec(),
+            keys,
+            first_weights: a_first,
+            first_scaled_rows: scaled_rows,
+            first_mean: mean,
+            first_inv_std: inv_std,
+            second_weights: weights,
+            second_rows: u_second,
+            second_mean,
+            second_inv_std,
+        };
+        out.push((decoded, iou_token));
+    }
+    out
 }
 
 /// Attention output rows `[R, D]` through the scaled first transposed convolution `W'`: `[R, 4·c1]`.
@@ -470,37 +511,59 @@ impl FinalQuery {
     }
 }
 
-/// [`FinalQuery`] of the tokens `which` (indices into the `T` tokens) of a prompt's tokens after the
-/// last block, `queries` `[T, D]`, with their positional terms `tokens` `[T, D]`.
-fn final_query(
+/// [`FinalQuery`] of the tokens `which` (indices into the `T` tokens) of each prompt of a batch, from
+/// their tokens after the last block, `queries` `[B·T, D]`, with their positional terms `tokens`
+/// `[B·T, D]` (prompt after prompt).
+fn final_queries(
     packed: &PackedDecoder,
     image: &DecoderImage,
     (queries, tokens): (&[f32], &[f32]),
+    t: usize,
     which: &[usize],
-) -> FinalQuery {
+) -> Vec<FinalQuery> {
     let d = packed.dim;
     let n = image.cells();
     let attn = &packed.final_attn;
     let (ci, dh) = (attn.internal, attn.head_dim());
     let ts = which.len();
-    let row = |x: &[f32], i: usize| x[i * d..(i + 1) * d].to_vec();
-    let selected: Vec<f32> = which.iter().flat_map(|&i| row(queries, i)).collect();
-    let with_pe: Vec<f32> = which.iter().flat_map(|&i| added(&row(queries, i), &row(tokens, i))).collect();
-    let q = project(&attn.q, &with_pe, ts, true);
-    let mut folded = vec![0f32; NUM_HEADS * ts * d];
-    let mut pe_scores = vec![0f32; NUM_HEADS * ts * n];
-    let mut from_bias = vec![0f32; NUM_HEADS * ts];
-    for h in 0..NUM_HEADS {
-        let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
-        let out = ViewMut { data: &mut folded, offset: h * ts * d, rs: d, cs: 1 };
-        matmul(ts, d, dh, out, head, View::rows(&attn.k.weight, h * dh * d, d), false, 1.0);
-        image.final_pe_keys.head_scores(&mut pe_scores[h * ts * n..(h + 1) * ts * n], &q, ts, (h, dh));
-        for s in 0..ts {
-            from_bias[h * ts + s] =
-                dot(&q[s * ci + h * dh..s * ci + (h + 1) * dh], &attn.k.bias[h * dh..(h + 1) * dh]);
-        }
+    let prompts = queries.len() / (t * d);
+    fn row(x: &[f32], (t, d): (usize, usize), p: usize, i: usize) -> &[f32] {
+        &x[(p * t + i) * d..(p * t + i + 1) * d]
     }
-    FinalQuery { selected, q, folded, pe_scores, from_bias }
+    let td = (t, d);
+    let selected: Vec<Vec<f32>> =
+        (0..prompts).map(|p| which.iter().flat_map(|&i| row(queries, td, p, i).to_vec()).collect()).collect();
+    let with_pe: Vec<f32> = (0..prompts)
+        .flat_map(|p| which.iter().flat_map(move |&i| added(row(queries, td, p, i), row(tokens, td, p, i))))
+        .collect();
+    let q_all = project(&attn.q, &with_pe, prompts * ts, true);
+    let mut pe_scores = vec![vec![0f32; NUM_HEADS * ts * n]; prompts];
+    for h in 0..NUM_HEADS {
+        let mut blocks: Vec<&mut [f32]> =
+            pe_scores.iter_mut().map(|s| &mut s[h * ts * n..(h + 1) * ts * n]).collect();
+        image.final_pe_keys.head_scores_batch(&mut blocks, &q_all, ts, (h, dh));
+    }
+    selected
+        .into_iter()
+        .zip(pe_scores)
+        .enumerate()
+        .map(|(p, (selected, pe_scores))| {
+            let q = q_all[p * ts * ci..(p + 1) * ts * ci].to_vec();
+            // folded[(h, s)] = W_k,hᵀ q_s,h, [H·S, D]
+            let mut folded = vec![0f32; NUM_HEADS * ts * d];
+            let mut from_bias = vec![0f32; NUM_HEADS * ts];
+            for h in 0..NUM_HEADS {
+                let head = View { data: &q, offset: h * dh, rs: ci, cs: 1 };
+                let out = ViewMut { data: &mut folded, offset: h * ts * d, rs: d, cs: 1 };
+                matmul(ts, d, dh, out, head, View::rows(&attn.k.weight, h * dh * d, d), false, 1.0);
+                for s in 0..ts {
+                    from_bias[h * ts + s] =
+                        dot(&q[s * ci + h * dh..s * ci + (h + 1) * dh], &attn.k.bias[h * dh..(h + 1) * dh]);
+                }
+            }
+            FinalQuery { selected, q, folded, pe_scores, from_bias }
+        })
+        .collect()
 }
 
 /// The final attention's output for a [`FinalQuery`] from the attention's weighted means of the
@@ -543,7 +606,10 @@ fn final_attention(
     which: &[usize],
 ) -> Vec<f32> {
     let d = packed.dim;
-    let query = final_query(packed, image, (&prompt.queries, &prompt.tokens), which);
+    let t = prompt.tokens.len() / d;
+    let Some(query) = final_queries(packed, image, (&prompt.queries, &prompt.tokens), t, which).pop() else {
+        return Vec::new();
+    };
     let mut attention = query.attention(&packed.final_attn);
     for (tile, cell0) in prompt.keys.chunks(TILE * d).zip((0..).step_by(TILE)) {
         attention.add(cell0, tile);
