@@ -264,7 +264,7 @@ pub fn softmax_runs(x: &mut [f32], len: usize, scale: f32) {
     if crate::skinny::has_avx512() {
         for run in x.chunks_exact_mut(len) {
             // SAFETY: the CPU supports AVX-512F (just detected).
-            unsafe { crate::softmax512::softmax_run(run, scale) };
+            unsafe { crate::math512::softmax_run(run, scale) };
         }
         return;
     }
@@ -286,10 +286,10 @@ pub fn softmax_columns(x: &mut [f32], rows: usize, cols: usize, scale: f32) {
         return;
     }
     #[cfg(target_arch = "x86_64")]
-    if rows <= crate::softmax512::MAX_COLUMN_ROWS && crate::skinny::has_avx512() {
+    if rows <= crate::math512::MAX_COLUMN_ROWS && crate::skinny::has_avx512() {
         for block in x.chunks_exact_mut(rows * cols) {
             // SAFETY: the CPU supports AVX-512F (just detected); the block is [rows, cols], rows ≤ 16.
-            unsafe { crate::softmax512::softmax_columns(block, rows, cols, scale) };
+            unsafe { crate::math512::softmax_columns(block, rows, cols, scale) };
         }
         return;
     }

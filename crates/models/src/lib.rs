@@ -26,10 +26,10 @@ pub mod dinov2;
 pub mod error;
 pub mod image;
 pub mod kernels;
+mod math512;
 pub mod resample;
 pub mod sam;
 pub mod skinny;
-mod softmax512;
 pub mod weights;
 
 pub use error::{ModelKind, ModelsError, ModelsResult};

@@ -1,8 +1,9 @@
-//! Softmax pieces with AVX-512 intrinsics, 16 lanes: the exponential of [`crate::kernels::exp_non_positive`]
-//! (same range reduction and polynomial, evaluated with fused multiply-adds and `vscalefps`), the
-//! in-place `exp(v − shift)` with its sum, and the two softmax shapes of SAM's decoder fused into as few
-//! passes as they allow: along the columns of a few rows (one pass: each 16-column strip's rows stay in
-//! registers) and along long runs (maximum, exponentials with their sum, normalisation).
+//! Softmax and GELU pieces with AVX-512 intrinsics, 16 lanes: the exponential of
+//! [`crate::kernels::exp_non_positive`] (same range reduction and polynomial, evaluated with fused
+//! multiply-adds and `vscalefps`), the in-place `exp(v − shift)` with its sum, the two softmax shapes
+//! of SAM's decoder fused into as few passes as they allow — along the columns of a few rows (one pass:
+//! each 16-column strip's rows stay in registers) and along long runs (maximum, exponentials with
+//! their sum, normalisation) — and the exact GELU of [`crate::kernels::gelu_in_place`] (its `erf`).
 //!
 //! Results agree with the portable code to a few ulp (the sums run in 16 lanes instead of 8, the
 //! polynomial with fused multiply-adds); on one CPU they are the same whatever the thread count.
@@ -107,6 +108,39 @@ mod imp {
         }
     }
 
+    /// `x · (1 + erf(x / √2)) / 2` in place, `erf` as [`crate::kernels::erf`] (Abramowitz & Stegun
+    /// 7.1.26).
+    ///
+    /// # Safety
+    /// AVX-512F present.
+    #[target_feature(enable = "avx512f")]
+    pub(crate) unsafe fn gelu_in_place(values: &mut [f32]) {
+        const P: f32 = 0.327_591_1;
+        const A: [f32; 5] = [0.254_829_6, -0.284_496_74, 1.421_413_8, -1.453_152_1, 1.061_405_4];
+        let ptr = values.as_mut_ptr();
+        let sign_bit = _mm512_set1_ps(-0.0);
+        let one = _mm512_set1_ps(1.0);
+        let mut i = 0;
+        while i < values.len() {
+            let m = lane_mask(values.len() - i);
+            let v = _mm512_maskz_loadu_ps(m, ptr.add(i));
+            let x = _mm512_mul_ps(v, _mm512_set1_ps(std::f32::consts::FRAC_1_SQRT_2));
+            let magnitude = _mm512_andnot_ps(sign_bit, x);
+            let t = _mm512_div_ps(one, _mm512_fmadd_ps(_mm512_set1_ps(P), magnitude, one));
+            let mut poly = _mm512_set1_ps(A[4]);
+            for a in [A[3], A[2], A[1], A[0]] {
+                poly = _mm512_fmadd_ps(poly, t, _mm512_set1_ps(a));
+            }
+            poly = _mm512_mul_ps(poly, t);
+            let e = exp16(_mm512_sub_ps(_mm512_setzero_ps(), _mm512_mul_ps(magnitude, magnitude)));
+            let erf_magnitude = _mm512_fnmadd_ps(poly, e, one);
+            let erf = _mm512_or_ps(erf_magnitude, _mm512_and_ps(sign_bit, x));
+            let out = _mm512_mul_ps(_mm512_mul_ps(_mm512_add_ps(erf, one), _mm512_set1_ps(0.5)), v);
+            _mm512_mask_storeu_ps(ptr.add(i), m, out);
+            i += 16;
+        }
+    }
+
     /// Rows held in registers by [`softmax_columns`]; taller blocks take the portable path.
     pub(crate) const MAX_COLUMN_ROWS: usize = 16;
 
@@ -167,6 +201,24 @@ mod tests {
                 assert!((e - want).abs() <= 2.0 * f32::EPSILON * want, "exp({x} + 0.25): {e} vs {want}");
             }
             assert!((f64::from(total) - sum).abs() <= 1e-5 * sum.max(1.0), "sum of {len}: {total} vs {sum}");
+        }
+    }
+
+    #[test]
+    fn gelu_matches_the_portable_one() {
+        if !has_avx512() {
+            eprintln!("skipping: this CPU has no AVX-512 (the portable GELU runs instead)");
+            return;
+        }
+        let values: Vec<f32> = (-20_000..=20_000).map(|i| i as f32 * 6e-4).collect();
+        for len in [0usize, 1, 15, 17, values.len()] {
+            let mut ours = values[..len].to_vec();
+            // SAFETY: AVX-512F checked above.
+            unsafe { super::gelu_in_place(&mut ours) };
+            for (&x, &g) in values[..len].iter().zip(&ours) {
+                let want = (crate::kernels::erf(x * std::f32::consts::FRAC_1_SQRT_2) + 1.0) * 0.5 * x;
+                assert!((g - want).abs() <= 1e-6 * want.abs().max(1.0), "gelu({x}): {g} vs {want}");
+            }
         }
     }
 
