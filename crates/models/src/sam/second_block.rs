@@ -81,11 +81,9 @@ pub(super) fn second_token_to_image(
                 let from_gamma = dot(qv, &image.keys_gamma[h * dh..(h + 1) * dh]);
                 let scores = &mut base[row * n..(row + 1) * n];
                 let varying = &varying[row * n..(row + 1) * n];
-                for i in 0..n {
-                    scores[i] = scale
-                        * (scores[i]
-                            + from_beta
-                            + (varying[i] - trace.mean[i] * from_gamma) * trace.inv_std[i]);
+                let terms = varying.iter().zip(trace.mean).zip(trace.inv_std);
+                for (s, ((v, m), inv)) in scores.iter_mut().zip(terms) {
+                    *s = scale * (*s + from_beta + (v - m * from_gamma) * inv);
                 }
             }
         }
@@ -192,8 +190,9 @@ pub(super) fn second_image_scores(
         }
         for (col, (row, varying)) in scores.chunks_exact_mut(n).zip(varying.chunks_exact(n)).enumerate() {
             let (beta, gamma) = (from_beta[col], from_gamma[col]);
-            for i in 0..n {
-                row[i] = scale * (row[i] + beta + (varying[i] - trace.mean[i] * gamma) * trace.inv_std[i]);
+            let terms = varying.iter().zip(trace.mean).zip(trace.inv_std);
+            for (s, ((v, m), inv)) in row.iter_mut().zip(terms) {
+                *s = scale * (*s + beta + (v - m * gamma) * inv);
             }
         }
         softmax_columns(scores, t, n, 1.0);
