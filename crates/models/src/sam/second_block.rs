@@ -19,9 +19,9 @@ pub(super) struct FirstBlockTrace<'a> {
     pub(super) inv_std: &'a [f32],
 }
 
-/// Per prompt, `[H·T, N]` buffers of zeros.
+/// Per prompt, `[H·T, N]` buffers of zeros (each allocated zeroed: `vec![v; n]` would copy `v`).
 fn per_prompt(prompts: usize, ht: usize, n: usize) -> Vec<Vec<f32>> {
-    vec![vec![0f32; ht * n]; prompts]
+    (0..prompts).map(|_| vec![0f32; ht * n]).collect()
 }
 
 /// Head `h`'s `[T, N]` block of each prompt's `[H·T, N]` buffer.

@@ -346,7 +346,7 @@ fn decode_batch(
     let k = project(&attn.k, &added(&queries, &tokens), bt, true);
     let v = project(&attn.v, &queries, bt, true);
     // A₁ᵀ [H·T, N] per prompt: each head's T rows of scores, softmax down each column
-    let mut a_first = vec![vec![0f32; ht * n]; prompts];
+    let mut a_first: Vec<Vec<f32>> = (0..prompts).map(|_| vec![0f32; ht * n]).collect();
     for h in 0..NUM_HEADS {
         let mut blocks: Vec<&mut [f32]> =
             a_first.iter_mut().map(|a| &mut a[h * t * n..(h + 1) * t * n]).collect();
@@ -537,7 +537,7 @@ fn final_queries(
         .flat_map(|p| which.iter().flat_map(move |&i| added(row(queries, td, p, i), row(tokens, td, p, i))))
         .collect();
     let q_all = project(&attn.q, &with_pe, prompts * ts, true);
-    let mut pe_scores = vec![vec![0f32; NUM_HEADS * ts * n]; prompts];
+    let mut pe_scores: Vec<Vec<f32>> = (0..prompts).map(|_| vec![0f32; NUM_HEADS * ts * n]).collect();
     for h in 0..NUM_HEADS {
         let mut blocks: Vec<&mut [f32]> =
             pe_scores.iter_mut().map(|s| &mut s[h * ts * n..(h + 1) * ts * n]).collect();
