@@ -1,5 +1,8 @@
-//! The mask decoder with its prompt-independent work done once per image, one prompt at a time on
-//! plain f32 buffers (matrix products by `gemm`, no per-op tensors).
+//! The mask decoder with its prompt-independent work done once per image, in batches of prompts on
+//! plain f32 buffers (matrix products by `gemm` and the few-row kernel, no per-op tensors): a batch's
+//! token-side layers and its products with the per-image panels run on all of its prompts' rows at
+//! once; what involves a prompt's own `[N, D]` image tokens runs per prompt, a tile of cells at a time
+//! ([`super::image_update`]).
 //!
 //! Same results as [`MaskDecoder::forward`] up to floating-point reassociation (tested against it).
 //! With `E` the image tokens `[N, D]`, `P` their positional encoding, `T` tokens, `H` heads of width
@@ -13,9 +16,9 @@
 //!   `W X₁ᵢ = (W(γ⊙(E + b_o))ᵢ + A₁ᵢ·W(γ⊙U₁) − μᵢ Wγ)/σᵢ + Wβ`: the `[N, H·d]` projections of
 //!   `γ⊙(E + b_o)` and of `P` are shared, and per prompt the token→image scores and values and the
 //!   image→token scores need only `H·T`-wide products with `A₁` instead of `D`-wide ones with `X₁`.
-//! - Final attention: only the tokens whose outputs are used (the IoU token while decoding; the mask
-//!   tokens of the masks asked for later) attend, with the scores `(W_k,hᵀ q)·x` folded into `D`-wide
-//!   vectors.
+//! - Final attention: only the tokens whose outputs are used (the IoU token while decoding, fused with
+//!   the last update of the image tokens; the mask tokens of the masks asked for later) attend, with
+//!   the scores `(W_k,hᵀ q)·x` folded into `D`-wide vectors.
 //! - The IoU head needs only the tokens: masks are upscaled afterwards, and only for the prompts and
 //!   mask outputs the caller asks for (the automatic mask generator's predicted-IoU filter runs first).
 
