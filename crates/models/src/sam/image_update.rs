@@ -1,8 +1,10 @@
 //! The per-prompt updates of the decoder's `[N, D]` image tokens, a tile of cells at a time so each
 //! tile stays in cache from the attention product through the layer norm to whatever reads it next
 //! (the final attention, [`OnlineAttention`]): `X ← LN(X + Aᵀ·U + b)` with the image→token weights
-//! `Aᵀ` `[H·T, N]` and output rows `U` `[H·T, D]`. Done over the whole matrix in separate passes, the
-//! 4 MB of image tokens went through the cache six times per prompt.
+//! `Aᵀ` `[H·T, N]` and output rows `U` `[H·T, D]`, both blocks' in one pass (the first norm's
+//! statistics are known before, so the first block's image tokens are never stored). Done over the
+//! whole matrix in separate passes, the 4 MB of image tokens went through the cache six times per
+//! prompt.
 //!
 //! Same arithmetic per element as the untiled passes (each tile's product sums over the same `H·T`
 //! terms), so the results are those of the whole-matrix products up to their blocking.
@@ -13,14 +15,29 @@ use crate::kernels::{exp_shifted_in_place, max_of};
 /// Cells per tile: a `[TILE, D]` tile of 256-wide tokens is 256 KB, in L2 (1 MB per core here).
 pub(super) const TILE: usize = 256;
 
-/// One layer-norm update of the image tokens `keys` `[N, D]` in place, a tile at a time:
-/// `keys[i] ← LN(start[i] + Σ_j weights[j, i]·rows[j] + bias)` with `start` = `base` `[N, D]` when
-/// given (then `keys` starts empty and is filled tile by tile), else `keys` itself. `weights` `[R, N]`,
-/// `rows` `[R, D]`. Writes each row's mean and inverse standard deviation (before the norm) to `mean`,
-/// `inv_std` `[N]`, then hands each normalised tile to `then(cell0, tile)` (`tile` `[cells, D]`).
+/// The first block's image→token update, `X₁ = LN(E + b_o + A₁ᵀU₁)`, with its norm's row
+/// statistics known beforehand (from [`super::shared_decoder`]'s Gram-matrix form).
+pub(super) struct FirstUpdate<'a> {
+    /// `E + b_o` `[N, D]`.
+    pub(super) residual: &'a [f32],
+    /// `A₁ᵀ` `[R, N]`.
+    pub(super) weights: &'a [f32],
+    /// `U₁` `[R, D]`.
+    pub(super) rows: &'a [f32],
+    pub(super) norm: &'a LayerNorm,
+    /// Row means and inverse standard deviations `[N]`.
+    pub(super) mean: &'a [f32],
+    pub(super) inv_std: &'a [f32],
+}
+
+/// Both image→token updates of the image tokens, a tile at a time, into `keys` (filled tile by
+/// tile, `[N, D]`): `X₁ = LN₁(E + b_o + A₁ᵀU₁)` with the known statistics of `first`, then
+/// `keys[i] = LN₂(X₁ᵢ + Σ_j weights[j, i]·rows[j] + bias)`. `weights` `[R, N]`, `rows` `[R, D]`. Writes
+/// each row's second mean and inverse standard deviation to `mean`, `inv_std` `[N]`, then hands each
+/// normalised tile to `then(cell0, tile)` (`tile` `[cells, D]`).
 pub(super) fn update_tokens(
     keys: &mut Vec<f32>,
-    base: Option<&[f32]>,
+    first: &FirstUpdate,
     (weights, rows): (&[f32], &[f32]),
     bias: Option<&[f32]>,
     norm: &LayerNorm,
@@ -28,21 +45,28 @@ pub(super) fn update_tokens(
     mut then: impl FnMut(usize, &[f32]),
 ) {
     let d = norm.gamma.len();
-    let r = rows.len() / d;
+    let (r1, r2) = (first.rows.len() / d, rows.len() / d);
     let n = mean.len();
-    assert_eq!(weights.len(), r * n, "weights are not [{r}, {n}]");
-    if base.is_some() {
-        keys.clear();
-        keys.reserve(n * d);
-    }
+    assert_eq!(weights.len(), r2 * n, "weights are not [{r2}, {n}]");
+    assert_eq!(first.weights.len(), r1 * n, "first weights are not [{r1}, {n}]");
+    keys.clear();
+    keys.reserve(n * d);
+    let (gamma1, beta1) = (&first.norm.gamma, &first.norm.beta);
     for cell0 in (0..n).step_by(TILE) {
         let cells = TILE.min(n - cell0);
-        if let Some(base) = base {
-            keys.extend_from_slice(&base[cell0 * d..(cell0 + cells) * d]);
-        }
+        keys.extend_from_slice(&first.residual[cell0 * d..(cell0 + cells) * d]);
         let tile = &mut keys[cell0 * d..(cell0 + cells) * d];
         let out = ViewMut::rows(tile, 0, d);
-        matmul(cells, d, r, out, View::transposed(weights, cell0, n), View::rows(rows, 0, d), true, 1.0);
+        let first_weights = View::transposed(first.weights, cell0, n);
+        matmul(cells, d, r1, out, first_weights, View::rows(first.rows, 0, d), true, 1.0);
+        for (c, row) in tile.chunks_exact_mut(d).enumerate() {
+            let (m, inv) = (first.mean[cell0 + c], first.inv_std[cell0 + c]);
+            for ((x, g), b) in row.iter_mut().zip(gamma1).zip(beta1) {
+                *x = (*x - m) * inv * g + b;
+            }
+        }
+        let out = ViewMut::rows(tile, 0, d);
+        matmul(cells, d, r2, out, View::transposed(weights, cell0, n), View::rows(rows, 0, d), true, 1.0);
         for (c, row) in tile.chunks_exact_mut(d).enumerate() {
             if let Some(bias) = bias {
                 row.iter_mut().zip(bias).for_each(|(x, b)| *x += b);

@@ -27,13 +27,13 @@ use std::sync::Arc;
 use candle_core::{Device, Tensor};
 
 use super::image_panels::{ImageKeys, ImageValues};
-use super::image_update::{update_tokens, OnlineAttention, TILE};
+use super::image_update::{update_tokens, FirstUpdate, OnlineAttention, TILE};
 use super::mask_decoder::{MaskDecoder, NUM_HEADS};
 use super::packed_decoder::{add_into, added, project, PackedAttention, PackedDecoder};
 use super::second_block::{second_image_scores, second_token_to_image, FirstBlockTrace};
 use crate::dense::{matmul, softmax_columns, softmax_runs, Linear, View, ViewMut};
 use crate::error::{ModelsError, ModelsResult};
-use crate::kernels::dot;
+use crate::kernels::{dot, squared_deviation, sum};
 use crate::skinny::MAX_ROWS;
 
 /// Per-image, prompt-independent inputs of the decoder's attentions; projections are `[N, H·d]`.
@@ -42,6 +42,12 @@ pub struct DecoderImage {
     packed: Arc<PackedDecoder>,
     /// `E + b_o` of the first image→token attention, `[N, D]` (rows are cells).
     first_residual: Vec<f32>,
+    /// Row means of `E + b_o` and the sums of squares of its centred rows `c`, `[N]` each.
+    first_residual_mean: Vec<f32>,
+    first_residual_squares: Vec<f32>,
+    /// `c·W_o` `[N, H·d]` (`W_o` `[D, H·d]` the first image→token output projection): `c·U₁[h·T + t]
+    /// = (c·W_o,h)·v_t,h`, the cross terms of the first norm's variances.
+    first_centred_out: ImageKeys,
     /// First block, token→image keys `(E + P)·W_kᵀ + b_k`.
     first_keys: ImageKeys,
     /// First block, token→image values `E·W_vᵀ + b_v`.
@@ -165,6 +171,22 @@ impl MaskDecoder {
             .chunks_exact(d)
             .flat_map(|row| row.iter().zip(&first.image_to_token.out.bias).map(|(x, b)| x + b))
             .collect();
+        let (first_residual_mean, first_residual_squares, centred) = centred_rows(&first_residual, d);
+        let out_weight = &first.image_to_token.out.weight;
+        let first_out_ci = first.image_to_token.internal;
+        let mut centred_out = vec![0f32; n * first_out_ci];
+        let out = ViewMut::rows(&mut centred_out, 0, first_out_ci);
+        matmul(
+            n,
+            first_out_ci,
+            d,
+            out,
+            View::rows(&centred, 0, d),
+            View::rows(out_weight, 0, first_out_ci),
+            false,
+            1.0,
+        );
+        drop(centred);
         let (gamma, beta) = (&first.norm4.gamma, &first.norm4.beta);
         let scaled: Vec<f32> = first_residual
             .chunks_exact(d)
@@ -225,6 +247,9 @@ impl MaskDecoder {
             up_weight,
             up_shared,
             first_residual,
+            first_residual_mean,
+            first_residual_squares,
+            first_centred_out: ImageKeys::new(centred_out, first_out_ci),
             keys_gamma,
             keys_beta,
             values_gamma,
@@ -355,21 +380,23 @@ fn decode_batch(
             a_first.iter_mut().map(|a| &mut a[h * t * n..(h + 1) * t * n]).collect();
         image.first_queries.head_scores_batch(&mut blocks, &k, t, (h, dh));
     }
+    // the cross terms c·U₁ of the first norm's variances, per prompt [H·T, N]
+    let mut cross: Vec<Vec<f32>> = (0..prompts).map(|_| vec![0f32; ht * n]).collect();
+    for h in 0..NUM_HEADS {
+        let mut blocks: Vec<&mut [f32]> =
+            cross.iter_mut().map(|c| &mut c[h * t * n..(h + 1) * t * n]).collect();
+        image.first_centred_out.head_scores_batch(&mut blocks, &v, t, (h, dh));
+    }
     let gamma = &first.norm4.gamma;
     let mut firsts = Vec::with_capacity(prompts);
-    for (p, a_first) in a_first.into_iter().enumerate() {
+    for (p, (a_first, cross)) in a_first.into_iter().zip(cross).enumerate() {
         let mut a_first = a_first;
         softmax_columns(&mut a_first, t, n, attn.scale());
         let u_first = attn.output_rows(&v[p * t * ci..(p + 1) * t * ci], t);
-        let mut keys = Vec::new();
-        let mut mean = vec![0f32; n];
-        let mut inv_std = vec![0f32; n];
-        let stats = (&mut mean[..], &mut inv_std[..]);
-        let residual = Some(&image.first_residual[..]);
-        update_tokens(&mut keys, residual, (&a_first, &u_first), None, &first.norm4, stats, |_, _| {});
+        let (mean, inv_std) = first_norm_statistics(image, &a_first, &u_first, &cross, first.norm4.eps);
         let scaled_rows: Vec<f32> =
             u_first.chunks_exact(d).flat_map(|row| row.iter().zip(gamma).map(|(u, g)| u * g)).collect();
-        firsts.push((keys, a_first, scaled_rows, mean, inv_std));
+        firsts.push((u_first, a_first, scaled_rows, mean, inv_std));
     }
     let traces: Vec<FirstBlockTrace> = firsts
         .iter()
@@ -396,15 +423,25 @@ fn decode_batch(
     let final_queries = final_queries(packed, image, (&queries, &tokens), t, &[0]);
     let mut out = Vec::with_capacity(prompts);
     let parts = firsts.into_iter().zip(weights).zip(final_queries).enumerate();
-    for (p, (((mut keys, a_first, scaled_rows, mean, inv_std), weights), query)) in parts {
+    for (p, (((u_first, a_first, scaled_rows, mean, inv_std), weights), query)) in parts {
         let u_second = attn.output_rows(&v[p * t * ci..(p + 1) * t * ci], t);
         let mut second_mean = vec![0f32; n];
         let mut second_inv_std = vec![0f32; n];
-        // the IoU token's final attention reads each tile of the updated image tokens while it is in cache
+        // both updates of the image tokens a tile at a time; the IoU token's final attention reads each
+        // tile while it is in cache
         let mut attention = query.attention(&packed.final_attn);
+        let mut keys = Vec::new();
+        let first_update = FirstUpdate {
+            residual: &image.first_residual,
+            weights: &a_first,
+            rows: &u_first,
+            norm: &first.norm4,
+            mean: &mean,
+            inv_std: &inv_std,
+        };
         let stats = (&mut second_mean[..], &mut second_inv_std[..]);
         let (rows, bias) = ((&weights[..], &u_second[..]), Some(&attn.out.bias[..]));
-        update_tokens(&mut keys, None, rows, bias, &second.norm4, stats, |cell0, tile| {
+        update_tokens(&mut keys, &first_update, rows, bias, &second.norm4, stats, |cell0, tile| {
             attention.add(cell0, tile)
         });
         let iou_token = final_output(packed, &query, attention.finish());
@@ -424,6 +461,58 @@ fn decode_batch(
         out.push((decoded, iou_token));
     }
     out
+}
+
+/// Row means of `x` `[N, D]`, the sums of squares of its centred rows, and the centred rows.
+fn centred_rows(x: &[f32], d: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let mut means = Vec::with_capacity(x.len() / d);
+    let mut squares = Vec::with_capacity(x.len() / d);
+    let mut centred = Vec::with_capacity(x.len());
+    for row in x.chunks_exact(d) {
+        let mean = sum(row) / d as f32;
+        means.push(mean);
+        squares.push(squared_deviation(row, mean));
+        centred.extend(row.iter().map(|v| v - mean));
+    }
+    (means, squares, centred)
+}
+
+/// Row means and inverse standard deviations `[N]` of the first block's `E + b_o + A₁U₁` without
+/// forming it: with `c` the centred rows of `E + b_o` and `Ũ₁` the centred rows of `U₁`, row `i` less
+/// its mean is `c_i + A₁ᵢŨ₁`, so its mean is `mean(E_i + b_o) + A₁ᵢ·mean(U₁)` and its sum of squares
+/// `|c_i|² + 2·A₁ᵢ·(c_i·U₁ᵀ) + A₁ᵢᵀ(Ũ₁Ũ₁ᵀ)A₁ᵢ` (`c_i·Ũ₁ = c_i·U₁`: `c_i` sums to zero). `weights` `A₁ᵀ`
+/// `[H·T, N]`, `rows` `U₁` `[H·T, D]`, `cross` `c·U₁ᵀ` transposed `[H·T, N]`: `H·T`-wide work per cell
+/// instead of `D`-wide.
+fn first_norm_statistics(
+    image: &DecoderImage,
+    weights: &[f32],
+    rows: &[f32],
+    cross: &[f32],
+    eps: f32,
+) -> (Vec<f32>, Vec<f32>) {
+    let n = image.cells();
+    let ht = weights.len() / n;
+    let d = rows.len() / ht;
+    let (row_means, _, centred) = centred_rows(rows, d);
+    let mut gram = vec![0f32; ht * ht];
+    let out = ViewMut::rows(&mut gram, 0, ht);
+    matmul(ht, ht, d, out, View::rows(&centred, 0, d), View::transposed(&centred, 0, d), false, 1.0);
+    // G·A₁ [H·T, N]
+    let mut spread = vec![0f32; ht * n];
+    let out = ViewMut::rows(&mut spread, 0, n);
+    matmul(ht, n, ht, out, View::rows(&gram, 0, ht), View::rows(weights, 0, n), false, 1.0);
+    let mut mean = image.first_residual_mean.clone();
+    let mut squares = image.first_residual_squares.clone();
+    for r in 0..ht {
+        let a = &weights[r * n..(r + 1) * n];
+        let (g, c, u) = (&spread[r * n..(r + 1) * n], &cross[r * n..(r + 1) * n], row_means[r]);
+        for ((((m, q), a), g), c) in mean.iter_mut().zip(squares.iter_mut()).zip(a).zip(g).zip(c) {
+            *m += a * u;
+            *q += a * (g + 2.0 * c);
+        }
+    }
+    let inv_std = squares.iter().map(|q| 1.0 / (q.max(0.0) / d as f32 + eps).sqrt()).collect();
+    (mean, inv_std)
 }
 
 /// Attention output rows `[R, D]` through the scaled first transposed convolution `W'`: `[R, 4·c1]`.
