@@ -22,8 +22,8 @@ use crate::error::{ModelsError, ModelsResult};
 /// Prompts sent through the shared-work decoder at once (results do not depend on it); chunks run in
 /// parallel. The decoder runs a chunk's token-side layers and its products with the per-image panels
 /// on all of its prompts' rows together (each weight matrix and panel read once per chunk), and the
-/// rest prompt by prompt. Four prompts per chunk measured best (their per-prompt `[4096, 256]` image
-/// tokens, 4 MB each, are alive together between the two blocks).
+/// rest prompt by prompt. Two to four prompts per chunk measured best, eight slower (a chunk keeps
+/// each prompt's `[4096, 256]` image tokens, 4 MB, until its masks are taken).
 pub const DECODER_CHUNK: usize = 4;
 
 /// Parameters of the automatic mask generator; defaults are the reference's.
