@@ -2,11 +2,12 @@
 //! random image embedding stands in; speed does not depend on the values):
 //!
 //! ```text
-//! cargo run --release -p splatseg-models --example bench_sam_decoder -- CHECKPOINT [PROMPTS] [UPSCALED]
+//! cargo run --release -p splatseg-models --example bench_sam_decoder -- CHECKPOINT [PROMPTS] [UPSCALED] [CHUNK]
 //! ```
 //!
 //! Prepares the decoder's per-image work, decodes PROMPTS single-point prompts (transformer and IoU
-//! head, 64 by default) in parallel over the rayon pool, then upscales all three multimask outputs of
+//! head, 64 by default) in chunks of CHUNK (the automatic mask generator's, by default) in parallel
+//! over the rayon pool, then upscales all three multimask outputs of
 //! the first UPSCALED prompts (8 by default) to the low-resolution logits, then runs the automatic mask
 //! generator's per-mask post-processing on those masks (upscale to a 1280×960 image, stability score,
 //! threshold, box, RLE). Prints the time of each step and a checksum of the outputs (to compare two
@@ -17,6 +18,7 @@ use std::time::Instant;
 
 use candle_core::{Device, Tensor};
 use rayon::prelude::*;
+use splatseg_models::sam::amg::DECODER_CHUNK;
 use splatseg_models::sam::mask_output::{positive_box, positive_rle, MaskScratch};
 use splatseg_models::sam::masks::stability_score;
 use splatseg_models::sam::{ImageEmbedding, Sam};
@@ -39,10 +41,11 @@ fn pseudo_random(shape: (usize, usize, usize), seed: u64) -> candle_core::Result
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let Some(path) = args.get(1) else {
-        return Err("usage: bench_sam_decoder CHECKPOINT [PROMPTS] [UPSCALED]".into());
+        return Err("usage: bench_sam_decoder CHECKPOINT [PROMPTS] [UPSCALED] [CHUNK]".into());
     };
     let prompts: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(64);
     let upscaled: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(8);
+    let chunk: usize = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(DECODER_CHUNK).max(1);
     let model = Sam::load(Path::new(path))?;
     let (height, width) = (960usize, 1280usize);
     let embedding = pseudo_random((256, 64, 64), 1)?;
@@ -65,8 +68,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("per-image preparation {:.3?}", t.elapsed());
     let t = Instant::now();
     let ious: Vec<Vec<f32>> = points
-        .par_iter()
-        .map(|p| Ok(model.decode_points(&image, &prepared, &[*p])?.1))
+        .par_chunks(chunk)
+        .map(|chunk| Ok(model.decode_points(&image, &prepared, chunk)?.1))
         .collect::<Result<_, splatseg_models::ModelsError>>()?;
     let decode = t.elapsed();
     println!(

@@ -260,6 +260,14 @@ pub fn softmax_runs(x: &mut [f32], len: usize, scale: f32) {
     if len < 2 * SHORT_RUN_BATCH {
         return softmax_short_runs(x, len, scale);
     }
+    #[cfg(target_arch = "x86_64")]
+    if crate::skinny::has_avx512() {
+        for run in x.chunks_exact_mut(len) {
+            // SAFETY: the CPU supports AVX-512F (just detected).
+            unsafe { crate::math512::softmax_run(run, scale) };
+        }
+        return;
+    }
     for run in x.chunks_exact_mut(len) {
         if scale != 1.0 {
             run.iter_mut().for_each(|v| *v *= scale);
@@ -275,6 +283,14 @@ pub fn softmax_runs(x: &mut [f32], len: usize, scale: f32) {
 /// the running maxima vectorise however few the rows are.
 pub fn softmax_columns(x: &mut [f32], rows: usize, cols: usize, scale: f32) {
     if rows == 0 || cols == 0 {
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if rows <= crate::math512::MAX_COLUMN_ROWS && crate::skinny::has_avx512() {
+        for block in x.chunks_exact_mut(rows * cols) {
+            // SAFETY: the CPU supports AVX-512F (just detected); the block is [rows, cols], rows ≤ 16.
+            unsafe { crate::math512::softmax_columns(block, rows, cols, scale) };
+        }
         return;
     }
     let mut max = vec![0f32; cols];

@@ -65,8 +65,14 @@ pub fn max_of(values: &[f32]) -> f32 {
 
 /// Replaces every `v` by `exp(v − shift)` and returns their sum: the numerator and denominator of a
 /// softmax. Needs `v ≤ shift` (as with `shift` = the maximum); relative error below 3e-7 (tested).
-/// Runs 8 lanes wide with AVX2 where the CPU has it (same arithmetic, so the same results).
+/// Runs 16 lanes wide with AVX-512 ([`crate::math512`], within a few ulp), else 8 lanes wide with AVX2
+/// where the CPU has it (same arithmetic as the portable loop, so the same results).
 pub fn exp_shifted_in_place(values: &mut [f32], shift: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if crate::skinny::has_avx512() {
+        // SAFETY: the CPU supports AVX-512F (just detected).
+        return unsafe { crate::math512::exp_shifted_in_place(values, shift) };
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (just detected).
@@ -100,8 +106,14 @@ fn exp_shifted_in_place_portable(values: &mut [f32], shift: f32) -> f32 {
 }
 
 /// The exact (erf) GELU in place, `x · (1 + erf(x / √2)) / 2` (as [`crate::activation::gelu_erf`]);
-/// 8 lanes wide with AVX2 where the CPU has it (same arithmetic, so the same results).
+/// 16 lanes wide with AVX-512 ([`crate::math512`], within 1e-6), else 8 lanes wide with AVX2 where the
+/// CPU has it (same arithmetic as the portable loop, so the same results).
 pub fn gelu_in_place(values: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::skinny::has_avx512() {
+        // SAFETY: the CPU supports AVX-512F (just detected).
+        return unsafe { crate::math512::gelu_in_place(values) };
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (just detected).

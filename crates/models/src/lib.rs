@@ -26,6 +26,8 @@ pub mod dinov2;
 pub mod error;
 pub mod image;
 pub mod kernels;
+mod math512;
+pub mod memory;
 pub mod resample;
 pub mod sam;
 pub mod skinny;

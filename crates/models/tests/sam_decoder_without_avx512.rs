@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{fixture, random, worst_difference};
+use common::{check_shared_decoder_over_tiles, fixture, random, worst_difference};
 use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
 use splatseg_models::skinny::{disable_avx512_kernels, has_avx512};
@@ -37,5 +37,7 @@ fn gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder() {
             let worst = worst_difference(&ours, &masks.get(p).unwrap());
             assert!(worst <= 1e-4, "{checkpoint}, prompt {p}: logits differ by {worst}");
         }
+        // several tiles of cells, a batch of prompts against each alone
+        check_shared_decoder_over_tiles(checkpoint, (23, 25), 4, 22);
     }
 }

@@ -6,7 +6,7 @@
 mod common;
 
 use candle_core::DType;
-use common::{fixture, random, read_io, worst_difference};
+use common::{check_shared_decoder_over_tiles, fixture, random, read_io, worst_difference};
 use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
 use splatseg_models::sam::{generate_masks_using, AmgConfig, DecoderPath, Sam};
@@ -47,6 +47,16 @@ fn shared_decoder_matches_the_per_prompt_decoder() {
             masks.to_dtype(DType::F32).unwrap().abs().unwrap().max_all().unwrap().to_scalar::<f32>().unwrap()
                 > 0.1
         );
+    }
+}
+
+/// Grids of several tiles of cells (the tiled image-token updates and the running-maximum final
+/// attention) and batches of prompts (decoded together against one at a time), on both fixtures.
+#[test]
+fn shared_decoder_over_several_tiles_and_batches() {
+    for checkpoint in ["sam_tiny.pth", "mobile_sam_tiny.pth"] {
+        let worst = check_shared_decoder_over_tiles(checkpoint, (19, 31), 6, 5);
+        println!("{checkpoint}, 19×31 grid: worst logit difference {worst:e}");
     }
 }
 

@@ -4,7 +4,7 @@
 //! one of the 1,024 prompts × 8 heads).
 
 use crate::dense::{matmul, View, ViewMut};
-use crate::skinny::{has_avx512, skinny_product, ColumnPanels};
+use crate::skinny::{has_avx512, skinny_product, skinny_rows, ColumnPanels};
 
 /// Image keys `[N, H·d]`: the tokens' queries are scored against each head's slice.
 #[derive(Debug, Clone)]
@@ -36,6 +36,33 @@ impl ImageKeys {
         let n = self.rows.len() / ci;
         let head = View { data: x, offset: h * d, rs: ci, cs: 1 };
         matmul(t, n, d, ViewMut::rows(out, 0, n), head, View::transposed(&self.rows, h * d, ci), false, 1.0);
+    }
+}
+
+impl ImageKeys {
+    /// [`ImageKeys::head_scores`] for a batch of prompts: `out[p]` `[t, N]` = rows `p·t .. p·t + t` of
+    /// `x` `[B·t, H·d]` (head `h`) times the keys' head `h`, each panel read once for the whole batch.
+    pub(super) fn head_scores_batch(
+        &self,
+        out: &mut [&mut [f32]],
+        x: &[f32],
+        t: usize,
+        (h, d): (usize, usize),
+    ) {
+        let ci = self.width;
+        let n = self.rows.len() / ci;
+        if let Some(panels) = &self.panels {
+            let x_rows: Vec<&[f32]> = x.chunks_exact(ci).map(|row| &row[h * d..(h + 1) * d]).collect();
+            let mut out_rows: Vec<&mut [f32]> = out.iter_mut().flat_map(|o| o.chunks_exact_mut(n)).collect();
+            if x_rows.len() == out_rows.len()
+                && skinny_rows(&x_rows, panels, (h * d, d), &mut out_rows, false).is_some()
+            {
+                return;
+            }
+        }
+        for (p, block) in out.iter_mut().enumerate() {
+            self.head_scores(block, &x[p * t * ci..(p + 1) * t * ci], t, (h, d));
+        }
     }
 }
 
@@ -89,5 +116,25 @@ impl ImageValues {
         let out = ViewMut { data: heads, offset: h * d, rs: ci, cs: 1 };
         let values = View { data: &self.rows, offset: h * d, rs: ci, cs: 1 };
         matmul(t, d, n, out, View::rows(a, a_offset, n), values, false, 1.0);
+    }
+
+    /// [`ImageValues::head_mix`] for a batch of prompts: `heads` `[B·t, H·d]`, rows `p·t .. p·t + t`
+    /// from the `t` rows of `N` weights `a[p]` `[t, N]`; each panel read once for the whole batch.
+    pub(super) fn head_mix_batch(&self, heads: &mut [f32], a: &[&[f32]], t: usize, (h, d): (usize, usize)) {
+        let ci = self.width;
+        let n = self.rows.len() / ci;
+        if let Some(panels) = &self.panels {
+            let x_rows: Vec<&[f32]> = a.iter().flat_map(|block| block.chunks_exact(n)).collect();
+            let mut out_rows: Vec<&mut [f32]> =
+                heads.chunks_exact_mut(ci).map(|row| &mut row[h * d..(h + 1) * d]).collect();
+            if x_rows.len() == out_rows.len()
+                && skinny_rows(&x_rows, &panels[h], (0, n), &mut out_rows, false).is_some()
+            {
+                return;
+            }
+        }
+        for (p, block) in a.iter().enumerate() {
+            self.head_mix(&mut heads[p * t * ci..(p + 1) * t * ci], (block, 0), t, (h, d));
+        }
     }
 }

@@ -8,6 +8,7 @@
 pub mod amg;
 pub mod image_encoder;
 mod image_panels;
+mod image_update;
 pub mod mask_decoder;
 pub mod mask_output;
 pub mod masks;
@@ -105,6 +106,7 @@ pub struct ImageEmbedding {
 impl Sam {
     /// Loads a checkpoint (see [`checkpoint::resolve`]).
     pub fn load(path: &Path) -> ModelsResult<Self> {
+        crate::memory::keep_freed_memory_for_reuse();
         let files = checkpoint::resolve(path, ModelKind::Sam)?;
         let weights = Weights::load(&files.weights, ModelKind::Sam)?;
         Self::from_weights(&weights)

@@ -46,36 +46,39 @@ impl PackedAttention {
         1.0 / (self.head_dim() as f32).sqrt()
     }
 
-    /// Plain attention of `t` tokens among themselves: `q_in`, `k_in`, `v_in` `[t, D]`. Returns the
-    /// output projection `[t, D]`.
+    /// Plain attention of each group of `t` tokens among themselves (a batch of prompts' tokens, prompt
+    /// after prompt): `q_in`, `k_in`, `v_in` `[B·t, D]`. Returns the output projection `[B·t, D]`.
     pub(super) fn among_tokens(&self, q_in: &[f32], k_in: &[f32], v_in: &[f32], t: usize) -> Vec<f32> {
         let (ci, dh) = (self.internal, self.head_dim());
+        let rows = q_in.len() / self.q.inputs;
         let project = |lin: &Linear, x: &[f32]| {
-            let mut out = vec![0f32; t * ci];
-            lin.forward(x, t, &mut out);
+            let mut out = vec![0f32; rows * ci];
+            lin.forward(x, rows, &mut out);
             out
         };
         let (q, k, v) = (project(&self.q, q_in), project(&self.k, k_in), project(&self.v, v_in));
         let mut scores = vec![0f32; t * t];
-        let mut heads = vec![0f32; t * ci];
-        for h in 0..NUM_HEADS {
-            let head = |data| View { data, offset: h * dh, rs: ci, cs: 1 };
-            matmul(
-                t,
-                t,
-                dh,
-                ViewMut::rows(&mut scores, 0, t),
-                head(&q),
-                View::transposed(&k, h * dh, ci),
-                false,
-                self.scale(),
-            );
-            softmax_runs(&mut scores, t, 1.0);
-            let out = ViewMut { data: &mut heads, offset: h * dh, rs: ci, cs: 1 };
-            matmul(t, dh, t, out, View::rows(&scores, 0, t), head(&v), false, 1.0);
+        let mut heads = vec![0f32; rows * ci];
+        for g in (0..rows).step_by(t.max(1)) {
+            for h in 0..NUM_HEADS {
+                let head = |data| View { data, offset: g * ci + h * dh, rs: ci, cs: 1 };
+                matmul(
+                    t,
+                    t,
+                    dh,
+                    ViewMut::rows(&mut scores, 0, t),
+                    head(&q),
+                    View::transposed(&k, g * ci + h * dh, ci),
+                    false,
+                    self.scale(),
+                );
+                softmax_runs(&mut scores, t, 1.0);
+                let out = ViewMut { data: &mut heads, offset: g * ci + h * dh, rs: ci, cs: 1 };
+                matmul(t, dh, t, out, View::rows(&scores, 0, t), head(&v), false, 1.0);
+            }
         }
-        let mut out = vec![0f32; t * self.out.outputs];
-        self.out.forward(&heads, t, &mut out);
+        let mut out = vec![0f32; rows * self.out.outputs];
+        self.out.forward(&heads, rows, &mut out);
         out
     }
 

@@ -178,27 +178,38 @@ impl Depthwise {
         let out_w = (w + 2 * p - k) / s + 1;
         let input = x.flatten_all()?.to_vec1::<f32>()?;
         let mut out = vec![0f32; c * out_h * out_w];
+        // Each output row accumulates its taps in (ky, kx) order, a whole row per tap (contiguous
+        // for stride 1, so it vectorises): the same additions in the same order as a per-pixel loop.
         out.par_chunks_mut(out_h * out_w).enumerate().for_each(|(ch, dst)| {
             let plane = &input[ch * h * w..(ch + 1) * h * w];
             let filter = &self.weight[ch * k * k..(ch + 1) * k * k];
-            for oy in 0..out_h {
-                for ox in 0..out_w {
-                    let mut acc = 0f32;
-                    for ky in 0..k {
-                        let iy = (oy * s + ky) as isize - p as isize;
-                        if iy < 0 || iy >= h as isize {
+            for (oy, out_row) in dst.chunks_exact_mut(out_w).enumerate() {
+                out_row.fill(0.0);
+                for ky in 0..k {
+                    let Some(iy) = (oy * s + ky).checked_sub(p).filter(|&iy| iy < h) else {
+                        continue;
+                    };
+                    let row = &plane[iy * w..(iy + 1) * w];
+                    for kx in 0..k {
+                        let f = filter[ky * k + kx];
+                        // outputs whose input column ox·s + kx − p lies in 0..w
+                        let lo = p.saturating_sub(kx).div_ceil(s);
+                        let Some(last) = (w + p).checked_sub(kx + 1) else { continue };
+                        let hi = (last / s + 1).min(out_w);
+                        if lo >= hi {
                             continue;
                         }
-                        let row = &plane[iy as usize * w..(iy as usize + 1) * w];
-                        for kx in 0..k {
-                            let ix = (ox * s + kx) as isize - p as isize;
-                            if ix >= 0 && (ix as usize) < w {
-                                acc += row[ix as usize] * filter[ky * k + kx];
-                            }
+                        let start = lo * s + kx - p;
+                        if s == 1 {
+                            let taps = out_row[lo..hi].iter_mut().zip(&row[start..start + hi - lo]);
+                            taps.for_each(|(o, x)| *o += x * f);
+                        } else {
+                            let taps = out_row[lo..hi].iter_mut().zip(row[start..].iter().step_by(s));
+                            taps.for_each(|(o, x)| *o += x * f);
                         }
                     }
-                    dst[oy * out_w + ox] = acc + self.bias[ch];
                 }
+                out_row.iter_mut().for_each(|v| *v += self.bias[ch]);
             }
         });
         Ok(Tensor::from_vec(out, (c, out_h, out_w), &Device::Cpu)?)
@@ -499,6 +510,57 @@ impl TinyVit {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn depthwise_rows_match_a_per_pixel_loop() {
+        for (c, h, w, k, stride, padding) in [
+            (3, 7, 9, 3, 1, 1),
+            (2, 8, 5, 3, 2, 1),
+            (2, 6, 6, 3, 1, 0),
+            (1, 4, 3, 5, 2, 2),
+            (2, 2, 2, 3, 1, 1),
+        ] {
+            let values = |len: usize, seed: usize| -> Vec<f32> {
+                (0..len).map(|i| (((i + seed) * 37 % 101) as f32 - 50.0) * 0.03).collect()
+            };
+            let conv = Depthwise {
+                weight: values(c * k * k, 3),
+                bias: values(c, 5),
+                channels: c,
+                kernel: k,
+                stride,
+                padding,
+            };
+            let input = values(c * h * w, 7);
+            let x = Tensor::from_vec(input.clone(), (c, h, w), &Device::Cpu).unwrap();
+            let ours = conv.forward(&x).unwrap();
+            let (_, out_h, out_w) = ours.dims3().unwrap();
+            assert_eq!(
+                (out_h, out_w),
+                ((h + 2 * padding - k) / stride + 1, (w + 2 * padding - k) / stride + 1)
+            );
+            let ours = ours.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+            for ch in 0..c {
+                for oy in 0..out_h {
+                    for ox in 0..out_w {
+                        let mut acc = 0f32;
+                        for ky in 0..k {
+                            for kx in 0..k {
+                                let iy = (oy * stride + ky) as isize - padding as isize;
+                                let ix = (ox * stride + kx) as isize - padding as isize;
+                                if (0..h as isize).contains(&iy) && (0..w as isize).contains(&ix) {
+                                    acc += input[(ch * h + iy as usize) * w + ix as usize]
+                                        * conv.weight[(ch * k + ky) * k + kx];
+                                }
+                            }
+                        }
+                        // the same additions in the same order: identical
+                        assert_eq!(ours[(ch * out_h + oy) * out_w + ox], acc + conv.bias[ch]);
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn bias_indices_number_offsets_by_first_appearance() {
