@@ -26,6 +26,7 @@ pub mod snap;
 pub mod split;
 pub mod touching;
 pub mod visibility;
+mod voxels;
 
 pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};

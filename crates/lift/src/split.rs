@@ -21,6 +21,7 @@
 use crate::config::LiftConfig;
 use crate::lifting::Lifted;
 use crate::project::PreparedGaussians;
+use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
 use std::collections::{BTreeMap, HashMap};
 
 /// Voxels a Gaussian may reach on each side of the one holding its mean.
@@ -60,7 +61,7 @@ pub fn split_disconnected_objects(
     let cells = occupied_voxels(gaussians, &groups, voxel);
     let mut sets = DisjointSets::new(cells.len());
     for (&(g, v), &index) in &cells {
-        for n in forward_neighbours(v) {
+        for n in self_and_forward_neighbours(v).filter(|&n| n != v) {
             if let Some(&other) = cells.get(&(g, n)) {
                 sets.union(index, other);
             }
@@ -202,44 +203,4 @@ fn occupied_voxels(
         }
     }
     cells
-}
-
-fn voxel_of(p: [f32; 3], voxel: f32) -> [i64; 3] {
-    [(p[0] / voxel).floor() as i64, (p[1] / voxel).floor() as i64, (p[2] / voxel).floor() as i64]
-}
-
-/// The 13 neighbours of `v` that come after it (each unordered neighbour pair once).
-fn forward_neighbours(v: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
-    (-1..=1i64)
-        .flat_map(|dz| (-1..=1i64).flat_map(move |dy| (-1..=1i64).map(move |dx| (dx, dy, dz))))
-        .filter(|&d| d > (0, 0, 0))
-        .map(move |(dx, dy, dz)| [v[0] + dx, v[1] + dy, v[2] + dz])
-}
-
-/// Union-find whose roots are the smallest index of their set (so the result does not depend on
-/// the order unions are made in).
-struct DisjointSets {
-    parent: Vec<u32>,
-}
-
-impl DisjointSets {
-    fn new(n: usize) -> Self {
-        DisjointSets { parent: (0..n as u32).collect() }
-    }
-
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let up = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            self.parent[ra.max(rb) as usize] = ra.min(rb);
-        }
-    }
 }

@@ -29,6 +29,7 @@ use crate::config::LiftConfig;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::visibility::ViewVisibility;
+use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
 use glam::Vec3;
 use splatseg_scene::Plane;
 use std::collections::{BTreeMap, HashMap};
@@ -190,8 +191,7 @@ pub(crate) fn contacts(
             continue;
         }
         let mean = gaussians.mean(i);
-        let p = mean / voxel;
-        let v = [p.x.floor() as i64, p.y.floor() as i64, p.z.floor() as i64];
+        let v = voxel_of(mean.to_array(), voxel);
         let cell = cells.entry(voxel_key(v)).or_insert_with(|| (v, Vec::new()));
         let part = match cell.1.iter_mut().position(|part| part.id == id as u32) {
             Some(k) => &mut cell.1[k],
@@ -229,41 +229,22 @@ pub(crate) fn contacts(
     };
     let mut out: BTreeMap<(u32, u32), Contact> = BTreeMap::new();
     for (v, parts) in cells.values() {
-        for dz in -1..=1i64 {
-            for dy in -1..=1i64 {
-                for dx in -1..=1i64 {
-                    let n = [v[0] + dx, v[1] + dy, v[2] + dz];
-                    // Each unordered voxel pair once (and the voxel with itself).
-                    if (dx, dy, dz) < (0, 0, 0) {
-                        continue;
-                    }
-                    let Some((_, other)) = cells.get(&voxel_key(n)) else { continue };
-                    for a in parts {
-                        for b in other {
-                            if a.id == b.id {
-                                continue;
-                            }
-                            let c = out.entry((a.id.min(b.id), a.id.max(b.id))).or_default();
-                            c.voxel_pairs += 1;
-                            if let Some(s) = smooth(a, b) {
-                                c.measured += 1;
-                                c.smooth += s as u32;
-                            }
-                        }
+        // Each unordered voxel pair once (and the voxel with itself).
+        for n in self_and_forward_neighbours(*v) {
+            let Some((_, other)) = cells.get(&voxel_key(n)) else { continue };
+            for a in parts {
+                for b in other.iter().filter(|b| b.id != a.id) {
+                    let c = out.entry((a.id.min(b.id), a.id.max(b.id))).or_default();
+                    c.voxel_pairs += 1;
+                    if let Some(s) = smooth(a, b) {
+                        c.measured += 1;
+                        c.smooth += s as u32;
                     }
                 }
             }
         }
     }
     out
-}
-
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        parent[x as usize] = parent[parent[x as usize] as usize];
-        x = parent[x as usize];
-    }
-    x
 }
 
 /// Joins touching look-alike objects in `lifted` (object and majority ids), see the module
@@ -342,21 +323,14 @@ pub fn join_touching_counted(
         })
         .collect();
     pairs.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
-    let mut parent: Vec<u32> = (0..=n_objects as u32).collect();
-    let mut joins = 0;
-    for (_, a, b) in pairs {
-        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-        if ra != rb {
-            parent[ra.max(rb) as usize] = ra.min(rb);
-            joins += 1;
-        }
-    }
+    let mut sets = DisjointSets::new(n_objects + 1);
+    let joins = pairs.into_iter().filter(|&(_, a, b)| sets.union(a, b)).count();
     if joins > 0 {
         for id in lifted.object_ids.iter_mut().filter(|id| **id > 0 && (**id as usize) <= n_objects) {
-            *id = find(&mut parent, *id as u32) as i32;
+            *id = sets.find(*id as u32) as i32;
         }
         for id in lifted.majority_ids.iter_mut().filter(|id| **id > 0 && (**id as usize) <= n_objects) {
-            *id = find(&mut parent, *id);
+            *id = sets.find(*id);
         }
     }
     joins

@@ -2,10 +2,9 @@
 //! their Gaussians lie apart in 3D.
 
 mod common;
-use common::gaussians;
+use common::{gaussians, lifted};
 use splatseg_lift::{
-    join_touching_objects, split_disconnected_objects, GaussianStatus, LiftConfig, LiftStats, Lifted,
-    ObjectFeatures, PreparedGaussians,
+    join_touching_objects, split_disconnected_objects, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians,
 };
 
 /// Objects 1 and 2 with cos 0.85: alike enough for a seam (τ_seam 0.8), not for the
@@ -27,7 +26,8 @@ fn grid(origin: [f32; 3], u: [f32; 3], v: [f32; 3], nu: usize, nv: usize) -> Vec
     out
 }
 
-/// Flat Gaussians at `means`, each with its thin axis along its own `normals` entry (unit).
+/// Gaussians at `means`: the first `normals.len()` flat, each with its thin axis along its own
+/// `normals` entry (unit); the rest round.
 fn flat(means: &[[f32; 3]], normals: &[[f32; 3]]) -> PreparedGaussians {
     let mut g = gaussians(means, STEP, 0.9);
     for (k, n) in normals.iter().enumerate() {
@@ -38,19 +38,6 @@ fn flat(means: &[[f32; 3]], normals: &[[f32; 3]]) -> PreparedGaussians {
         g.rotations[k] = [q.w, q.x, q.y, q.z];
     }
     PreparedGaussians::new(&g).expect("finite Gaussians")
-}
-
-fn lifted(ids: Vec<i32>) -> Lifted {
-    let n = ids.len();
-    Lifted {
-        majority_ids: ids.iter().map(|&i| i.max(0) as u32).collect(),
-        object_ids: ids,
-        status: vec![GaussianStatus::Labelled; n],
-        variances: vec![0.0; n],
-        views_seen: vec![1; n],
-        fused_features: None,
-        stats: LiftStats::default(),
-    }
 }
 
 fn join(prepared: &PreparedGaussians, ids: Vec<i32>) -> (usize, Lifted) {
@@ -185,17 +172,11 @@ fn a_post_standing_on_a_piece_of_floor_under_the_same_id_splits_off() {
     // A floor (normal y) and a post of 60 round Gaussians rising from its middle, all object 4
     // (the per-view merge joined the post to the floor in most views).
     let mut means = grid([0.0, 0.0, 0.0], X, Z, 30, 30);
-    let mut normals = vec![Y; means.len()];
+    let normals = vec![Y; means.len()];
     let floor = means.len();
     means.extend((1..=60).map(|k| [0.3, k as f32 * STEP, 0.3]));
-    normals.extend(vec![Y; 60]);
-    let mut g = gaussians(&means, STEP, 0.9);
-    for (k, n) in normals.iter().enumerate().take(floor) {
-        let q = glam::Quat::from_rotation_arc(glam::Vec3::Z, glam::Vec3::from(*n));
-        g.log_scales[k] = [STEP.ln(), STEP.ln(), (0.1 * STEP).ln()];
-        g.rotations[k] = [q.w, q.x, q.y, q.z];
-    }
-    let prepared = PreparedGaussians::new(&g).expect("finite");
+    // The floor's Gaussians are flat; the post's stay round (no normal).
+    let prepared = flat(&means, &normals[..floor]);
     let mut l = lifted(vec![4; means.len()]);
     let stats = split_disconnected_objects(&prepared, &mut l, 4, &LiftConfig::default());
     assert_eq!(stats.parents, vec![(5, 4)]);
@@ -207,15 +188,9 @@ fn a_post_standing_on_a_piece_of_floor_under_the_same_id_splits_off() {
 
     // A post of 10 Gaussians (under min_split_gaussians) keeps the floor's id.
     let short: Vec<[f32; 3]> = means[..floor + 10].to_vec();
-    let mut g = gaussians(&short, STEP, 0.9);
-    for (k, n) in normals.iter().enumerate().take(floor) {
-        let q = glam::Quat::from_rotation_arc(glam::Vec3::Z, glam::Vec3::from(*n));
-        g.log_scales[k] = [STEP.ln(), STEP.ln(), (0.1 * STEP).ln()];
-        g.rotations[k] = [q.w, q.x, q.y, q.z];
-    }
+    let prepared = flat(&short, &normals[..floor]);
     let mut l = lifted(vec![4; short.len()]);
-    let stats =
-        split_disconnected_objects(&PreparedGaussians::new(&g).unwrap(), &mut l, 4, &LiftConfig::default());
+    let stats = split_disconnected_objects(&prepared, &mut l, 4, &LiftConfig::default());
     assert!(stats.parents.is_empty());
     assert!(l.object_ids.iter().all(|&i| i == 4));
 }

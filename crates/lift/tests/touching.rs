@@ -1,27 +1,12 @@
 //! Joining touching look-alike objects.
 
 mod common;
-use common::gaussians;
-use splatseg_lift::{
-    join_touching_objects, GaussianStatus, LiftConfig, LiftStats, Lifted, ObjectFeatures, PreparedGaussians,
-};
+use common::{gaussians, lifted};
+use splatseg_lift::{join_touching_objects, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians};
 
 /// A 20 × 20 grid of Gaussians (spacing 0.02) at x offset `x0` and depth `z`.
 fn patch(x0: f32, z: f32) -> Vec<[f32; 3]> {
     (0..400).map(|k| [x0 + (k % 20) as f32 * 0.02, (k / 20) as f32 * 0.02, z]).collect()
-}
-
-fn lifted(ids: Vec<i32>) -> Lifted {
-    let n = ids.len();
-    Lifted {
-        majority_ids: ids.iter().map(|&i| i.max(0) as u32).collect(),
-        object_ids: ids,
-        status: vec![GaussianStatus::Labelled; n],
-        variances: vec![0.0; n],
-        views_seen: vec![1; n],
-        fused_features: None,
-        stats: LiftStats::default(),
-    }
 }
 
 /// Objects 1, 2, 3: object 1 and 2 alike (cos 0.98), 3 different (cos 0.3 with 1).

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use glam::{DMat3, DVec3};
+use splatseg_lift::{GaussianStatus, LiftStats, Lifted};
 use splatseg_scene::{Camera, Gaussians, Pose};
 
 /// Isotropic Gaussians at `means` with scale `scale` and opacity ≈ `opacity`.
@@ -54,4 +55,18 @@ pub fn sphere(centre: [f32; 3], radius: f32, steps: usize) -> Vec<[f32; 3]> {
         }
     }
     out
+}
+
+/// A lift result with `ids: [N]` as object and majority ids, every Gaussian labelled and seen once.
+pub fn lifted(ids: Vec<i32>) -> Lifted {
+    let n = ids.len();
+    Lifted {
+        majority_ids: ids.iter().map(|&i| i.max(0) as u32).collect(),
+        object_ids: ids,
+        status: vec![GaussianStatus::Labelled; n],
+        variances: vec![0.0; n],
+        views_seen: vec![1; n],
+        fused_features: None,
+        stats: LiftStats::default(),
+    }
 }
