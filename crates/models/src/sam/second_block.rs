@@ -29,6 +29,31 @@ fn head_blocks(buffers: &mut [Vec<f32>], h: usize, block: usize) -> Vec<&mut [f3
     buffers.iter_mut().map(|b| &mut b[h * block..(h + 1) * block]).collect()
 }
 
+/// Adds one prompt's first-block part of the second block's scores to `varying` `[H·T, N]`:
+/// `C·A₁ᵀ` with `C[(h, t), c] = x_t,h · W_h (γ⊙U₁)_c`, where `x` `[T, D_int]` are the prompt's
+/// token-side rows (queries or keys), `w` the image side's projection (keys or queries) and
+/// `(t, ci, dh)` = (tokens, internal width, head width).
+fn add_first_block_terms(
+    varying: &mut [f32],
+    w: &crate::dense::Linear,
+    x: &[f32],
+    trace: &FirstBlockTrace,
+    (t, ci, dh): (usize, usize, usize),
+    n: usize,
+) {
+    let ht = NUM_HEADS * t;
+    let ht1 = trace.weights.len() / n;
+    let rows = project(w, trace.scaled_rows, ht1, false);
+    let mut c = vec![0f32; ht * ht1];
+    for h in 0..NUM_HEADS {
+        let head = View { data: x, offset: h * dh, rs: ci, cs: 1 };
+        let out = ViewMut { data: &mut c, offset: h * t * ht1, rs: ht1, cs: 1 };
+        matmul(t, ht1, dh, out, head, View::transposed(&rows, h * dh, ci), false, 1.0);
+    }
+    let (a, c) = (View::rows(trace.weights, 0, n), View::rows(&c, 0, ht1));
+    matmul(ht, n, ht1, ViewMut::rows(varying, 0, n), c, a, true, 1.0);
+}
+
 /// The second block's token→image attention for a batch of prompts, from their first block's traces
 /// (one per prompt): `with_pe` `[B·T, D]` are the queries with their positional terms, prompt after
 /// prompt. Returns the output projection `[B·T, D]`. The image-side products run on all `B·T` rows
@@ -54,25 +79,7 @@ pub(super) fn second_token_to_image(
     for (p, trace) in traces.iter().enumerate() {
         let q = &q[p * t * ci..(p + 1) * t * ci];
         let (base, varying) = (&mut base[p], &mut varying[p]);
-        let ht1 = trace.weights.len() / n;
-        // C[(h, t), c] = q_t,h · W_k,h (γ⊙U₁)_c
-        let keys_of_rows = project(&attn.k, trace.scaled_rows, ht1, false);
-        let mut c = vec![0f32; ht * ht1];
-        for h in 0..NUM_HEADS {
-            let head = View { data: q, offset: h * dh, rs: ci, cs: 1 };
-            let out = ViewMut { data: &mut c, offset: h * t * ht1, rs: ht1, cs: 1 };
-            matmul(t, ht1, dh, out, head, View::transposed(&keys_of_rows, h * dh, ci), false, 1.0);
-        }
-        matmul(
-            ht,
-            n,
-            ht1,
-            ViewMut::rows(varying, 0, n),
-            View::rows(&c, 0, ht1),
-            View::rows(trace.weights, 0, n),
-            true,
-            1.0,
-        );
+        add_first_block_terms(varying, &attn.k, q, trace, (t, ci, dh), n);
         for h in 0..NUM_HEADS {
             for s in 0..t {
                 let row = h * t + s;
@@ -160,25 +167,7 @@ pub(super) fn second_image_scores(
     for (p, trace) in traces.iter().enumerate() {
         let k = &k[p * t * ci..(p + 1) * t * ci];
         let (scores, varying) = (&mut scores[p], &mut varying[p]);
-        let ht1 = trace.weights.len() / n;
-        // C[(h, t), c] = k_t,h · W_q,h (γ⊙U₁)_c
-        let queries_of_rows = project(&attn.q, trace.scaled_rows, ht1, false);
-        let mut c = vec![0f32; ht * ht1];
-        for h in 0..NUM_HEADS {
-            let head = View { data: k, offset: h * dh, rs: ci, cs: 1 };
-            let out = ViewMut { data: &mut c, offset: h * t * ht1, rs: ht1, cs: 1 };
-            matmul(t, ht1, dh, out, head, View::transposed(&queries_of_rows, h * dh, ci), false, 1.0);
-        }
-        matmul(
-            ht,
-            n,
-            ht1,
-            ViewMut::rows(varying, 0, n),
-            View::rows(&c, 0, ht1),
-            View::rows(trace.weights, 0, n),
-            true,
-            1.0,
-        );
+        add_first_block_terms(varying, &attn.q, k, trace, (t, ci, dh), n);
         let mut from_beta = vec![0f32; ht];
         let mut from_gamma = vec![0f32; ht];
         for h in 0..NUM_HEADS {
