@@ -9,6 +9,10 @@
 //! pixels (the Gaussians mostly say "no object" there), or no pixel has an id, the region keeps
 //! its rendered labels pixel by pixel. Pixels outside every region (merged 0) keep their
 //! rendered label too, so nothing the Gaussians label is lost.
+//!
+//! A region over two objects (the second id covers at least `split_share` of its labelled
+//! pixels) keeps the rendered labels, except where a minor id is the splats of a neighbouring
+//! region's object bleeding across the SAM boundary: those pixels go to the region's own objects.
 
 use splatseg_scene::Plane;
 use std::collections::BTreeMap;
@@ -34,6 +38,14 @@ pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, split_share:
     }
     // winner[region] = (its id, whether the region is split between two objects); absent = keep
     // the rendered labels.
+    // shares[(region, id)] = the id's share of the region's labelled pixels.
+    let shares: BTreeMap<(u32, u32), f64> = counts
+        .iter()
+        .flat_map(|(&r, (_, ids))| {
+            let labelled = ids.values().sum::<u64>().max(1) as f64;
+            ids.iter().map(move |(&k, &n)| ((r, k), n as f64 / labelled))
+        })
+        .collect();
     let winner: BTreeMap<u32, (u32, bool)> = counts
         .into_iter()
         .filter_map(|(r, (zeros, ids))| {
@@ -53,7 +65,7 @@ pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, split_share:
             best.filter(|&(_, n)| n >= zeros).map(|(k, _)| (r, (k, split)))
         })
         .collect();
-    let data = regions
+    let mut data: Vec<u32> = regions
         .data
         .iter()
         .zip(&rendered.data)
@@ -63,7 +75,74 @@ pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, split_share:
             None => k,
         })
         .collect();
+    give_bleeding_pixels_to_their_region(regions, &winner, &shares, &mut data, split_share);
     Plane { width: regions.width, height: regions.height, data }
+}
+
+/// In a region split between objects, the pixels of a minor rendered id (under `split_share`
+/// of the region's labelled pixels) that touch a neighbouring region which that id wins are
+/// the object's splats bleeding across the SAM boundary (a thin post's footprint over the
+/// object behind it), not an object of this region: they take the label of the nearest pixel
+/// of the region that keeps its own label (breadth-first within the region, 4-neighbours, in
+/// row-major order, so the result does not depend on threads). `data`: `[H · W]` snapped labels,
+/// updated in place.
+fn give_bleeding_pixels_to_their_region(
+    regions: &Plane<u32>,
+    winner: &BTreeMap<u32, (u32, bool)>,
+    shares: &BTreeMap<(u32, u32), f64>,
+    data: &mut [u32],
+    split_share: f32,
+) {
+    let (w, h) = (regions.width, regions.height);
+    let minor = |r: u32, k: u32| shares.get(&(r, k)).is_some_and(|&s| s < split_share as f64);
+    let split = |r: u32| matches!(winner.get(&r), Some(&(_, true)));
+    let wins = |r: u32, k: u32| matches!(winner.get(&r), Some(&(id, _)) if id == k);
+    let neighbours = |p: usize| {
+        let (x, y) = (p % w, p / w);
+        [
+            (x > 0).then(|| p - 1),
+            (x + 1 < w).then(|| p + 1),
+            (y > 0).then(|| p - w),
+            (y + 1 < h).then(|| p + w),
+        ]
+        .into_iter()
+        .flatten()
+    };
+    // Bleeding (region, id) pairs: a minor id's pixel next to a region that id wins.
+    let mut bleeding: Vec<(u32, u32)> = Vec::new();
+    for (p, (&r, &k)) in regions.data.iter().zip(data.iter()).enumerate() {
+        if r == 0 || k == 0 || !split(r) || !minor(r, k) {
+            continue;
+        }
+        if neighbours(p).any(|q| regions.data[q] != r && wins(regions.data[q], k)) {
+            bleeding.push((r, k));
+        }
+    }
+    if bleeding.is_empty() {
+        return;
+    }
+    bleeding.sort_unstable();
+    bleeding.dedup();
+    let is_bleeding = |p: usize| bleeding.binary_search(&(regions.data[p], data[p])).is_ok();
+    let mut todo: Vec<bool> = (0..data.len()).map(|p| regions.data[p] != 0 && is_bleeding(p)).collect();
+    // Seeds: pixels of the region's major ids next to a pixel to relabel (a minor id, kept or
+    // a speck, does not grow).
+    let mut queue: std::collections::VecDeque<usize> = (0..data.len())
+        .filter(|&p| {
+            !todo[p]
+                && !minor(regions.data[p], data[p])
+                && neighbours(p).any(|q| todo[q] && regions.data[q] == regions.data[p])
+        })
+        .collect();
+    while let Some(p) = queue.pop_front() {
+        for q in neighbours(p) {
+            if todo[q] && regions.data[q] == regions.data[p] {
+                todo[q] = false;
+                data[q] = data[p];
+                queue.push_back(q);
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -110,5 +189,20 @@ mod tests {
         // 0 pixel takes the majority id; at 0.5 it is snapped whole.
         assert_eq!(snap_to_regions(&regions, &rendered, 0.25), plane(6, &[&[7, 7, 7, 7, 4, 4]]));
         assert_eq!(snap_to_regions(&regions, &rendered, 0.5), plane(6, &[&[7, 7, 7, 7, 7, 7]]));
+    }
+
+    #[test]
+    fn a_thin_objects_splats_bleeding_into_a_split_region_go_back_to_its_objects() {
+        // Region 1 (columns 0–5) lies over two objects (7 and 4); region 2 (columns 6–7) is a
+        // post the Gaussians label 9, whose splats also cover column 5 of region 1. Column 4 is
+        // a minor id 5 of region 1 alone (no neighbouring region of its own): it stays.
+        let regions = plane(8, &[&[1, 1, 1, 1, 1, 1, 2, 2], &[1, 1, 1, 1, 1, 1, 2, 2]]);
+        let rendered = plane(8, &[&[7, 7, 7, 4, 4, 9, 9, 9], &[7, 7, 4, 4, 5, 9, 9, 9]]);
+        let snapped = snap_to_regions(&regions, &rendered, 0.25);
+        assert_eq!(snapped, plane(8, &[&[7, 7, 7, 4, 4, 4, 9, 9], &[7, 7, 4, 4, 5, 4, 9, 9]]));
+        // Without the post's own region, 9 is an object of region 1 and keeps its pixels.
+        let one_region = plane(8, &[&[1; 8], &[1; 8]]);
+        let rendered_far = plane(8, &[&[7, 7, 7, 7, 4, 4, 4, 9], &[7, 7, 7, 4, 4, 4, 4, 9]]);
+        assert_eq!(snap_to_regions(&one_region, &rendered_far, 0.25), rendered_far);
     }
 }
