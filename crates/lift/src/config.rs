@@ -86,6 +86,12 @@ pub struct LiftConfig {
     /// 0.918 / 0.861 / 0.869; 0.08 → 0.908 / 0.848 / 0.850 (below 0.25, regions split by the
     /// blur of the rendered labels at their own outline).
     pub snap_split_share: f32,
+    /// In a region split between objects, a band of a neighbouring region's id along that
+    /// region at most this thick (its pixels / its contact length) is that object's splats
+    /// bleeding across SAM's boundary, and goes to the region's own objects ([`crate::snap`]).
+    /// In pixels of a 320×240 view; larger views scale it by the square root of their pixel
+    /// count / 76,800 ([`LiftConfig::snap_bleed_px_for`]). 0 = keep every rendered label.
+    pub snap_bleed_px: f32,
 }
 
 /// See [`LiftConfig::final_maps`].
@@ -123,6 +129,12 @@ impl FinalMaps {
 pub const SPECK_REFERENCE_PX: u64 = 320 * 240;
 
 impl LiftConfig {
+    /// The bleeding band's thickness in a view of `view_px` pixels: `snap_bleed_px` scaled by
+    /// `sqrt(view_px / 76,800)` (footprints grow with the image's side, not its area).
+    pub fn snap_bleed_px_for(&self, view_px: u64) -> f32 {
+        self.snap_bleed_px * (view_px as f64 / SPECK_REFERENCE_PX as f64).sqrt() as f32
+    }
+
     /// The speck threshold for views of `mean_view_px` pixels on average: `min_object_px` scaled
     /// by `mean_view_px / 76,800`, never below `min_object_px`.
     pub fn min_object_px_for(&self, mean_view_px: u64) -> u64 {
@@ -155,6 +167,7 @@ impl Default for LiftConfig {
             near: 0.01,
             final_maps: FinalMaps::default(),
             snap_split_share: 0.25,
+            snap_bleed_px: 4.0,
         }
     }
 }

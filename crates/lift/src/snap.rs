@@ -19,9 +19,14 @@ use std::collections::BTreeMap;
 
 /// The snapped label map. `regions`: `[H, W]` merged regions of the view, 0 = none, any local
 /// ids; `rendered`: `[H, W]` global ids rendered back from the Gaussians, 0 = none. Returns
-/// `[H, W]` global ids (see the module docs; `split_share` above 1 snaps every region). Panics if
-/// the two sizes differ.
-pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, split_share: f32) -> Plane<u32> {
+/// `[H, W]` global ids (see the module docs; `split_share` above 1 snaps every region; `bleed_px`:
+/// the thickest band of a neighbour's splats given back, 0 = none). Panics if the two sizes differ.
+pub fn snap_to_regions(
+    regions: &Plane<u32>,
+    rendered: &Plane<u32>,
+    split_share: f32,
+    bleed_px: f32,
+) -> Plane<u32> {
     assert_eq!(regions.size(), rendered.size(), "regions and rendered map differ in size");
     // counts[region] = (pixels rendered 0, pixels per rendered id ≥ 1).
     let mut counts: BTreeMap<u32, (u64, BTreeMap<u32, u64>)> = BTreeMap::new();
@@ -38,14 +43,6 @@ pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, split_share:
     }
     // winner[region] = (its id, whether the region is split between two objects); absent = keep
     // the rendered labels.
-    // shares[(region, id)] = the id's share of the region's labelled pixels.
-    let shares: BTreeMap<(u32, u32), f64> = counts
-        .iter()
-        .flat_map(|(&r, (_, ids))| {
-            let labelled = ids.values().sum::<u64>().max(1) as f64;
-            ids.iter().map(move |(&k, &n)| ((r, k), n as f64 / labelled))
-        })
-        .collect();
     let winner: BTreeMap<u32, (u32, bool)> = counts
         .into_iter()
         .filter_map(|(r, (zeros, ids))| {
@@ -75,26 +72,25 @@ pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, split_share:
             None => k,
         })
         .collect();
-    give_bleeding_pixels_to_their_region(regions, &winner, &shares, &mut data, split_share);
+    give_bleeding_pixels_to_their_region(regions, &winner, &mut data, bleed_px);
     Plane { width: regions.width, height: regions.height, data }
 }
 
-/// In a region split between objects, the pixels of a minor rendered id (under `split_share`
-/// of the region's labelled pixels) that touch a neighbouring region which that id wins are
-/// the object's splats bleeding across the SAM boundary (a thin post's footprint over the
-/// object behind it), not an object of this region: they take the label of the nearest pixel
-/// of the region that keeps its own label (breadth-first within the region, 4-neighbours, in
-/// row-major order, so the result does not depend on threads). `data`: `[H · W]` snapped labels,
-/// updated in place.
+/// In a region split between objects, the pixels of a rendered id other than the region's
+/// winner that lie along pixels of that id outside the region (a neighbouring region it wins,
+/// or the unlabelled pixels between SAM's masks), in a band no thicker than
+/// `bleed_px` (pixels / contact length), are the object's splats bleeding across the SAM
+/// boundary (a thin post's footprint over the object behind it), not an object of this region:
+/// they take the label of the nearest pixel of the region's other ids (breadth-first within the
+/// region, 4-neighbours, in row-major order, so the result does not depend on threads). `data`:
+/// `[H · W]` snapped labels, updated in place.
 fn give_bleeding_pixels_to_their_region(
     regions: &Plane<u32>,
     winner: &BTreeMap<u32, (u32, bool)>,
-    shares: &BTreeMap<(u32, u32), f64>,
     data: &mut [u32],
-    split_share: f32,
+    bleed_px: f32,
 ) {
     let (w, h) = (regions.width, regions.height);
-    let minor = |r: u32, k: u32| shares.get(&(r, k)).is_some_and(|&s| s < split_share as f64);
     let split = |r: u32| matches!(winner.get(&r), Some(&(_, true)));
     let wins = |r: u32, k: u32| matches!(winner.get(&r), Some(&(id, _)) if id == k);
     let neighbours = |p: usize| {
@@ -108,31 +104,31 @@ fn give_bleeding_pixels_to_their_region(
         .into_iter()
         .flatten()
     };
-    // Bleeding (region, id) pairs: a minor id's pixel next to a region that id wins.
-    let mut bleeding: Vec<(u32, u32)> = Vec::new();
+    // (pixels, contact pixels) per (split region, non-winning id).
+    let mut bands: BTreeMap<(u32, u32), (u64, u64)> = BTreeMap::new();
     for (p, (&r, &k)) in regions.data.iter().zip(data.iter()).enumerate() {
-        if r == 0 || k == 0 || !split(r) || !minor(r, k) {
+        if r == 0 || k == 0 || !split(r) || wins(r, k) {
             continue;
         }
-        if neighbours(p).any(|q| regions.data[q] != r && wins(regions.data[q], k)) {
-            bleeding.push((r, k));
+        let band = bands.entry((r, k)).or_default();
+        band.0 += 1;
+        if neighbours(p).any(|q| regions.data[q] != r && data[q] == k) {
+            band.1 += 1;
         }
     }
+    let bleeding: Vec<(u32, u32)> = bands
+        .into_iter()
+        .filter(|&(_, (n, contact))| contact > 0 && n as f64 <= bleed_px as f64 * contact as f64)
+        .map(|(pair, _)| pair)
+        .collect();
     if bleeding.is_empty() {
         return;
     }
-    bleeding.sort_unstable();
-    bleeding.dedup();
     let is_bleeding = |p: usize| bleeding.binary_search(&(regions.data[p], data[p])).is_ok();
     let mut todo: Vec<bool> = (0..data.len()).map(|p| regions.data[p] != 0 && is_bleeding(p)).collect();
-    // Seeds: pixels of the region's major ids next to a pixel to relabel (a minor id, kept or
-    // a speck, does not grow).
+    // Seeds: pixels of the region's other ids next to a pixel to relabel.
     let mut queue: std::collections::VecDeque<usize> = (0..data.len())
-        .filter(|&p| {
-            !todo[p]
-                && !minor(regions.data[p], data[p])
-                && neighbours(p).any(|q| todo[q] && regions.data[q] == regions.data[p])
-        })
+        .filter(|&p| !todo[p] && neighbours(p).any(|q| todo[q] && regions.data[q] == regions.data[p]))
         .collect();
     while let Some(p) = queue.pop_front() {
         for q in neighbours(p) {
@@ -158,7 +154,7 @@ mod tests {
         // Region 1 = left three columns, region 2 = right column, row 2 outside every region.
         let regions = plane(4, &[&[1, 1, 1, 2], &[1, 1, 1, 2], &[0, 0, 0, 0]]);
         let rendered = plane(4, &[&[7, 7, 3, 3], &[7, 0, 7, 9], &[5, 0, 5, 5]]);
-        let snapped = snap_to_regions(&regions, &rendered, 2.0);
+        let snapped = snap_to_regions(&regions, &rendered, 2.0, 0.0);
         // Region 1: 7 ×4, 3 ×1, 0 ×1 → all 7. Region 2: 3 and 9 tie → 3 (smaller id).
         // Outside: rendered labels kept.
         assert_eq!(snapped, plane(4, &[&[7, 7, 7, 3], &[7, 7, 7, 3], &[5, 0, 5, 5]]));
@@ -168,7 +164,7 @@ mod tests {
     fn ties_go_to_the_smaller_id_whatever_the_pixel_order() {
         let regions = plane(4, &[&[4, 4, 4, 4]]);
         for rendered in [plane(4, &[&[8, 8, 2, 2]]), plane(4, &[&[2, 8, 2, 8]]), plane(4, &[&[2, 2, 8, 8]])] {
-            assert_eq!(snap_to_regions(&regions, &rendered, 2.0), plane(4, &[&[2, 2, 2, 2]]));
+            assert_eq!(snap_to_regions(&regions, &rendered, 2.0, 0.0), plane(4, &[&[2, 2, 2, 2]]));
         }
     }
 
@@ -177,7 +173,7 @@ mod tests {
         let regions = plane(5, &[&[1, 1, 1, 1, 1], &[2, 2, 2, 2, 2]]);
         let rendered = plane(5, &[&[0, 0, 0, 6, 6], &[0, 0, 0, 0, 0]]);
         // Region 1: 0 ×3 beats 6 ×2; region 2: no id at all.
-        assert_eq!(snap_to_regions(&regions, &rendered, 2.0), rendered);
+        assert_eq!(snap_to_regions(&regions, &rendered, 2.0, 0.0), rendered);
     }
 
     #[test]
@@ -187,22 +183,33 @@ mod tests {
         let rendered = plane(6, &[&[7, 7, 7, 0, 4, 4]]);
         // 4 has 2 of 5 labelled pixels (0.4): at split share 0.25 the region is split, its
         // 0 pixel takes the majority id; at 0.5 it is snapped whole.
-        assert_eq!(snap_to_regions(&regions, &rendered, 0.25), plane(6, &[&[7, 7, 7, 7, 4, 4]]));
-        assert_eq!(snap_to_regions(&regions, &rendered, 0.5), plane(6, &[&[7, 7, 7, 7, 7, 7]]));
+        assert_eq!(snap_to_regions(&regions, &rendered, 0.25, 0.0), plane(6, &[&[7, 7, 7, 7, 4, 4]]));
+        assert_eq!(snap_to_regions(&regions, &rendered, 0.5, 0.0), plane(6, &[&[7, 7, 7, 7, 7, 7]]));
     }
 
     #[test]
     fn a_thin_objects_splats_bleeding_into_a_split_region_go_back_to_its_objects() {
         // Region 1 (columns 0–5) lies over two objects (7 and 4); region 2 (columns 6–7) is a
-        // post the Gaussians label 9, whose splats also cover column 5 of region 1. Column 4 is
-        // a minor id 5 of region 1 alone (no neighbouring region of its own): it stays.
+        // post the Gaussians label 9, whose splats also cover column 5 of region 1: a band one
+        // pixel thick along region 2; each of its pixels takes its nearest neighbour in the
+        // region (4 above, 5 below: ties go to the first in row-major order). Column 4 of row 1 is
+        // an id 5 with no region of its own next to it: it stays.
         let regions = plane(8, &[&[1, 1, 1, 1, 1, 1, 2, 2], &[1, 1, 1, 1, 1, 1, 2, 2]]);
         let rendered = plane(8, &[&[7, 7, 7, 4, 4, 9, 9, 9], &[7, 7, 4, 4, 5, 9, 9, 9]]);
-        let snapped = snap_to_regions(&regions, &rendered, 0.25);
-        assert_eq!(snapped, plane(8, &[&[7, 7, 7, 4, 4, 4, 9, 9], &[7, 7, 4, 4, 5, 4, 9, 9]]));
-        // Without the post's own region, 9 is an object of region 1 and keeps its pixels.
-        let one_region = plane(8, &[&[1; 8], &[1; 8]]);
-        let rendered_far = plane(8, &[&[7, 7, 7, 7, 4, 4, 4, 9], &[7, 7, 7, 4, 4, 4, 4, 9]]);
-        assert_eq!(snap_to_regions(&one_region, &rendered_far, 0.25), rendered_far);
+        let given_back = plane(8, &[&[7, 7, 7, 4, 4, 4, 9, 9], &[7, 7, 4, 4, 5, 5, 9, 9]]);
+        assert_eq!(snap_to_regions(&regions, &rendered, 0.25, 2.0), given_back);
+        // Without giving back, the band keeps the post's id.
+        let kept = plane(8, &[&[7, 7, 7, 4, 4, 9, 9, 9], &[7, 7, 4, 4, 5, 9, 9, 9]]);
+        assert_eq!(snap_to_regions(&regions, &rendered, 0.25, 0.0), kept);
+    }
+
+    #[test]
+    fn an_object_reaching_deep_into_a_split_region_keeps_its_pixels() {
+        // Id 9 covers three columns of region 1 along region 2 (3 pixels thick): more than a
+        // bleeding band of 2, so it is an object of region 1 too.
+        let regions = plane(8, &[&[1, 1, 1, 1, 1, 1, 2, 2], &[1, 1, 1, 1, 1, 1, 2, 2]]);
+        let rendered = plane(8, &[&[7, 7, 7, 9, 9, 9, 9, 9], &[7, 7, 7, 9, 9, 9, 9, 9]]);
+        let snapped = snap_to_regions(&regions, &rendered, 0.25, 2.0);
+        assert_eq!(snapped, plane(8, &[&[7, 7, 7, 9, 9, 9, 9, 9], &[7, 7, 7, 9, 9, 9, 9, 9]]));
     }
 }

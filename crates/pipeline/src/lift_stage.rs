@@ -207,7 +207,8 @@ pub fn lift_and_render(
             let map = match (&config.final_maps, &views[v]) {
                 (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => {
                     let regions = times.time("read the region maps back", || snap_map(v))?;
-                    times.time("snap", || snap_to_regions(&regions, &map, config.snap_split_share))
+                    let bleed_px = config.snap_bleed_px_for((map.width * map.height) as u64);
+                    times.time("snap", || snap_to_regions(&regions, &map, config.snap_split_share, bleed_px))
                 }
                 _ => map,
             };
