@@ -50,6 +50,19 @@ pub struct LiftConfig {
     pub tau_seam: f32,
     /// See `tau_seam`.
     pub seam_smooth_share: f32,
+    /// Touching objects that the views often see in one merged mask (at least
+    /// `part_min_together_share` of the views seeing both) and that meet at convex or smooth
+    /// edges only (at most `part_max_concave_share` of their oriented contact voxel pairs
+    /// concave) are parts of one object, joined at this looser cosine ([`crate::touching`]): a
+    /// cylinder's cap and side, a box cut by the image border. Above 1: off.
+    pub tau_part: f32,
+    /// See `tau_part`.
+    pub part_min_together_share: f32,
+    /// See `tau_part`.
+    pub part_max_concave_share: f32,
+    /// See `tau_part`: at least this share of the oriented contact voxel pairs must be convex
+    /// (two boxes side by side at one depth meet flush, at a smooth edge, not a convex one).
+    pub part_min_convex_share: f32,
     /// See `tau_seam`.
     pub seam_max_angle_deg: f32,
     /// Split objects whose labelled Gaussians form clusters apart in 3D ([`crate::split`]): a
@@ -166,6 +179,10 @@ impl Default for LiftConfig {
             min_frontal: 0.05,
             near: 0.01,
             final_maps: FinalMaps::default(),
+            tau_part: 0.85,
+            part_min_together_share: 0.5,
+            part_max_concave_share: 0.05,
+            part_min_convex_share: 0.1,
             snap_split_share: 0.25,
             snap_bleed_px: 4.0,
         }

@@ -9,7 +9,8 @@
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
 //! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
 //! - [`snap`]: rendered ids snapped onto a view's merged regions (optional final maps).
-//! - [`touching`]: objects that touch in 3D and look alike become one.
+//! - [`touching`]: objects that touch in 3D and look alike (or meet as parts of one object) become one.
+//! - [`facing`]: which way each Gaussian's surface faces (towards the cameras that see it).
 //! - [`numbering`]: final stable renumbering of the ids.
 //!
 //! Views are independent and run in parallel with rayon ([`visibility_all`],
@@ -18,6 +19,7 @@
 
 pub mod config;
 pub mod error;
+pub mod facing;
 pub mod lifting;
 pub mod numbering;
 pub mod project;
@@ -30,6 +32,7 @@ mod voxels;
 
 pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
+pub use facing::Facing;
 pub use lifting::{
     lift_labels, FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator,
 };

@@ -19,13 +19,20 @@
 //!   0.82–0.95 on the stress suite), too loosely for the first rule; a box standing on the floor
 //!   meets it at a crease, a cylinder touching a wall meets it along a line where only the
 //!   nearest normals agree, and an object whose label spilled onto the floor around its foot is
-//!   not a plane, so none of these joins.
+//!   not a plane, so none of these joins; or
+//! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_part`, the views agree (at least
+//!   `part_min_together_share` of the views seeing both have one merged mask over both), and
+//!   they meet at convex or smooth edges: at most `part_max_concave_share` of the contact voxel
+//!   pairs whose two sides have outward normals ([`Facing`]) are concave. Different objects that
+//!   touch meet at concave edges (a box beside a box, a box on a box: 23–47 % of the pairs on the
+//!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none).
 //!
 //! Objects that look alike but are apart in depth (the white-on-white pair) never touch, so
 //! they stay apart. Pairs are joined best cosine first (ties by id) with a union-find; the
 //! surviving id is the smaller one.
 
 use crate::config::LiftConfig;
+use crate::facing::{Facing, MIN_FLATNESS};
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::visibility::ViewVisibility;
@@ -121,6 +128,14 @@ pub(crate) struct Contact {
     /// Of the measured pairs, those where the two surfaces continue each other: normals within
     /// `seam_max_angle_deg` and each side's mean point within half a voxel of the other's plane.
     pub smooth: u32,
+    /// Pairs where both sides have an outward normal ([`Facing`]).
+    pub oriented: u32,
+    /// Of those, the pairs at a concave edge: each side's mean point lies in front of the
+    /// other side's surface (a box standing beside a box), not behind it (convex: a cylinder's
+    /// cap and side) or on it (smooth).
+    pub concave: u32,
+    /// Of those, the pairs at a convex edge: each side's mean point behind the other's surface.
+    pub convex: u32,
 }
 
 /// One object's Gaussians in one voxel: sums of their means and of their (sign-aligned) normals.
@@ -131,6 +146,8 @@ struct VoxelPart {
     count: u32,
     normal_sum: Vec3,
     flat: u32,
+    outward_sum: Vec3,
+    outward: u32,
 }
 
 impl VoxelPart {
@@ -141,10 +158,16 @@ impl VoxelPart {
             (self.flat > 0).then(|| self.normal_sum.normalize_or_zero()).filter(|n| *n != Vec3::ZERO);
         (mean, normal)
     }
+
+    /// Unit outward normal (`None` without oriented Gaussians).
+    fn outward(&self) -> Option<Vec3> {
+        (self.outward > 0).then(|| self.outward_sum.normalize_or_zero()).filter(|n| *n != Vec3::ZERO)
+    }
 }
 
-/// Gaussians with a flatness below this give no normal.
-const MIN_FLATNESS: f32 = 0.3;
+/// A contact voxel pair is concave when each side's mean point lies in front of the other's
+/// surface by at least this share of their distance (sine of ≈ 11.5°).
+const CONCAVE_MIN_SINE: f32 = 0.2;
 
 /// Per object id: its dominant surface normal and the share of its flat Gaussians whose normal
 /// lies within `max_angle_deg` of it (1 for a plane: a floor, a wall, a piece of either).
@@ -183,6 +206,7 @@ pub(crate) fn contacts(
     gaussians: &PreparedGaussians,
     ids: &[i32],
     voxel: f32,
+    facing: Option<&Facing>,
     config: &LiftConfig,
 ) -> BTreeMap<(u32, u32), Contact> {
     let mut cells: HashMap<u64, ([i64; 3], Vec<VoxelPart>)> = HashMap::new();
@@ -202,6 +226,8 @@ pub(crate) fn contacts(
                     count: 0,
                     normal_sum: Vec3::ZERO,
                     flat: 0,
+                    outward_sum: Vec3::ZERO,
+                    outward: 0,
                 };
                 cell.1.push(empty);
                 cell.1.last_mut().expect("just pushed")
@@ -215,6 +241,10 @@ pub(crate) fn contacts(
             part.normal_sum += if part.normal_sum.dot(normal) < 0.0 { -normal } else { normal };
             part.flat += 1;
         }
+        if let Some(n) = facing.and_then(|f| f.outward_normal(gaussians, i)) {
+            part.outward_sum += n;
+            part.outward += 1;
+        }
     }
     let cos_max_angle = config.seam_max_angle_deg.to_radians().cos();
     let smooth = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
@@ -226,6 +256,17 @@ pub(crate) fn contacts(
                 && na.dot(d).abs() <= 0.5 * voxel
                 && nb.dot(d).abs() <= 0.5 * voxel,
         )
+    };
+    // (concave, convex) of a voxel pair whose sides both have outward normals.
+    let edge = |a: &VoxelPart, b: &VoxelPart| -> Option<(bool, bool)> {
+        let (na, nb) = (a.outward()?, b.outward()?);
+        let d = b.surface().0 - a.surface().0;
+        let min = CONCAVE_MIN_SINE * d.length();
+        let (front_of_a, front_of_b) = (na.dot(d), -nb.dot(d));
+        Some((
+            min > 0.0 && front_of_a >= min && front_of_b >= min,
+            min > 0.0 && front_of_a <= -min && front_of_b <= -min,
+        ))
     };
     let mut out: BTreeMap<(u32, u32), Contact> = BTreeMap::new();
     for (v, parts) in cells.values() {
@@ -239,6 +280,11 @@ pub(crate) fn contacts(
                     if let Some(s) = smooth(a, b) {
                         c.measured += 1;
                         c.smooth += s as u32;
+                    }
+                    if let Some((concave, convex)) = edge(a, b) {
+                        c.oriented += 1;
+                        c.concave += concave as u32;
+                        c.convex += convex as u32;
                     }
                 }
             }
@@ -261,16 +307,18 @@ pub fn join_touching_objects(
         return 0;
     }
     let counts: Vec<ViewCounts> = views.iter().map(|(v, m)| view_counts(v, m, &lifted.object_ids)).collect();
-    join_touching_counted(gaussians, lifted, features, &counts, config)
+    join_touching_counted(gaussians, lifted, features, &counts, None, config)
 }
 
 /// [`join_touching_objects`] with each view's counts made by the caller ([`ViewCounts::new`],
-/// `[n_views]`, from the ids of `lifted` before the join), for callers that stream the views.
+/// `[n_views]`, from the ids of `lifted` before the join), for callers that stream the views,
+/// and the Gaussians' [`Facing`] (`None`: no part join, which needs outward normals).
 pub fn join_touching_counted(
     gaussians: &PreparedGaussians,
     lifted: &mut Lifted,
     features: ObjectFeatures,
     counts: &[ViewCounts],
+    facing: Option<&Facing>,
     config: &LiftConfig,
 ) -> usize {
     if features.dim == 0 || (config.tau_touching > 1.0 && config.tau_seam > 1.0) {
@@ -293,7 +341,7 @@ pub fn join_touching_counted(
     };
     let cos_of =
         |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
-    let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel, config)
+    let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel, facing, config)
         .into_iter()
         .filter(|&((a, b), c)| {
             c.voxel_pairs >= config.min_contact_voxels && (b as usize) <= n_objects && a >= 1
@@ -312,6 +360,23 @@ pub fn join_touching_counted(
                 );
                 share >= config.min_together_share
             };
+            let parts = !alike
+                && cos >= config.tau_part
+                && c.oriented >= config.min_contact_voxels
+                && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
+                && c.convex as f32 >= config.part_min_convex_share * c.oriented as f32
+                && {
+                    let share = together_share(counts, a, b);
+                    tracing::debug!(
+                        "objects {a} and {b} meet at a convex edge: cos {cos:.3}, {} concave and {} convex of {} \
+                         contacts, together in {share:.2} of views",
+                        c.concave,
+                        c.convex,
+                        c.oriented
+                    );
+                    share >= config.part_min_together_share
+                };
+            let alike = alike || parts;
             if seam {
                 tracing::debug!(
                     "objects {a} and {b} continue one surface: cos {cos:.3}, {} of {} contacts smooth",

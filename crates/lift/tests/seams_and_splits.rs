@@ -4,7 +4,8 @@
 mod common;
 use common::{gaussians, lifted};
 use splatseg_lift::{
-    join_touching_objects, split_disconnected_objects, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians,
+    join_touching_counted, join_touching_objects, split_disconnected_objects, Facing, LiftConfig, Lifted,
+    ObjectFeatures, PreparedGaussians, ViewCounts,
 };
 
 /// Objects 1 and 2 with cos 0.85: alike enough for a seam (τ_seam 0.8), not for the
@@ -193,4 +194,63 @@ fn a_post_standing_on_a_piece_of_floor_under_the_same_id_splits_off() {
     let stats = split_disconnected_objects(&prepared, &mut l, 4, &LiftConfig::default());
     assert!(stats.parents.is_empty());
     assert!(l.object_ids.iter().all(|&i| i == 4));
+}
+
+/// Objects 1 and 2 with cos 0.9: below τ_touching (0.95), above τ_part (0.85).
+const PART_FEATURES: [f32; 4] = [1.0, 0.0, 0.9, 0.435_89];
+
+/// Joins objects 1 and 2 (Gaussians `[..n1]` and `[n1..]`) seen from `eye` in two views, one of
+/// which has a merged mask over both (together in half the views), with or without facing.
+fn join_parts(prepared: &PreparedGaussians, n1: usize, eye: [f32; 3], with_facing: bool) -> usize {
+    join_parts_with(prepared, n1, eye, with_facing, &LiftConfig::default())
+}
+
+fn join_parts_with(
+    prepared: &PreparedGaussians,
+    n1: usize,
+    eye: [f32; 3],
+    with_facing: bool,
+    config: &LiftConfig,
+) -> usize {
+    let n = prepared.len();
+    let ids: Vec<i32> = (0..n).map(|i| if i < n1 { 1 } else { 2 }).collect();
+    let all: Vec<u32> = (0..n as u32).collect();
+    let one_mask = vec![1u32; n];
+    let two_masks: Vec<u32> = (0..n).map(|i| if i < n1 { 1 } else { 2 }).collect();
+    let counts = [ViewCounts::new(&all, &one_mask, &ids), ViewCounts::new(&all, &two_masks, &ids)];
+    let mut facing = Facing::new(n);
+    facing.add_view(prepared, &all, glam::Vec3::from(eye));
+    let mut l = lifted(ids);
+    let features = ObjectFeatures { dim: 2, values: &PART_FEATURES };
+    let facing = with_facing.then_some(&facing);
+    join_touching_counted(prepared, &mut l, features, &counts, facing, config)
+}
+
+#[test]
+fn a_boxs_top_and_side_meeting_at_a_convex_edge_are_parts_of_one_object() {
+    // Top face (normal y) at y = 0.4 over x, z ∈ [0, 0.38]; side face (normal x) at x = 0.4
+    // below it: the box's convex top edge, seen from above and the +x side.
+    let mut means = grid([0.0, 0.4, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
+    let normals: Vec<[f32; 3]> = (0..800).map(|i| if i < 400 { Y } else { X }).collect();
+    let prepared = flat(&means, &normals);
+    assert_eq!(join_parts(&prepared, 400, [1.5, 1.5, 0.2], true), 1);
+    // Without outward normals there is no part join (cos 0.9 < τ_touching).
+    assert_eq!(join_parts(&prepared, 400, [1.5, 1.5, 0.2], false), 0);
+}
+
+#[test]
+fn a_wall_and_the_floor_in_front_of_it_meet_at_a_concave_edge_and_stay_apart() {
+    // Floor (normal y) at y = 0 over x ∈ [0.4, 0.78]; a wall (normal x) at x = 0.4 standing on
+    // it, facing the floor and the camera: a concave corner.
+    let mut means = grid([0.4, 0.0, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
+    let normals: Vec<[f32; 3]> = (0..800).map(|i| if i < 400 { Y } else { X }).collect();
+    let prepared = flat(&means, &normals);
+    assert_eq!(join_parts(&prepared, 400, [1.5, 1.5, 0.2], true), 0);
+    // It is the concave edge that keeps them apart: allowing concave contacts joins them.
+    let lax = LiftConfig { part_max_concave_share: 1.0, part_min_convex_share: 0.0, ..LiftConfig::default() };
+    assert_eq!(join_parts_with(&prepared, 400, [1.5, 1.5, 0.2], true, &lax), 1);
+    let no_concave = LiftConfig { part_min_convex_share: 0.0, ..LiftConfig::default() };
+    assert_eq!(join_parts_with(&prepared, 400, [1.5, 1.5, 0.2], true, &no_concave), 0);
 }

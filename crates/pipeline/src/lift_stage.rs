@@ -16,7 +16,7 @@ use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
     join_touching_counted, render_label_map, render_votes, renumber, snap_to_regions,
-    split_disconnected_objects, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
+    split_disconnected_objects, Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
     PreparedGaussians, ViewCounts, VoteAccumulator,
 };
 use splatseg_match::{match_masks_owned, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
@@ -159,30 +159,33 @@ pub fn lift_and_render(
     config: &LiftConfig,
     times: &PartTimes,
 ) -> crate::Result<LiftOutput> {
-    let spilled: Vec<(&PathBuf, &[u32])> = views
+    let spilled: Vec<(usize, &PathBuf, &[u32])> = views
         .iter()
         .zip(&matching.global_of_label)
-        .filter_map(|(m, table)| m.as_ref().and_then(|m| m.spill.as_ref()).map(|p| (p, &table[..])))
+        .enumerate()
+        .filter_map(|(v, (m, table))| m.as_ref().and_then(|m| m.spill.as_ref()).map(|p| (v, p, &table[..])))
         .collect();
     let features = ObjectFeatures { dim: matching.dim, values: &matching.object_features };
+    let mut facing = Facing::new(prepared.len());
     let mut lifted = times.time("votes, fusion, variance filter", || -> crate::Result<Lifted> {
         let mut votes = VoteAccumulator::new(prepared.len());
-        for &(path, table) in &spilled {
+        for &(v, path, table) in &spilled {
             let (gaussians, weights, labels) = visible::read(path)?;
             let ids: Vec<u32> = labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
             votes.add_view(&gaussians, &weights, &ids)?;
+            facing.add_view(prepared, &gaussians, cams[v].world_from_cam.centre().as_vec3());
         }
         Ok(votes.finish(features, config)?)
     })?;
     let joins = times.time("touching objects", || -> crate::Result<usize> {
         let counts: Vec<ViewCounts> = spilled
             .par_iter()
-            .map(|&(path, _)| -> crate::Result<ViewCounts> {
+            .map(|&(_, path, _)| -> crate::Result<ViewCounts> {
                 let (gaussians, _, labels) = visible::read(path)?;
                 Ok(ViewCounts::new(&gaussians, &labels, &lifted.object_ids))
             })
             .collect::<crate::Result<_>>()?;
-        Ok(join_touching_counted(prepared, &mut lifted, features, &counts, config))
+        Ok(join_touching_counted(prepared, &mut lifted, features, &counts, Some(&facing), config))
     })?;
     tracing::info!("joined {joins} pairs of touching objects");
     let split = times.time("split objects apart in 3D", || {
