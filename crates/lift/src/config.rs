@@ -60,6 +60,11 @@ pub struct LiftConfig {
     pub part_min_together_share: f32,
     /// See `tau_part`.
     pub part_max_concave_share: f32,
+    /// Two touching objects whose Gaussians both lie along one line, each spread along it at
+    /// least this many times more than across it, are pieces of one thin structure (a post cut
+    /// by SAM where the background behind it changes) and join at `tau_seam` ([`crate::touching`]).
+    /// 0 = off.
+    pub thin_min_elongation: f32,
     /// See `tau_part`: at least this share of the oriented contact voxel pairs must be convex
     /// (two boxes side by side at one depth meet flush, at a smooth edge, not a convex one).
     pub part_min_convex_share: f32,
@@ -183,6 +188,7 @@ impl Default for LiftConfig {
             part_min_together_share: 0.5,
             part_max_concave_share: 0.05,
             part_min_convex_share: 0.1,
+            thin_min_elongation: 5.0,
             snap_split_share: 0.25,
             snap_bleed_px: 4.0,
         }

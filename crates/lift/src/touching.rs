@@ -25,7 +25,11 @@
 //!   they meet at convex or smooth edges: at most `part_max_concave_share` of the contact voxel
 //!   pairs whose two sides have outward normals ([`Facing`]) are concave. Different objects that
 //!   touch meet at concave edges (a box beside a box, a box on a box: 23–47 % of the pairs on the
-//!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none).
+//!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none); or
+//! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
+//!   at least `thin_min_elongation` times more than across it), parallel and on one line, at
+//!   least one contact voxel pair, and `cos(f_P, f_Q) ≥ tau_seam`: a post that SAM cut where the
+//!   background behind it changes (wall above, floor below).
 //!
 //! Objects that look alike but are apart in depth (the white-on-white pair) never touch, so
 //! they stay apart. Pairs are joined best cosine first (ties by id) with a union-find; the
@@ -201,6 +205,83 @@ pub(crate) fn planarity(
         .collect()
 }
 
+/// The line an object's Gaussians lie along: their mean, principal axis and spreads.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ObjectLine {
+    centre: Vec3,
+    axis: Vec3,
+    /// Standard deviation along the axis.
+    along: f32,
+    /// Root mean square spread across the axis (over the two other directions).
+    across: f32,
+}
+
+impl ObjectLine {
+    /// Both thin (spread along ≥ `thin_min_elongation` × across), parallel (axes within
+    /// `seam_max_angle_deg`) and on one line (each centre within `THIN_LINE_TOLERANCE` × the
+    /// larger cross spread of the other's line): two pieces of one post.
+    fn continues(&self, other: &ObjectLine, config: &LiftConfig) -> bool {
+        let thin = |l: &ObjectLine| l.along >= config.thin_min_elongation * l.across;
+        let parallel = self.axis.dot(other.axis).abs() >= config.seam_max_angle_deg.to_radians().cos();
+        let tolerance = THIN_LINE_TOLERANCE * self.across.max(other.across);
+        let off_line = |l: &ObjectLine, p: Vec3| {
+            let d = p - l.centre;
+            (d - d.dot(l.axis) * l.axis).length()
+        };
+        thin(self)
+            && thin(other)
+            && parallel
+            && off_line(self, other.centre) <= tolerance
+            && off_line(other, self.centre) <= tolerance
+    }
+}
+
+/// Centres of two pieces of one thin structure lie within this many cross spreads of each
+/// other's line.
+const THIN_LINE_TOLERANCE: f32 = 2.0;
+
+/// Per object id (of at least 3 Gaussians), the line its Gaussians lie along (principal axis by
+/// power iteration on the 3×3 covariance from a fixed start, so the result is deterministic).
+pub(crate) fn object_lines(gaussians: &PreparedGaussians, ids: &[i32]) -> HashMap<u32, ObjectLine> {
+    // id → (count, Σx, Σxxᵀ as rows), in f64 for the second moments.
+    let mut sums: BTreeMap<u32, (u32, glam::DVec3, glam::DMat3)> = BTreeMap::new();
+    for (i, &id) in ids.iter().enumerate() {
+        if id <= 0 {
+            continue;
+        }
+        let x = gaussians.mean(i).as_dvec3();
+        let e = sums.entry(id as u32).or_insert((0, glam::DVec3::ZERO, glam::DMat3::ZERO));
+        e.0 += 1;
+        e.1 += x;
+        e.2 += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z);
+    }
+    sums.into_iter()
+        .filter(|(_, (n, _, _))| *n >= 3)
+        .map(|(id, (n, sum, outer))| {
+            let n = n as f64;
+            let mean = sum / n;
+            let cov = outer * (1.0 / n) - glam::DMat3::from_cols(mean * mean.x, mean * mean.y, mean * mean.z);
+            let mut axis = glam::DVec3::new(0.577, 0.578, 0.579);
+            for _ in 0..64 {
+                axis = (cov * axis).normalize_or_zero();
+                if axis == glam::DVec3::ZERO {
+                    break;
+                }
+            }
+            let along_var = axis.dot(cov * axis).max(0.0);
+            let trace = cov.x_axis.x + cov.y_axis.y + cov.z_axis.z;
+            let across_var = ((trace - along_var) / 2.0).max(0.0);
+            let line = ObjectLine {
+                centre: mean.as_vec3(),
+                axis: axis.as_vec3(),
+                along: along_var.sqrt() as f32,
+                across: across_var.sqrt() as f32,
+            };
+            (id, line)
+        })
+        .collect()
+}
+
 /// Contacts between object ids: `(a, b)` with `a < b` → what they share.
 pub(crate) fn contacts(
     gaussians: &PreparedGaussians,
@@ -339,15 +420,23 @@ pub fn join_touching_counted(
         }
         _ => false,
     };
+    let lines = object_lines(gaussians, &lifted.object_ids);
     let cos_of =
         |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
     let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel, facing, config)
         .into_iter()
-        .filter(|&((a, b), c)| {
-            c.voxel_pairs >= config.min_contact_voxels && (b as usize) <= n_objects && a >= 1
-        })
+        .filter(|&((a, b), c)| c.voxel_pairs >= 1 && (b as usize) <= n_objects && a >= 1)
         .filter_map(|((a, b), c)| {
             let cos = cos_of(a, b);
+            let thin = cos >= config.tau_seam
+                && config.thin_min_elongation > 0.0
+                && matches!((lines.get(&a), lines.get(&b)), (Some(p), Some(q)) if p.continues(q, config));
+            if thin {
+                tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
+            }
+            if c.voxel_pairs < config.min_contact_voxels {
+                return thin.then_some((cos, a, b));
+            }
             let seam = c.measured >= config.min_contact_voxels
                 && coplanar(a, b)
                 && c.smooth as f32 >= config.seam_smooth_share * c.measured as f32
@@ -376,7 +465,7 @@ pub fn join_touching_counted(
                     );
                     share >= config.part_min_together_share
                 };
-            let alike = alike || parts;
+            let alike = alike || parts || thin;
             if seam {
                 tracing::debug!(
                     "objects {a} and {b} continue one surface: cos {cos:.3}, {} of {} contacts smooth",

@@ -254,3 +254,33 @@ fn a_wall_and_the_floor_in_front_of_it_meet_at_a_concave_edge_and_stay_apart() {
     let no_concave = LiftConfig { part_min_convex_share: 0.0, ..LiftConfig::default() };
     assert_eq!(join_parts_with(&prepared, 400, [1.5, 1.5, 0.2], true, &no_concave), 0);
 }
+
+/// A post along y: Gaussians on a ring of radius 0.015 around (x, z), from y0 for `rows` rows.
+fn post(x: f32, z: f32, y0: f32, rows: usize) -> Vec<[f32; 3]> {
+    let mut out = Vec::new();
+    for j in 0..rows {
+        for k in 0..6 {
+            let a = k as f32 * std::f32::consts::PI / 3.0;
+            out.push([x + 0.015 * a.cos(), y0 + j as f32 * STEP, z + 0.015 * a.sin()]);
+        }
+    }
+    out
+}
+
+#[test]
+fn two_pieces_of_one_post_join_and_two_posts_side_by_side_do_not() {
+    // One post along y cut at y = 0.6 (SAM cut it where the wall behind it meets the floor).
+    let mut means = post(0.0, 0.0, 0.0, 30);
+    means.extend(post(0.0, 0.0, 0.6, 30));
+    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).expect("finite");
+    let ids: Vec<i32> = (0..360).map(|i| if i < 180 { 1 } else { 2 }).collect();
+    let (joins, l) = join(&prepared, ids);
+    assert_eq!(joins, 1);
+    assert!(l.object_ids.iter().all(|&i| i == 1));
+    // Two posts 0.1 apart side by side: parallel, touching at their voxels, not on one line.
+    let mut means = post(0.0, 0.0, 0.0, 30);
+    means.extend(post(0.06, 0.0, 0.0, 30));
+    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).expect("finite");
+    let ids: Vec<i32> = (0..360).map(|i| if i < 180 { 1 } else { 2 }).collect();
+    assert_eq!(join(&prepared, ids.clone()), (0, lifted(ids)));
+}
