@@ -1,11 +1,11 @@
 //! Tile binning: which splats touch which 16×16 tile, each tile's list sorted front to back.
 //!
 //! Work mapping: tile rectangles per splat in parallel (one splat per work item); the visible
-//! splats are sorted once by (depth, index) with rayon's parallel sort and appended, in that
-//! order, to the list of every row of tiles they touch (sequential); then one rayon work item per
-//! row of tiles counts and fills its tiles' lists (a counting sort), so every list comes out front
-//! to back (ties in index order) without per-tile sorting. The result is independent of the
-//! thread count.
+//! splats are sorted once by (depth, index) — one `u64` key per splat, rayon's parallel sort —
+//! and appended, in that order, to the list of every row of tiles they touch (sequential); then
+//! one rayon work item per row of tiles counts and fills its tiles' lists (a counting sort), so
+//! every list comes out front to back (ties in index order) without per-tile sorting. The result
+//! is independent of the thread count.
 //!
 //! A splat covers tiles `floor((mean − r) / 16) .. ceil((mean + r) / 16)` (half-open, clamped to
 //! the image), per axis, as gsplat's `isect_tiles`.
@@ -59,16 +59,31 @@ pub fn tile_rect(s: &Splat2d, tiles_x: usize, tiles_y: usize) -> [usize; 4] {
     ]
 }
 
+/// The bits of `depth` as an unsigned integer ordered as `f32::total_cmp` orders the floats.
+#[inline]
+fn depth_order_bits(depth: f32) -> u32 {
+    let bits = depth.to_bits() as i32;
+    // `total_cmp`'s key: negative floats have their magnitude bits flipped, then the signed
+    // order; flipping the sign bit turns that into the unsigned order.
+    ((bits ^ (((bits >> 31) as u32) >> 1) as i32) as u32) ^ 0x8000_0000
+}
+
 /// Bins `splats [N]` into the tiles of a `width × height` image.
 pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     let tiles_x = width.div_ceil(TILE_SIZE);
     let tiles_y = height.div_ceil(TILE_SIZE);
     let n_tiles = tiles_x * tiles_y;
     let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
-    let mut order: Vec<u32> = (0..splats.len() as u32).filter(|&i| !splats[i as usize].is_culled()).collect();
-    order.par_sort_unstable_by(|&a, &b| {
-        splats[a as usize].depth.total_cmp(&splats[b as usize].depth).then(a.cmp(&b))
-    });
+    // Sorted by (depth, index) as one integer key per splat: the depth's bits in `total_cmp`
+    // order above the index (no look-ups into the splats while sorting).
+    let mut keys: Vec<u64> = splats
+        .par_iter()
+        .enumerate()
+        .filter(|(_, s)| !s.is_culled())
+        .map(|(i, s)| (depth_order_bits(s.depth) as u64) << 32 | i as u64)
+        .collect();
+    keys.par_sort_unstable();
+    let order: Vec<u32> = keys.into_iter().map(|k| k as u32).collect();
     // Splats per row of tiles, front to back.
     let mut rows: Vec<Vec<u32>> = vec![Vec::new(); tiles_y];
     for &i in &order {
@@ -122,6 +137,31 @@ mod tests {
 
     fn splat(x: f32, y: f32, r: i32, depth: f32) -> Splat2d {
         Splat2d { mean2d: [x, y], conic: [1.0, 0.0, 1.0], opacity: 0.5, depth, radii: [r, r] }
+    }
+
+    /// The integer keys order depths exactly as `total_cmp` does, signs, zeros and
+    /// infinities included.
+    #[test]
+    fn depth_keys_order_as_total_cmp() {
+        let depths = [
+            f32::NEG_INFINITY,
+            -3.5,
+            -1e-30,
+            -0.0,
+            0.0,
+            1e-38,
+            0.01,
+            0.010000001,
+            1.0,
+            2.5e7,
+            f32::MAX,
+            f32::INFINITY,
+        ];
+        for a in depths {
+            for b in depths {
+                assert_eq!(depth_order_bits(a).cmp(&depth_order_bits(b)), a.total_cmp(&b), "{a} vs {b}");
+            }
+        }
     }
 
     #[test]
