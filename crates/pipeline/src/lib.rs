@@ -338,15 +338,19 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
                 }),
             };
             outputs::write_view_maps(&config.out, &scene, &load, v, &final_map)?;
-            // The view's distinct ids (kept for every view: a few, not a pixel's worth each).
-            let ids: Vec<u32> = final_map
-                .data
-                .iter()
-                .copied()
-                .filter(|&x| x > 0)
-                .collect::<std::collections::BTreeSet<u32>>()
-                .into_iter()
-                .collect();
+            // The view's distinct ids (kept for every view: a few, not a pixel's worth each);
+            // a pixel equal to the one before adds nothing new.
+            let mut distinct = std::collections::BTreeSet::new();
+            let mut last = 0u32;
+            for &x in &final_map.data {
+                if x != last {
+                    if x > 0 {
+                        distinct.insert(x);
+                    }
+                    last = x;
+                }
+            }
+            let ids: Vec<u32> = distinct.into_iter().collect();
             let counts = match &eval {
                 Some(e) => {
                     let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {
