@@ -172,10 +172,13 @@ unsafe fn visit_tile_avx2<V: ContributionVisitor>(
 /// transmittance, tile-local row-major.
 ///
 /// The pixels still open (not stopped) are kept as one bit mask per tile row, so a splat's rows
-/// whose pixels are all finished are skipped before their span is computed, and only open
-/// pixels are visited (in the same order as a scan of the span: the blends are unchanged). The
-/// α of a row's 16 pixels are computed together (vectorised), then its open pixels that blend
-/// are walked in order; `AVX2`: with AVX2 intrinsics (only inside [`visit_tile_avx2`]).
+/// whose pixels are all finished are skipped, and only open pixels are visited. The α of a
+/// row's 16 pixels are computed together (vectorised); the open pixels of the splat's footprint
+/// box whose α blends are then walked left to right. The rasteriser narrows each row to the
+/// footprint's exact span first; that span holds every pixel whose α reaches `alpha_min` (with a
+/// 1 px margin, [`Footprint`]), so testing α over the whole box row keeps exactly the same
+/// pixels, in the same order, without the span's square root. `AVX2`: with AVX2 intrinsics
+/// (only inside [`visit_tile_avx2`]).
 #[inline(always)]
 fn visit_tile<V: ContributionVisitor, const AVX2: bool>(
     view: &ProjectedView,
@@ -204,11 +207,7 @@ fn visit_tile<V: ContributionVisitor, const AVX2: bool>(
             if open[ty] & box_bits == 0 {
                 continue;
             }
-            let (lo, hi) = fp.row(py);
-            let mut todo = open[ty] & span_bits(lo - x0, hi - x0);
-            if todo == 0 {
-                continue;
-            }
+            let mut todo = open[ty] & box_bits;
             let mut alphas = [0f32; TILE_SIZE];
             let row = RowTerms::new(s, py);
             #[cfg(target_arch = "x86_64")]
