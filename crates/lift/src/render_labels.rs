@@ -94,7 +94,7 @@ fn remaining_factor(votes: &RenderVotes) -> f32 {
 /// Whether the leading label of the slots `(ids, weights)` wins whatever light `t_left` is still
 /// to come (each unit of it adding at most `factor` to one label, and the background's share to
 /// label 0): its weight beats every other slot's plus the most the rest can add, with margin.
-#[inline]
+#[inline(always)]
 fn decided(ids: &[u32; PIXEL_SLOTS], weights: &[f32; PIXEL_SLOTS], t_left: f32, factor: f32) -> bool {
     let (mut lead, mut other) = (0.0f32, 0.0f32);
     for s in 0..PIXEL_SLOTS {
@@ -111,7 +111,7 @@ fn decided(ids: &[u32; PIXEL_SLOTS], weights: &[f32; PIXEL_SLOTS], t_left: f32, 
 }
 
 impl ContributionVisitor for LabelBand<'_> {
-    #[inline]
+    #[inline(always)]
     fn contribution(&mut self, c: Contribution) -> bool {
         let g = c.gaussian as usize;
         let label = self.votes.labels[g];
