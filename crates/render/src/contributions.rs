@@ -151,7 +151,7 @@ fn span_bits(lo: usize, hi: usize) -> u32 {
     ((1u32 << (hi - lo)) - 1) << lo
 }
 
-/// [`visit_tile`] compiled with AVX2 (the 16 α of a row in two 8-lane steps).
+/// [`visit_tile`] compiled with AVX2 (a row's α in one or two 8-lane steps).
 ///
 /// # Safety
 /// The CPU must have AVX2.
@@ -173,8 +173,9 @@ unsafe fn visit_tile_avx2<V: ContributionVisitor>(
 ///
 /// The pixels still open (not stopped) are kept as one bit mask per tile row, so a splat's rows
 /// whose pixels are all finished are skipped, and only open pixels are visited. The α of a
-/// row's 16 pixels are computed together (vectorised); the open pixels of the splat's footprint
-/// box whose α blends are then walked left to right. The rasteriser narrows each row to the
+/// row's columns from its first open pixel in the footprint box to its last are computed
+/// together (8 lanes at a time with AVX2); the open pixels whose α blends are then walked left
+/// to right. The rasteriser narrows each row to the
 /// footprint's exact span first; that span holds every pixel whose α reaches `alpha_min` (with a
 /// 1 px margin, [`Footprint`]), so testing α over the whole box row keeps exactly the same
 /// pixels, in the same order, without the span's square root. `AVX2`: with AVX2 intrinsics
@@ -208,17 +209,19 @@ fn visit_tile<V: ContributionVisitor, const AVX2: bool>(
                 continue;
             }
             let mut todo = open[ty] & box_bits;
-            let mut alphas = [0f32; TILE_SIZE];
+            // α of the columns from the first open pixel to the last.
+            let span = (todo.trailing_zeros() as usize, 32 - todo.leading_zeros() as usize);
+            let mut alphas = [0f32; 32];
             let row = RowTerms::new(s, py);
             #[cfg(target_arch = "x86_64")]
             let keep = if AVX2 {
                 // SAFETY: `AVX2` is only set inside `visit_tile_avx2`, which needs AVX2.
-                unsafe { row.alphas16_avx2(x0, s.opacity, settings, &mut alphas) }
+                unsafe { row.alphas_row_avx2(x0, span, s.opacity, settings, &mut alphas) }
             } else {
-                row.alphas16(x0, s.opacity, settings, &mut alphas)
+                row.alphas_row(x0, span, s.opacity, settings, &mut alphas)
             };
             #[cfg(not(target_arch = "x86_64"))]
-            let keep = row.alphas16(x0, s.opacity, settings, &mut alphas);
+            let keep = row.alphas_row(x0, span, s.opacity, settings, &mut alphas);
             todo &= keep;
             while todo != 0 {
                 let k = todo.trailing_zeros() as usize;
