@@ -159,9 +159,108 @@ pub fn near_depth_edge(points: &Plane<[f32; 3]>, p: usize, window: NormalWindow,
     false
 }
 
+/// [`near_depth_edge`] for many pixels of one map: which neighbouring pairs of `points` jump in
+/// depth, counted in summed-area tables, so the test over a window is eight look-ups instead of
+/// a scan of the window (same pairs, same rule: the same answers).
+pub struct DepthJumps {
+    width: usize,
+    height: usize,
+    /// `[(H + 1) · (W + 1)]`: entry `(y, x)` counts the jumping pairs `(x', y')–(x' + 1, y')` with
+    /// `x' < x`, `y' < y`.
+    right: Vec<u32>,
+    /// `[(H + 1) · (W + 1)]`: the same for the pairs `(x', y')–(x', y' + 1)`.
+    down: Vec<u32>,
+}
+
+impl DepthJumps {
+    /// The tables of `points` (`[H, W]`) for the relative jump `max_jump`.
+    pub fn new(points: &Plane<[f32; 3]>, max_jump: f32) -> Self {
+        let (w, h) = points.size();
+        let z = |x: usize, y: usize| points.data[y * w + x][2];
+        let jump = |a: f32, b: f32| !(a.is_finite() && b.is_finite()) || (a - b).abs() > max_jump * a.min(b);
+        let stride = w + 1;
+        let mut right = vec![0u32; (h + 1) * stride];
+        let mut down = vec![0u32; (h + 1) * stride];
+        for y in 0..h {
+            let (mut row_right, mut row_down) = (0u32, 0u32);
+            for x in 0..w {
+                let here = z(x, y);
+                row_right += (x + 1 < w && jump(here, z(x + 1, y))) as u32;
+                row_down += (y + 1 < h && jump(here, z(x, y + 1))) as u32;
+                let at = (y + 1) * stride + x + 1;
+                right[at] = right[at - stride] + row_right;
+                down[at] = down[at - stride] + row_down;
+            }
+        }
+        DepthJumps { width: w, height: h, right, down }
+    }
+
+    /// Jumping pairs counted in `table` with their first pixel in `[x0, x1) × [y0, y1)`.
+    fn count(&self, table: &[u32], (x0, x1, y0, y1): (usize, usize, usize, usize)) -> u32 {
+        let s = self.width + 1;
+        table[y1 * s + x1]
+            .wrapping_sub(table[y0 * s + x1])
+            .wrapping_sub(table[y1 * s + x0])
+            .wrapping_add(table[y0 * s + x0])
+    }
+
+    /// [`near_depth_edge`] at pixel `p` (row-major) over `window`.
+    pub fn near_edge(&self, p: usize, window: NormalWindow) -> bool {
+        let (w, h) = (self.width, self.height);
+        let (x, y) = (p % w, p / w);
+        let r = window.radius;
+        // The window's pixels are `xa..=xb` × `ya..=yb`; a pair counts when both its pixels are in it.
+        let (xa, xb, ya, yb) =
+            (x.saturating_sub(r), (x + r).min(w - 1), y.saturating_sub(r), (y + r).min(h - 1));
+        self.count(&self.right, (xa, xb, ya, yb + 1)) > 0 || self.count(&self.down, (xa, xb + 1, ya, yb)) > 0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The tables answer as the window scan at every pixel: steps, slants, holes, image borders,
+    /// windows larger than the image.
+    #[test]
+    fn depth_jump_tables_answer_as_the_window_scan() {
+        let (w, h) = (23, 17);
+        let mut seed = 12345u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            seed >> 8
+        };
+        let z = Plane {
+            width: w,
+            height: h,
+            data: (0..w * h)
+                .map(|i| match next() % 40 {
+                    0 => f32::NAN,
+                    1 => 0.0,
+                    2..=4 => 6.0,
+                    _ => 2.0 + 0.01 * (i % w) as f32 + 0.003 * (i / w) as f32,
+                })
+                .collect(),
+        };
+        let points = camera_points(&z, &K);
+        let mut edges = 0;
+        for max_jump in [0.05, 0.1, 0.5] {
+            let table = DepthJumps::new(&points, max_jump);
+            for radius in [0, 1, 3, 12, 40] {
+                let window = NormalWindow { step: 1, radius };
+                for p in 0..w * h {
+                    let want = near_depth_edge(&points, p, window, max_jump);
+                    assert_eq!(
+                        table.near_edge(p, window),
+                        want,
+                        "pixel {p}, radius {radius}, jump {max_jump}"
+                    );
+                    edges += want as usize;
+                }
+            }
+        }
+        assert!(edges > 100 && edges < 15 * w * h, "{edges} edge answers: both kinds are tested");
+    }
 
     const K: Intrinsics = Intrinsics { fx: 100.0, fy: 100.0, cx: 32.0, cy: 32.0 };
 

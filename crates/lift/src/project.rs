@@ -8,6 +8,7 @@
 use crate::config::LiftConfig;
 use crate::error::{LiftError, LiftResult};
 use glam::{Mat3, Quat, Vec3};
+use splatseg_render::project::ViewIndependent;
 use splatseg_render::{ProjectedView, RasterSettings, RenderCamera};
 use splatseg_scene::{Camera, Gaussians, Pose};
 
@@ -23,6 +24,9 @@ pub struct PreparedGaussians {
     pub normals: Vec<Vec3>,
     /// `[N]` flatness `1 − s_min / s_mid` in [0, 1] (0 = no preferred normal).
     pub flatness: Vec<f32>,
+    /// The renderer's view-independent projection terms of `geometry` (covariances,
+    /// opacities), so each view's projection only does the per-view part.
+    pub projection: ViewIndependent,
 }
 
 impl PreparedGaussians {
@@ -40,6 +44,7 @@ impl PreparedGaussians {
             cov3d: Vec::with_capacity(n),
             normals: Vec::with_capacity(n),
             flatness: Vec::with_capacity(n),
+            projection: ViewIndependent::default(),
         };
         for i in 0..n {
             let finite = |v: &[f32], what| {
@@ -73,6 +78,7 @@ impl PreparedGaussians {
             out.normals.push(rot.col(axes[0]));
             out.flatness.push(if s[axes[1]] > 0.0 { 1.0 - s[axes[0]] / s[axes[1]] } else { 0.0 });
         }
+        out.projection = ViewIndependent::new(&out.geometry);
         Ok(out)
     }
 
@@ -125,8 +131,12 @@ pub fn project_view(
 ) -> ProjectedView {
     let mut render_camera = RenderCamera::from_scene(camera, world_from_cam);
     render_camera.near = config.near;
-    let mut splats =
-        splatseg_render::project::project(&gaussians.geometry, &render_camera, &raster_settings());
+    let mut splats = splatseg_render::project::project_prepared(
+        &gaussians.geometry,
+        &gaussians.projection,
+        &render_camera,
+        &raster_settings(),
+    );
     if !camera.distortion.is_zero() {
         let cam_from_world = world_from_cam.inverse();
         for (i, s) in splats.iter_mut().enumerate() {

@@ -11,6 +11,12 @@
 //! hole. Gaussians seen in too few views abstain (occlude, no vote).
 //! The pixel takes the label with the largest summed weight. Up to [`PIXEL_SLOTS`] labels are
 //! tracked per pixel (the weakest is replaced when a new one arrives).
+//!
+//! A pixel is finished as soon as its label is decided: once the leading label's weight exceeds
+//! every other tracked label's weight plus all the light still to come (the transmittance left,
+//! times the largest vote factor), with a margin far above float rounding, nothing behind can
+//! change the winner, and the compositor stops the pixel there (the same label as compositing to
+//! the end; test `stopping_at_the_decision_gives_the_full_pass_labels`).
 
 use crate::config::LiftConfig;
 use crate::lifting::{GaussianStatus, Lifted};
@@ -63,32 +69,73 @@ struct LabelBand<'a> {
     ids: Vec<[u32; PIXEL_SLOTS]>,
     weights: Vec<[f32; PIXEL_SLOTS]>,
     labels: Vec<u32>,
+    /// Bound on what the light left can still add to one label, per unit of transmittance
+    /// (`max(1, largest vote factor)`; +∞ disables the early decision).
+    remaining_factor: f32,
+}
+
+/// Relative margin of the early decision over float rounding: the weights still to come are
+/// summed in at most ~2,400 steps (α ≥ 1/255 until T ≤ 1e-4), each off by a few ulps, i.e. a
+/// relative error below 1e-3 of the light left; 1/64 is far above it.
+const DECISION_MARGIN: f32 = 1.0 / 64.0;
+
+/// [`LabelBand::remaining_factor`] for `votes`.
+fn remaining_factor(votes: &RenderVotes) -> f32 {
+    let mut largest = 1.0f32;
+    for &w in &votes.weights {
+        if !(w >= 0.0 && w.is_finite()) {
+            return f32::INFINITY;
+        }
+        largest = largest.max(w);
+    }
+    largest
+}
+
+/// Whether the leading label of the slots `(ids, weights)` wins whatever light `t_left` is still
+/// to come (each unit of it adding at most `factor` to one label, and the background's share to
+/// label 0): its weight beats every other slot's plus the most the rest can add, with margin.
+#[inline(always)]
+fn decided(ids: &[u32; PIXEL_SLOTS], weights: &[f32; PIXEL_SLOTS], t_left: f32, factor: f32) -> bool {
+    let (mut lead, mut other) = (0.0f32, 0.0f32);
+    for s in 0..PIXEL_SLOTS {
+        if ids[s] != ABSTAIN {
+            let w = weights[s];
+            if w > lead {
+                (lead, other) = (w, lead);
+            } else {
+                other = other.max(w);
+            }
+        }
+    }
+    lead > (other + t_left * factor) * (1.0 + DECISION_MARGIN) + 1e-6
 }
 
 impl ContributionVisitor for LabelBand<'_> {
-    #[inline]
+    #[inline(always)]
     fn contribution(&mut self, c: Contribution) -> bool {
         let g = c.gaussian as usize;
         let label = self.votes.labels[g];
-        if label == ABSTAIN {
-            return true;
-        }
-        let weight = c.weight * self.votes.weights[g];
         let p = c.pixel - self.first;
         let (ids, weights) = (&mut self.ids[p], &mut self.weights[p]);
-        if let Some(s) = ids.iter().position(|&x| x == label) {
-            weights[s] += weight;
-        } else if let Some(s) = ids.iter().position(|&x| x == ABSTAIN) {
-            ids[s] = label;
-            weights[s] = weight;
-        } else {
-            let weakest = (0..PIXEL_SLOTS).min_by(|&a, &b| weights[a].total_cmp(&weights[b])).unwrap_or(0);
-            if weights[weakest] < weight {
-                ids[weakest] = label;
-                weights[weakest] = weight;
+        if label != ABSTAIN {
+            let weight = c.weight * self.votes.weights[g];
+            if let Some(s) = ids.iter().position(|&x| x == label) {
+                weights[s] += weight;
+            } else if let Some(s) = ids.iter().position(|&x| x == ABSTAIN) {
+                ids[s] = label;
+                weights[s] = weight;
+            } else {
+                let weakest =
+                    (0..PIXEL_SLOTS).min_by(|&a, &b| weights[a].total_cmp(&weights[b])).unwrap_or(0);
+                if weights[weakest] < weight {
+                    ids[weakest] = label;
+                    weights[weakest] = weight;
+                }
             }
         }
-        true
+        // Finished once the leading label is decided; `pixel_done`'s rule then picks it too
+        // (label 0's share of the light left is inside the bound).
+        !decided(ids, weights, c.t_after, self.remaining_factor)
     }
 
     fn pixel_done(&mut self, pixel: usize, t_final: f32) {
@@ -113,6 +160,7 @@ impl ContributionVisitor for LabelBand<'_> {
 pub fn label_map_of_view(view: &ProjectedView, votes: &RenderVotes) -> Plane<u32> {
     let (width, height) = (view.width, view.height);
     let band_rows = splatseg_render::bin::TILE_SIZE;
+    let factor = remaining_factor(votes);
     let bands = visit_contributions(view, &raster_settings(), |b| {
         let n = band_rows.min(height - b * band_rows) * width;
         LabelBand {
@@ -121,6 +169,7 @@ pub fn label_map_of_view(view: &ProjectedView, votes: &RenderVotes) -> Plane<u32
             ids: vec![[ABSTAIN; PIXEL_SLOTS]; n],
             weights: vec![[0f32; PIXEL_SLOTS]; n],
             labels: vec![0; n],
+            remaining_factor: factor,
         }
     });
     let mut data = Vec::with_capacity(width * height);
@@ -140,4 +189,103 @@ pub fn render_label_map(
     config: &LiftConfig,
 ) -> Plane<u32> {
     label_map_of_view(&project_view(gaussians, camera, world_from_cam, config), votes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use splatseg_scene::Gaussians;
+
+    /// Many overlapping Gaussians of mixed sizes and opacities in front of an 80×64 camera.
+    fn crowded_view(seed: u64, n: usize) -> ProjectedView {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut g = Gaussians::default();
+        for _ in 0..n {
+            let z = rng.gen_range(2.0f32..6.0);
+            g.means.push([rng.gen_range(-0.6..0.6) * z, rng.gen_range(-0.5..0.5) * z, z]);
+            let s = rng.gen_range(-3.5f32..-1.5);
+            g.log_scales.push([s, s + rng.gen_range(-0.8..0.8), s + rng.gen_range(-0.8..0.8)]);
+            g.rotations.push([
+                1.0,
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            ]);
+            g.raw_opacities.push(rng.gen_range(-3.0..5.0));
+            g.sh_dc.push([0.0; 3]);
+        }
+        let prepared = PreparedGaussians::new(&g).expect("finite");
+        let camera = Camera::pinhole(1, 80, 64, 70.0, 70.0, 40.0, 32.0);
+        project_view(&prepared, &camera, &Pose::IDENTITY, &LiftConfig::default())
+    }
+
+    /// Counts the contributions a band's visitor takes.
+    struct Counted<'a>(LabelBand<'a>, u64);
+
+    impl ContributionVisitor for Counted<'_> {
+        fn contribution(&mut self, c: Contribution) -> bool {
+            self.1 += 1;
+            self.0.contribution(c)
+        }
+        fn pixel_done(&mut self, pixel: usize, t_final: f32) {
+            self.0.pixel_done(pixel, t_final)
+        }
+    }
+
+    /// The label map and the number of contributions taken, with the early decision on or off.
+    fn render(view: &ProjectedView, votes: &RenderVotes, early: bool) -> (Vec<u32>, u64) {
+        let factor = if early { remaining_factor(votes) } else { f32::INFINITY };
+        let bands = visit_contributions(view, &raster_settings(), |b| {
+            let n = 16.min(view.height - b * 16) * view.width;
+            Counted(
+                LabelBand {
+                    votes,
+                    first: b * 16 * view.width,
+                    ids: vec![[ABSTAIN; PIXEL_SLOTS]; n],
+                    weights: vec![[0f32; PIXEL_SLOTS]; n],
+                    labels: vec![0; n],
+                    remaining_factor: factor,
+                },
+                0,
+            )
+        });
+        let taken = bands.iter().map(|b| b.1).sum();
+        (bands.into_iter().flat_map(|b| b.0.labels).collect(), taken)
+    }
+
+    /// Finishing a pixel once its label is decided gives exactly the labels of compositing every
+    /// pixel to the end, with far fewer contributions: over many labels (more than the slots),
+    /// label 0, abstaining Gaussians, down-weighted votes and votes weighing more than 1.
+    #[test]
+    fn stopping_at_the_decision_gives_the_full_pass_labels() {
+        let mut stopped_early = 0;
+        for (seed, labels_in_play, top_factor) in
+            [(1u64, 3u32, 1.0f32), (2, 9, 1.0), (3, 6, 2.5), (4, 40, 1.0)]
+        {
+            let view = crowded_view(seed, 3000);
+            let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
+            let n = view.splats.len();
+            let labels: Vec<u32> = (0..n)
+                .map(|_| if rng.gen_bool(0.1) { ABSTAIN } else { rng.gen_range(0..labels_in_play) })
+                .collect();
+            let weights: Vec<f32> =
+                (0..n).map(|_| [1.0, 0.25, 0.0, top_factor][rng.gen_range(0..4usize)]).collect();
+            let votes = RenderVotes { labels, weights };
+            let (full, full_taken) = render(&view, &votes, false);
+            let (early, early_taken) = render(&view, &votes, true);
+            assert_eq!(early, full, "seed {seed}");
+            let distinct: std::collections::BTreeSet<u32> = full.iter().copied().collect();
+            assert!(distinct.len() >= 3.min(labels_in_play as usize), "seed {seed}: {distinct:?}");
+            assert!(early_taken <= full_taken, "seed {seed}");
+            if early_taken * 10 < full_taken * 9 {
+                stopped_early += 1;
+            }
+        }
+        assert!(stopped_early >= 3, "the decision stopped few pixels early: the test proves little");
+        // A non-finite or negative vote factor switches the decision off.
+        let votes = RenderVotes { labels: vec![1, 2], weights: vec![1.0, -1.0] };
+        assert_eq!(remaining_factor(&votes), f32::INFINITY);
+    }
 }

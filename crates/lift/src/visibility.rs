@@ -52,7 +52,7 @@ struct DepthBand<'a> {
 }
 
 impl ContributionVisitor for DepthBand<'_> {
-    #[inline]
+    #[inline(always)]
     fn contribution(&mut self, c: Contribution) -> bool {
         if c.t_after < self.stop {
             self.depth[c.pixel - self.first] = self.view.splats[c.gaussian as usize].depth;

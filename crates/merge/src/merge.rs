@@ -12,7 +12,7 @@ use crate::error::{MergeError, MergeResultOf};
 use crate::graph::{build_edges, sorted_union, Edge, Junctions};
 use crate::score::{evaluate, BoundaryMaps, Outcome, RegionState, ScoreTerms, Scratch, SurfaceMaps};
 use serde::{Deserialize, Serialize};
-use splatseg_cues::{near_depth_edge, region_normal_at, NormalWindow, RegionDescriptors, Regions};
+use splatseg_cues::{region_normal_at, DepthJumps, NormalWindow, RegionDescriptors, Regions};
 use splatseg_scene::Plane;
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BinaryHeap};
@@ -248,12 +248,11 @@ fn band_normals(points: &Plane<[f32; 3]>, labels: &Plane<u32>, edges: &[Edge]) -
     let window = NormalWindow::for_size(w, h);
     let mut normals = Plane::filled(w, h, [f32::NAN; 3]);
     let mut done = vec![false; w * h];
+    let jumps = DepthJumps::new(points, OCCLUSION_DEPTH_JUMP);
     for e in edges {
         for &p in &e.band {
             let p = p as usize;
-            if !std::mem::replace(&mut done[p], true)
-                && !near_depth_edge(points, p, window, OCCLUSION_DEPTH_JUMP)
-            {
+            if !std::mem::replace(&mut done[p], true) && !jumps.near_edge(p, window) {
                 if let Some(n) = region_normal_at(points, labels, p, window) {
                     normals.data[p] = n;
                 }

@@ -1,11 +1,13 @@
 //! Stage caching: every stage's output in `OUT/cache/` carries the key of the inputs and
-//! settings it was computed from (a 64-bit FNV-1a hash over file contents and the stage's
+//! settings it was computed from (a 64-bit FNV-style hash over file contents and the stage's
 //! config as JSON); a rerun reuses an output whose key matches and recomputes it otherwise.
 
 use crate::error::Context;
 use std::path::Path;
 
-/// An incremental FNV-1a 64-bit hash: stable across Rust versions and platforms (unlike std's
+/// An incremental 64-bit hash in the manner of FNV-1a, taking 8 bytes per step (xor, multiply
+/// by the FNV prime, rotate; a 100-view capture's inputs are gigabytes, which FNV-1a's byte
+/// per step took seconds over): stable across Rust versions and platforms (unlike std's
 /// `DefaultHasher`), which a cache on disk needs.
 #[derive(Clone, Copy, Debug)]
 pub struct KeyHasher(u64);
@@ -19,11 +21,21 @@ impl Default for KeyHasher {
 impl KeyHasher {
     /// Adds raw bytes, prefixed by their length (so concatenations stay distinct).
     pub fn bytes(&mut self, bytes: &[u8]) -> &mut Self {
-        for &b in (bytes.len() as u64).to_le_bytes().iter().chain(bytes) {
-            self.0 ^= b as u64;
-            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        self.word(bytes.len() as u64);
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            self.word(u64::from_le_bytes([w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7]]));
+        }
+        for &b in words.remainder() {
+            self.word(b as u64);
         }
         self
+    }
+
+    /// One step: xor, multiply, rotate (so high bits feed the low ones too).
+    #[inline]
+    fn word(&mut self, w: u64) {
+        self.0 = (self.0 ^ w).wrapping_mul(0x0100_0000_01b3).rotate_left(27);
     }
 
     /// Adds a string.
@@ -103,5 +115,15 @@ mod tests {
         assert_eq!(key(&["ab", "c"]), key(&["ab", "c"]));
         assert_ne!(key(&["ab", "c"]), key(&["a", "bc"]));
         assert_eq!(KeyHasher::default().finish(), "cbf29ce484222325");
+        // Every byte counts, whole words and the tail alike.
+        let bytes: Vec<u8> = (0..=40u8).collect();
+        let base = KeyHasher::default().bytes(&bytes).finish();
+        for i in 0..bytes.len() {
+            for bit in [0, 7] {
+                let mut changed = bytes.clone();
+                changed[i] ^= 1 << bit;
+                assert_ne!(KeyHasher::default().bytes(&changed).finish(), base, "byte {i}, bit {bit}");
+            }
+        }
     }
 }

@@ -171,6 +171,10 @@ struct RunCache {
     summary: RunSummary,
 }
 
+/// What writing one view's outputs gives back: its distinct final ids, and its counts for the
+/// scores (with ground truth).
+type ViewOutputs = (Vec<u32>, Option<Vec<ViewCounts>>);
+
 /// Runs the whole pipeline (see the module docs for the outputs).
 pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let _lock = lock::lock_output(&config.out, "run")?;
@@ -323,66 +327,80 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     } else {
         &["raw", "merged", "matched"]
     };
-    let bar = progress(scene.views.len(), "write label maps");
-    let per_view: Vec<(Vec<u32>, Option<Vec<ViewCounts>>)> = (0..scene.views.len())
-        .into_par_iter()
-        .progress_with(bar.clone())
-        .map(|v| -> crate::Result<(Vec<u32>, Option<Vec<ViewCounts>>)> {
-            let view = &scene.views[v];
-            let matched = matched_map(v)?;
-            let final_map = match &lifted {
-                Some(l) => l.final_map(v),
-                None => matched.clone().unwrap_or_else(|| {
-                    let c = scene.camera(view);
-                    Plane::filled(c.width as usize, c.height as usize, 0)
-                }),
-            };
-            outputs::write_view_maps(&config.out, &scene, &load, v, &final_map)?;
-            // The view's distinct ids (kept for every view: a few, not a pixel's worth each).
-            let ids: Vec<u32> = final_map
-                .data
-                .iter()
-                .copied()
-                .filter(|&x| x > 0)
-                .collect::<std::collections::BTreeSet<u32>>()
-                .into_iter()
-                .collect();
-            let counts = match &eval {
-                Some(e) => {
-                    let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {
-                        Ok(match views[v] {
-                            Some(_) => Some(offset_map(&cached_map(v, kind)?, base)),
-                            None => None,
-                        })
-                    };
-                    let mut maps =
-                        vec![local("raw", raw_offsets[v])?, local("merged", merged_offsets[v])?, matched];
-                    if lifted.is_some() {
-                        maps.push(Some(final_map));
-                    }
-                    view_counts(&scene, e, v, &maps, &pc.eval)?
-                }
-                None => None,
-            };
-            Ok((ids, counts))
-        })
-        .collect::<crate::Result<_>>()?;
-    bar.finish_and_clear();
     // `[N]` ids of every input row (-1 for the non-finite rows that were skipped).
     let row_ids = match (&ply_rows, &lifted) {
         (Some(rows), Some(l)) => Some(outputs::ids_of_every_row(rows, &l.lifted.object_ids)),
         _ => None,
     };
     let fused = lifted.as_mut().and_then(|l| l.lifted.fused_features.take());
-    if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
-        let (finite, n_rows) = (rows.finite_rows(), rows.gaussians.len());
-        let g = outputs::labelled_rows(rows, ids, fused.is_some());
-        let fused = fused.map(|f| outputs::FusedRows::new(f, &finite, n_rows));
-        let out_ply = config.out.join("gaussians.ply");
-        let rows: Option<&dyn splatseg_scene::ply::FeatureRows> = fused.as_ref().map(|f| f as _);
-        splatseg_scene::ply::write_ply_rows_with_features(&out_ply, &g, rows)
-            .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
-    }
+    // `gaussians.ply` is written while the views' maps are (its writing is mostly the kernel
+    // copying bytes, on one thread).
+    let write_ply = || -> crate::Result<()> {
+        if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, &lifted, &ply_path) {
+            let (finite, n_rows) = (rows.finite_rows(), rows.gaussians.len());
+            let g = outputs::labelled_rows(rows, ids, fused.is_some());
+            let fused = fused.map(|f| outputs::FusedRows::new(f, &finite, n_rows));
+            let out_ply = config.out.join("gaussians.ply");
+            let rows: Option<&dyn splatseg_scene::ply::FeatureRows> = fused.as_ref().map(|f| f as _);
+            splatseg_scene::ply::write_ply_rows_with_features(&out_ply, &g, rows)
+                .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
+        }
+        Ok(())
+    };
+    let bar = progress(scene.views.len(), "write label maps");
+    let write_maps = || -> crate::Result<Vec<ViewOutputs>> {
+        (0..scene.views.len())
+            .into_par_iter()
+            .progress_with(bar.clone())
+            .map(|v| -> crate::Result<ViewOutputs> {
+                let view = &scene.views[v];
+                let matched = matched_map(v)?;
+                let final_map = match &lifted {
+                    Some(l) => l.final_map(v),
+                    None => matched.clone().unwrap_or_else(|| {
+                        let c = scene.camera(view);
+                        Plane::filled(c.width as usize, c.height as usize, 0)
+                    }),
+                };
+                outputs::write_view_maps(&config.out, &scene, &load, v, &final_map)?;
+                // The view's distinct ids (kept for every view: a few, not a pixel's worth each);
+                // a pixel equal to the one before adds nothing new.
+                let mut distinct = std::collections::BTreeSet::new();
+                let mut last = 0u32;
+                for &x in &final_map.data {
+                    if x != last {
+                        if x > 0 {
+                            distinct.insert(x);
+                        }
+                        last = x;
+                    }
+                }
+                let ids: Vec<u32> = distinct.into_iter().collect();
+                let counts = match &eval {
+                    Some(e) => {
+                        let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {
+                            Ok(match views[v] {
+                                Some(_) => Some(offset_map(&cached_map(v, kind)?, base)),
+                                None => None,
+                            })
+                        };
+                        let mut maps =
+                            vec![local("raw", raw_offsets[v])?, local("merged", merged_offsets[v])?, matched];
+                        if lifted.is_some() {
+                            maps.push(Some(final_map));
+                        }
+                        view_counts(&scene, e, v, &maps, &pc.eval)?
+                    }
+                    None => None,
+                };
+                Ok((ids, counts))
+            })
+            .collect::<crate::Result<_>>()
+    };
+    let (per_view, ply_written) = rayon::join(write_maps, write_ply);
+    let per_view = per_view?;
+    ply_written?;
+    bar.finish_and_clear();
     let final_ids: std::collections::BTreeSet<u32> =
         per_view.iter().flat_map(|(ids, _)| ids.iter().copied()).collect();
     let report = match &gt {

@@ -1,11 +1,11 @@
 //! Tile binning: which splats touch which 16×16 tile, each tile's list sorted front to back.
 //!
 //! Work mapping: tile rectangles per splat in parallel (one splat per work item); the visible
-//! splats are sorted once by (depth, index) with rayon's parallel sort and appended, in that
-//! order, to the list of every row of tiles they touch (sequential); then one rayon work item per
-//! row of tiles counts and fills its tiles' lists (a counting sort), so every list comes out front
-//! to back (ties in index order) without per-tile sorting. The result is independent of the
-//! thread count.
+//! splats are sorted once by (depth, index) — one `u64` key per splat, a radix sort —
+//! and appended, in that order, to the list of every row of tiles they touch (sequential); then
+//! one rayon work item per row of tiles counts and fills its tiles' lists (a counting sort), so
+//! every list comes out front to back (ties in index order) without per-tile sorting. The result
+//! is independent of the thread count.
 //!
 //! A splat covers tiles `floor((mean − r) / 16) .. ceil((mean + r) / 16)` (half-open, clamped to
 //! the image), per axis, as gsplat's `isect_tiles`.
@@ -50,13 +50,75 @@ pub fn tile_rect(s: &Splat2d, tiles_x: usize, tiles_y: usize) -> [usize; 4] {
     let ts = TILE_SIZE as f32;
     let (rx, ry) = (s.radii[0] as f32 / ts, s.radii[1] as f32 / ts);
     let (mx, my) = (s.mean2d[0] / ts, s.mean2d[1] / ts);
-    let clamp = |v: f32, hi: usize| v.clamp(0.0, hi as f32) as usize;
     [
-        clamp((mx - rx).floor(), tiles_x),
-        clamp((mx + rx).ceil(), tiles_x),
-        clamp((my - ry).floor(), tiles_y),
-        clamp((my + ry).ceil(), tiles_y),
+        floor_clamped(mx - rx, tiles_x),
+        ceil_clamped(mx + rx, tiles_x),
+        floor_clamped(my - ry, tiles_y),
+        ceil_clamped(my + ry, tiles_y),
     ]
+}
+
+/// `v.floor().clamp(0.0, hi as f32) as usize` without a libm call (`f32::floor` is one without
+/// SSE4.1): NaN and v ≤ 0 give 0, v ≥ hi gives hi, else the truncation.
+#[inline]
+fn floor_clamped(v: f32, hi: usize) -> usize {
+    if v.is_nan() || v <= 0.0 {
+        0
+    } else if v >= hi as f32 {
+        hi
+    } else {
+        v as usize
+    }
+}
+
+/// `v.ceil().clamp(0.0, hi as f32) as usize` without a libm call.
+#[inline]
+fn ceil_clamped(v: f32, hi: usize) -> usize {
+    if v.is_nan() || v <= 0.0 {
+        0
+    } else if v >= hi as f32 {
+        hi
+    } else {
+        let t = v as usize;
+        t + ((t as f32) < v) as usize
+    }
+}
+
+/// The bits of `depth` as an unsigned integer ordered as `f32::total_cmp` orders the floats.
+#[inline]
+fn depth_order_bits(depth: f32) -> u32 {
+    let bits = depth.to_bits() as i32;
+    // `total_cmp`'s key: negative floats have their magnitude bits flipped, then the signed
+    // order; flipping the sign bit turns that into the unsigned order.
+    ((bits ^ (((bits >> 31) as u32) >> 1) as i32) as u32) ^ 0x8000_0000
+}
+
+/// The low halves of `keys` (`[n]`, sorted by their low halves) ordered by the whole key: a
+/// stable least-significant-digit radix sort on the high 32 bits, 8 bits per pass (a pass whose
+/// byte is the same for every key is skipped). Stable, so equal high halves keep the low
+/// halves' order: the same order as sorting the `u64`s.
+fn order_by_high_bits(mut keys: Vec<u64>) -> Vec<u32> {
+    let mut spare = vec![0u64; keys.len()];
+    for shift in [32u32, 40, 48, 56] {
+        let mut counts = [0usize; 256];
+        for &k in &keys {
+            counts[((k >> shift) & 0xff) as usize] += 1;
+        }
+        if counts.contains(&keys.len()) {
+            continue;
+        }
+        let mut next = 0;
+        for c in &mut counts {
+            (*c, next) = (next, next + *c);
+        }
+        for &k in &keys {
+            let bucket = &mut counts[((k >> shift) & 0xff) as usize];
+            spare[*bucket] = k;
+            *bucket += 1;
+        }
+        std::mem::swap(&mut keys, &mut spare);
+    }
+    keys.into_iter().map(|k| k as u32).collect()
 }
 
 /// Bins `splats [N]` into the tiles of a `width × height` image.
@@ -65,10 +127,15 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     let tiles_y = height.div_ceil(TILE_SIZE);
     let n_tiles = tiles_x * tiles_y;
     let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
-    let mut order: Vec<u32> = (0..splats.len() as u32).filter(|&i| !splats[i as usize].is_culled()).collect();
-    order.par_sort_unstable_by(|&a, &b| {
-        splats[a as usize].depth.total_cmp(&splats[b as usize].depth).then(a.cmp(&b))
-    });
+    // Sorted by (depth, index): one integer key per splat, the depth's bits in `total_cmp`
+    // order above the index, in index order, then a stable radix sort on the depth bits.
+    let keys: Vec<u64> = splats
+        .par_iter()
+        .enumerate()
+        .filter(|(_, s)| !s.is_culled())
+        .map(|(i, s)| (depth_order_bits(s.depth) as u64) << 32 | i as u64)
+        .collect();
+    let order = order_by_high_bits(keys);
     // Splats per row of tiles, front to back.
     let mut rows: Vec<Vec<u32>> = vec![Vec::new(); tiles_y];
     for &i in &order {
@@ -122,6 +189,72 @@ mod tests {
 
     fn splat(x: f32, y: f32, r: i32, depth: f32) -> Splat2d {
         Splat2d { mean2d: [x, y], conic: [1.0, 0.0, 1.0], opacity: 0.5, depth, radii: [r, r] }
+    }
+
+    /// The radix sort gives the order of sorting the whole keys, ties (equal depths) and all.
+    #[test]
+    fn radix_order_equals_a_full_sort() {
+        let mut seed = 99u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 33) as u32
+        };
+        for (n, spread) in [(0usize, 1u32), (1, 1), (5000, 7), (20_000, u32::MAX), (3000, 1 << 20)] {
+            let keys: Vec<u64> = (0..n as u64).map(|i| ((next() % spread.max(1)) as u64) << 32 | i).collect();
+            let mut sorted = keys.clone();
+            sorted.sort_unstable();
+            let want: Vec<u32> = sorted.iter().map(|&k| k as u32).collect();
+            assert_eq!(order_by_high_bits(keys), want, "{n} keys over {spread}");
+        }
+    }
+
+    /// The libm-free floor and ceil clamp exactly as `floor` / `ceil` then `clamp` do.
+    #[test]
+    fn clamped_floor_and_ceil_equal_the_float_functions() {
+        let mut values = vec![
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -0.0,
+            0.0,
+            1e-30,
+            -1e-30,
+            80.0,
+            79.99999,
+            80.00001,
+        ];
+        values.extend((-400..2000).map(|i| i as f32 * 0.0625 - 3.3));
+        for v in values {
+            for hi in [0usize, 1, 80, 1000] {
+                assert_eq!(floor_clamped(v, hi), v.floor().clamp(0.0, hi as f32) as usize, "floor {v}, {hi}");
+                assert_eq!(ceil_clamped(v, hi), v.ceil().clamp(0.0, hi as f32) as usize, "ceil {v}, {hi}");
+            }
+        }
+    }
+
+    /// The integer keys order depths exactly as `total_cmp` does, signs, zeros and
+    /// infinities included.
+    #[test]
+    fn depth_keys_order_as_total_cmp() {
+        let depths = [
+            f32::NEG_INFINITY,
+            -3.5,
+            -1e-30,
+            -0.0,
+            0.0,
+            1e-38,
+            0.01,
+            0.010000001,
+            1.0,
+            2.5e7,
+            f32::MAX,
+            f32::INFINITY,
+        ];
+        for a in depths {
+            for b in depths {
+                assert_eq!(depth_order_bits(a).cmp(&depth_order_bits(b)), a.total_cmp(&b), "{a} vs {b}");
+            }
+        }
     }
 
     #[test]

@@ -140,11 +140,102 @@ struct Forward {
     det_clamped: bool,
 }
 
-fn forward_one(cam: &ProjCam, mean: [f32; 3], log_scales: [f32; 3], quat: [f32; 4], eps2d: f32) -> Forward {
+/// The world-space covariance `Σ = (R S)(R S)ᵀ` of a Gaussian and what it is made of.
+struct Covariance {
+    rot: Mat3,
+    qn: [f32; 4],
+    qnorm: f32,
+    scales: Vec3,
+    m: Mat3,
+    cov: Mat3,
+}
+
+fn covariance(log_scales: [f32; 3], quat: [f32; 4]) -> Covariance {
     let (rot, qn, qnorm) = quat_to_mat(quat);
     let scales = Vec3::from(log_scales.map(f32::exp));
     let m = Mat3::from_cols(rot.x_axis * scales.x, rot.y_axis * scales.y, rot.z_axis * scales.z);
     let cov = m * m.transpose();
+    Covariance { rot, qn, qnorm, scales, m, cov }
+}
+
+/// Opacity from the raw (logit) opacity.
+fn sigmoid(raw: f32) -> f32 {
+    1.0 / (1.0 + (-raw).exp())
+}
+
+/// What does not change from view to view: each Gaussian's world-space covariance and
+/// opacity, computed once by the same arithmetic [`project`] uses, so
+/// [`project_prepared`] gives the same splats, bit for bit, without recomputing them per view.
+#[derive(Clone, Debug, Default)]
+pub struct ViewIndependent {
+    /// `[N]` covariances `Σ`.
+    cov: Vec<Mat3>,
+    /// `[N]` opacities (sigmoid of the raw opacity).
+    opacity: Vec<f32>,
+}
+
+impl ViewIndependent {
+    /// The terms of `gaussians` (means, log-scales, rotations and raw opacities are read).
+    pub fn new(gaussians: &Gaussians) -> Self {
+        let cov = (0..gaussians.len())
+            .into_par_iter()
+            .map(|i| covariance(gaussians.log_scales[i], gaussians.rotations[i]).cov)
+            .collect();
+        let opacity = gaussians.raw_opacities.par_iter().map(|&o| sigmoid(o)).collect();
+        ViewIndependent { cov, opacity }
+    }
+
+    /// Number of Gaussians.
+    pub fn len(&self) -> usize {
+        self.opacity.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.opacity.is_empty()
+    }
+}
+
+fn forward_one(cam: &ProjCam, mean: [f32; 3], log_scales: [f32; 3], quat: [f32; 4], eps2d: f32) -> Forward {
+    let Covariance { rot, qn, qnorm, scales, m, cov } = covariance(log_scales, quat);
+    let v = view_terms(cam, mean, cov, eps2d);
+    Forward {
+        rot,
+        qn,
+        qnorm,
+        scales,
+        m,
+        p_c: v.p_c,
+        cov_c: v.cov_c,
+        txc: v.txc,
+        tyc: v.tyc,
+        clamped_x: v.clamped_x,
+        clamped_y: v.clamped_y,
+        j0: v.j0,
+        j1: v.j1,
+        cov2d: v.cov2d,
+        det: v.det,
+        det_clamped: v.det_clamped,
+    }
+}
+
+/// The view-dependent part of [`Forward`].
+struct ViewTerms {
+    p_c: Vec3,
+    cov_c: Mat3,
+    txc: f32,
+    tyc: f32,
+    clamped_x: bool,
+    clamped_y: bool,
+    j0: Vec3,
+    j1: Vec3,
+    cov2d: [f32; 3],
+    det: f32,
+    det_clamped: bool,
+}
+
+#[inline(always)]
+fn view_terms(cam: &ProjCam, mean: [f32; 3], cov: Mat3, eps2d: f32) -> ViewTerms {
     let p_c = cam.w * Vec3::from(mean) + cam.t;
     let cov_c = cam.w * cov * cam.w.transpose();
     let tz = p_c.z;
@@ -159,12 +250,7 @@ fn forward_one(cam: &ProjCam, mean: [f32; 3], log_scales: [f32; 3], quat: [f32; 
     let s1 = cov_c * j1;
     let cov2d = [j0.dot(s0) + eps2d, j0.dot(s1), j1.dot(s1) + eps2d];
     let det_raw = cov2d[0] * cov2d[2] - cov2d[1] * cov2d[1];
-    Forward {
-        rot,
-        qn,
-        qnorm,
-        scales,
-        m,
+    ViewTerms {
         p_c,
         cov_c,
         txc,
@@ -193,11 +279,17 @@ fn footprint(extent: Extent, cov2d: [f32; 3], det: f32) -> [f32; 2] {
 
 /// Projects Gaussian `i` (no colour).
 pub(crate) fn project_one(cam: &ProjCam, g: &Gaussians, i: usize, settings: &RasterSettings) -> Splat2d {
-    let f = forward_one(cam, g.means[i], g.log_scales[i], g.rotations[i], settings.eps2d);
+    let cov = covariance(g.log_scales[i], g.rotations[i]).cov;
+    splat_of(cam, g.means[i], cov, sigmoid(g.raw_opacities[i]), settings)
+}
+
+/// The splat of a Gaussian at `mean` with covariance `cov` and opacity `opacity`.
+#[inline(always)]
+fn splat_of(cam: &ProjCam, mean: [f32; 3], cov: Mat3, opacity: f32, settings: &RasterSettings) -> Splat2d {
+    let f = view_terms(cam, mean, cov, settings.eps2d);
     let depth = f.p_c.z;
     let mean2d = [cam.fx * f.p_c.x / depth + cam.cx, cam.fy * f.p_c.y / depth + cam.cy];
     let conic = [f.cov2d[2] / f.det, -f.cov2d[1] / f.det, f.cov2d[0] / f.det];
-    let opacity = 1.0 / (1.0 + (-g.raw_opacities[i]).exp());
     let mut r = footprint(settings.extent, f.cov2d, f.det);
     let valid = depth > cam.near && depth < cam.far;
     let inside = mean2d[0] + r[0] > 0.0
@@ -215,6 +307,25 @@ pub(crate) fn project_one(cam: &ProjCam, g: &Gaussians, i: usize, settings: &Ras
 pub fn project(gaussians: &Gaussians, camera: &RenderCamera, settings: &RasterSettings) -> Vec<Splat2d> {
     let cam = ProjCam::new(camera);
     (0..gaussians.len()).into_par_iter().map(|i| project_one(&cam, gaussians, i, settings)).collect()
+}
+
+/// [`project`] with the view-independent terms computed once (`prepared`, from the same
+/// `gaussians`; only their means are read here): the same splats, bit for bit.
+///
+/// # Panics
+/// If `prepared` was made from another number of Gaussians.
+pub fn project_prepared(
+    gaussians: &Gaussians,
+    prepared: &ViewIndependent,
+    camera: &RenderCamera,
+    settings: &RasterSettings,
+) -> Vec<Splat2d> {
+    assert_eq!(prepared.len(), gaussians.len(), "view-independent terms of another set of Gaussians");
+    let cam = ProjCam::new(camera);
+    (0..gaussians.len())
+        .into_par_iter()
+        .map(|i| splat_of(&cam, gaussians.means[i], prepared.cov[i], prepared.opacity[i], settings))
+        .collect()
 }
 
 /// Gradients reaching one splat from the rasteriser and the depth channel.
@@ -331,6 +442,41 @@ pub fn project_bwd(
 mod tests {
     use super::*;
     use splatseg_scene::{Camera, Pose};
+
+    /// Projecting with the view-independent terms computed once gives the splats of `project`,
+    /// bit for bit, culled ones included, under both footprint rules.
+    #[test]
+    fn prepared_projection_equals_the_direct_one_bit_for_bit() {
+        let mut seed = 5u32;
+        let mut unit = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut g = Gaussians::default();
+        for _ in 0..2000 {
+            let z = 12.0 * unit() - 2.0;
+            g.means.push([(unit() - 0.5) * 2.0 * z.abs(), (unit() - 0.5) * 1.5 * z.abs(), z]);
+            g.log_scales.push([4.0 * unit() - 5.0, 4.0 * unit() - 5.0, 4.0 * unit() - 5.0]);
+            g.rotations.push([unit() - 0.5, unit() - 0.5, unit() - 0.5, unit() - 0.5]);
+            g.raw_opacities.push(12.0 * unit() - 6.0);
+        }
+        let prepared = ViewIndependent::new(&g);
+        let pose = Pose { translation: glam::DVec3::new(0.2, -0.1, -0.5), ..Pose::IDENTITY };
+        let camera = RenderCamera::from_scene(&Camera::pinhole(1, 96, 72, 80.0, 82.0, 47.0, 37.0), &pose);
+        let bits = |s: &Splat2d| {
+            let f = [s.mean2d[0], s.mean2d[1], s.conic[0], s.conic[1], s.conic[2], s.opacity, s.depth];
+            (f.map(f32::to_bits), s.radii)
+        };
+        for settings in [RasterSettings::default(), RasterSettings::gsplat_1_5()] {
+            let direct = project(&g, &camera, &settings);
+            let culled = direct.iter().filter(|s| s.is_culled()).count();
+            assert!(culled > 100 && culled < 1900, "{culled} culled: both kinds are compared");
+            let again = project_prepared(&g, &prepared, &camera, &settings);
+            for (i, (a, b)) in direct.iter().zip(&again).enumerate() {
+                assert_eq!(bits(a), bits(b), "Gaussian {i}");
+            }
+        }
+    }
 
     /// d(conic·w + mean2d·v + depth·u)/d(params) against central differences.
     #[test]

@@ -20,6 +20,8 @@
 
 use crate::bin::{TileBins, TILE_SIZE};
 use crate::fast_exp::fast_exp;
+#[cfg(target_arch = "x86_64")]
+use crate::fast_exp::fast_exp_avx2;
 use crate::footprint::Footprint;
 use crate::project::Splat2d;
 use crate::settings::RasterSettings;
@@ -100,6 +102,80 @@ impl RowTerms {
         let dy = s.mean2d[1] - (py as f32 + 0.5);
         let [a, b, c] = s.conic;
         RowTerms { mx: s.mean2d[0], dy, half_a: 0.5 * a, b_dy: b * dy, half_c_dy2: 0.5 * c * dy * dy }
+    }
+
+    /// α at the pixel columns `x0 + k`, `k` in `first..end` (`end ≤ first + 16`, `first < 16`),
+    /// into `out[k]` (`[32]`), lane by lane the arithmetic of [`Self::alpha`]; returns the mask
+    /// of the columns that blend (bit k clear where [`Self::alpha`] gives `None`).
+    #[inline(always)]
+    pub(crate) fn alphas_row(
+        &self,
+        x0: usize,
+        (first, end): (usize, usize),
+        opacity: f32,
+        settings: &RasterSettings,
+        out: &mut [f32; 32],
+    ) -> u32 {
+        let mut keep = 0u32;
+        for (k, slot) in out.iter_mut().enumerate().take(end).skip(first) {
+            let dx = self.mx - ((x0 + k) as f32 + 0.5);
+            let sigma = self.half_a * dx * dx + self.b_dy * dx + self.half_c_dy2;
+            let alpha = (opacity * fast_exp(-sigma)).min(settings.alpha_max);
+            *slot = alpha;
+            keep |= (!(sigma < 0.0 || alpha < settings.alpha_min) as u32) << k;
+        }
+        keep
+    }
+
+    /// [`Self::alphas_row`] with AVX2 intrinsics, 8 columns at a time from `first` (one step
+    /// when `end − first ≤ 8`, else two; the extra columns are computed too): the same operations
+    /// in the same order on every lane (no fused multiply-adds), so the same bits.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn alphas_row_avx2(
+        &self,
+        x0: usize,
+        (first, end): (usize, usize),
+        opacity: f32,
+        settings: &RasterSettings,
+        out: &mut [f32; 32],
+    ) -> u32 {
+        use std::arch::x86_64::*;
+        debug_assert!(first < 16 && end <= first + 16);
+        let set = _mm256_set1_ps;
+        let mut keep = 0u32;
+        let steps = if end - first <= 8 { 1 } else { 2 };
+        for step in 0..steps {
+            let k = first + 8 * step;
+            // `(x0 + k) as i32 as f32` is the same correctly rounded integer as `px as f32`.
+            let columns = _mm256_add_epi32(
+                _mm256_set1_epi32((x0 + k) as i32),
+                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+            );
+            let dx = _mm256_sub_ps(set(self.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
+            let sigma = _mm256_add_ps(
+                _mm256_add_ps(
+                    _mm256_mul_ps(_mm256_mul_ps(set(self.half_a), dx), dx),
+                    _mm256_mul_ps(set(self.b_dy), dx),
+                ),
+                set(self.half_c_dy2),
+            );
+            let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
+            let raw = _mm256_mul_ps(set(opacity), vis);
+            // `f32::min`: the other operand where `raw` is NaN, as `min_ps(raw, max)` gives.
+            let alpha = _mm256_min_ps(raw, set(settings.alpha_max));
+            _mm256_storeu_ps(out.as_mut_ptr().add(k), alpha);
+            let skip = _mm256_or_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(sigma, _mm256_setzero_ps()),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(alpha, set(settings.alpha_min)),
+            );
+            keep |= (!(_mm256_movemask_ps(skip) as u32) & 0xff) << k;
+        }
+        keep
     }
 
     /// α at pixel column `px`, or `None` when the pixel skips the splat (σ < 0 or α < alpha_min).

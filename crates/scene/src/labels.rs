@@ -141,6 +141,22 @@ pub fn label_colour_image(labels: &Plane<u32>) -> RgbImage {
     RgbImage::from_raw(labels.width as u32, labels.height as u32, raw).unwrap_or_default()
 }
 
+/// `v.round()` without a libm call for `+0 ≤ v < 2²³` (`f32::round` is one without SSE4.1):
+/// the fraction `v − trunc(v)` is exact there, so halves round up as `round` does.
+#[inline]
+fn round_non_negative(v: f32) -> f32 {
+    // Below 2²³ and not negative (sign bit clear, -0.0 included): the bits are below 2²³'s.
+    if v.to_bits() >= 8_388_608f32.to_bits() {
+        return v.round();
+    }
+    let t = v as u32 as f32;
+    if v - t >= 0.5 {
+        t + 1.0
+    } else {
+        t
+    }
+}
+
 /// Factor applied to label-boundary pixels so regions stay readable.
 const BOUNDARY_DARKEN: f32 = 0.3;
 
@@ -157,6 +173,8 @@ pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
     let col: Vec<usize> = (0..w).map(|x| x * labels.width / w).collect();
     let row: Vec<usize> = (0..h).map(|y| y * labels.height / h).collect();
     let label_at = |x: usize, y: usize| labels.data[row[y] * labels.width + col[x]];
+    // Neighbouring pixels mostly share their id: its colour is kept from the pixel before.
+    let mut last = (0u32, colour_of_id(0));
     for y in 0..h {
         for x in 0..w {
             let id = label_at(x, y);
@@ -169,7 +187,10 @@ pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
                 continue;
             }
             let px = out.get_pixel_mut(x as u32, y as u32);
-            let colour = colour_of_id(id);
+            if last.0 != id {
+                last = (id, colour_of_id(id));
+            }
+            let colour = last.1;
             for (channel, &tint) in px.0.iter_mut().zip(&colour) {
                 let mut v = *channel as f32;
                 if id != 0 {
@@ -178,9 +199,29 @@ pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
                 if boundary {
                     v *= BOUNDARY_DARKEN;
                 }
-                *channel = v.round().clamp(0.0, 255.0) as u8;
+                *channel = round_non_negative(v).clamp(0.0, 255.0) as u8;
             }
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The libm-free rounding equals `f32::round` on every value an overlay channel takes
+    /// (halves included) and beyond.
+    #[test]
+    fn rounding_without_libm_equals_round() {
+        let mut values: Vec<f32> = (0..=2_600_000).map(|i| i as f32 * 0.0001).collect();
+        values.extend([0.49999997, 0.5, 1.5, 2.5, 254.5, 255.49998, 8_388_607.5, 1e9, -0.0, -3.5, f32::NAN]);
+        for v in values {
+            let (got, want) = (round_non_negative(v), v.round());
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "{v}: {got} vs {want}"
+            );
+        }
+    }
 }
