@@ -298,7 +298,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         Some(p) => {
             let snap_kind = pc.lift.final_maps.snapped_onto().unwrap_or("merged");
             let snap_map = |v: usize| cached_map(v, snap_kind);
-            Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &snap_map, &pc.lift, &times)?)
+            let lift_config = match config.features {
+                Some(_) => pc.lift.clone(),
+                None => pc.lift.for_model_free_descriptors(),
+            };
+            Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &snap_map, &lift_config, &times)?)
         }
         None => None,
     };
