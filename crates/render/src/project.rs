@@ -127,17 +127,8 @@ struct Forward {
     qnorm: f32,
     scales: Vec3,
     m: Mat3,
-    p_c: Vec3,
-    cov_c: Mat3,
-    txc: f32,
-    tyc: f32,
-    clamped_x: bool,
-    clamped_y: bool,
-    j0: Vec3,
-    j1: Vec3,
-    cov2d: [f32; 3],
-    det: f32,
-    det_clamped: bool,
+    /// What depends on the view.
+    view: ViewTerms,
 }
 
 /// The world-space covariance `Σ = (R S)(R S)ᵀ` of a Gaussian and what it is made of.
@@ -198,25 +189,7 @@ impl ViewIndependent {
 
 fn forward_one(cam: &ProjCam, mean: [f32; 3], log_scales: [f32; 3], quat: [f32; 4], eps2d: f32) -> Forward {
     let Covariance { rot, qn, qnorm, scales, m, cov } = covariance(log_scales, quat);
-    let v = view_terms(cam, mean, cov, eps2d);
-    Forward {
-        rot,
-        qn,
-        qnorm,
-        scales,
-        m,
-        p_c: v.p_c,
-        cov_c: v.cov_c,
-        txc: v.txc,
-        tyc: v.tyc,
-        clamped_x: v.clamped_x,
-        clamped_y: v.clamped_y,
-        j0: v.j0,
-        j1: v.j1,
-        cov2d: v.cov2d,
-        det: v.det,
-        det_clamped: v.det_clamped,
-    }
+    Forward { rot, qn, qnorm, scales, m, view: view_terms(cam, mean, cov, eps2d) }
 }
 
 /// The view-dependent part of [`Forward`].
@@ -363,41 +336,44 @@ pub(crate) fn project_one_bwd(
     grad: &SplatGrad,
 ) -> ParamGrad {
     let f = forward_one(cam, g.means[i], g.log_scales[i], g.rotations[i], settings.eps2d);
-    let tz = f.p_c.z;
+    let tz = f.view.p_c.z;
     // conic = [c11, -c01, c00] / det
-    let [a, b, c] = [f.cov2d[2] / f.det, -f.cov2d[1] / f.det, f.cov2d[0] / f.det];
+    let [a, b, c] =
+        [f.view.cov2d[2] / f.view.det, -f.view.cov2d[1] / f.view.det, f.view.cov2d[0] / f.view.det];
     let [ga, gb, gc] = grad.conic;
-    let g_det = if f.det_clamped { 0.0 } else { -(ga * a + gb * b + gc * c) / f.det };
-    let g00 = gc / f.det + g_det * f.cov2d[2];
-    let g11 = ga / f.det + g_det * f.cov2d[0];
-    let g01 = -gb / f.det - 2.0 * g_det * f.cov2d[1];
+    let g_det = if f.view.det_clamped { 0.0 } else { -(ga * a + gb * b + gc * c) / f.view.det };
+    let g00 = gc / f.view.det + g_det * f.view.cov2d[2];
+    let g11 = ga / f.view.det + g_det * f.view.cov2d[0];
+    let g01 = -gb / f.view.det - 2.0 * g_det * f.view.cov2d[1];
     // cov2d = J Σc Jᵀ with rows j0, j1.
     let outer = |u: Vec3, v: Vec3| Mat3::from_cols(u * v.x, u * v.y, u * v.z);
-    let g_cov_c = outer(f.j0, f.j0) * g00 + outer(f.j0, f.j1) * g01 + outer(f.j1, f.j1) * g11;
-    let g_j0 = f.cov_c * f.j0 * (2.0 * g00) + f.cov_c * f.j1 * g01;
-    let g_j1 = f.cov_c * f.j1 * (2.0 * g11) + f.cov_c * f.j0 * g01;
+    let g_cov_c = outer(f.view.j0, f.view.j0) * g00
+        + outer(f.view.j0, f.view.j1) * g01
+        + outer(f.view.j1, f.view.j1) * g11;
+    let g_j0 = f.view.cov_c * f.view.j0 * (2.0 * g00) + f.view.cov_c * f.view.j1 * g01;
+    let g_j1 = f.view.cov_c * f.view.j1 * (2.0 * g11) + f.view.cov_c * f.view.j0 * g01;
     let (fx, fy) = (cam.fx, cam.fy);
     let tz2 = tz * tz;
     let tz3 = tz2 * tz;
     let mut g_p_c = Vec3::ZERO;
-    g_p_c.z += -fx / tz2 * g_j0.x + 2.0 * fx * f.txc / tz3 * g_j0.z - fy / tz2 * g_j1.y
-        + 2.0 * fy * f.tyc / tz3 * g_j1.z;
+    g_p_c.z += -fx / tz2 * g_j0.x + 2.0 * fx * f.view.txc / tz3 * g_j0.z - fy / tz2 * g_j1.y
+        + 2.0 * fy * f.view.tyc / tz3 * g_j1.z;
     let g_txc = -fx / tz2 * g_j0.z;
     let g_tyc = -fy / tz2 * g_j1.z;
-    if f.clamped_x {
-        g_p_c.z += g_txc * f.txc / tz;
+    if f.view.clamped_x {
+        g_p_c.z += g_txc * f.view.txc / tz;
     } else {
         g_p_c.x += g_txc;
     }
-    if f.clamped_y {
-        g_p_c.z += g_tyc * f.tyc / tz;
+    if f.view.clamped_y {
+        g_p_c.z += g_tyc * f.view.tyc / tz;
     } else {
         g_p_c.y += g_tyc;
     }
     let [gmx, gmy] = grad.mean2d;
     g_p_c.x += fx / tz * gmx;
     g_p_c.y += fy / tz * gmy;
-    g_p_c.z += -fx * f.p_c.x / tz2 * gmx - fy * f.p_c.y / tz2 * gmy + grad.depth;
+    g_p_c.z += -fx * f.view.p_c.x / tz2 * gmx - fy * f.view.p_c.y / tz2 * gmy + grad.depth;
     let g_mean = cam.w.transpose() * g_p_c;
     // Σc = W Σ Wᵀ; Σ = M Mᵀ; M = R diag(s).
     let g_cov = cam.w.transpose() * g_cov_c * cam.w;
