@@ -10,6 +10,7 @@
 //! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
 //! - [`snap`]: rendered ids snapped onto a view's merged regions (optional final maps).
 //! - [`touching`]: objects that touch in 3D and look alike (or meet as parts of one object) become one.
+//! - `shape`: the typical Gaussian size, planes, thin lines and contacts between objects in 3D.
 //! - [`facing`]: which way each Gaussian's surface faces (towards the cameras that see it).
 //! - [`numbering`]: final stable renumbering of the ids.
 //!
@@ -24,6 +25,7 @@ pub mod lifting;
 pub mod numbering;
 pub mod project;
 pub mod render_labels;
+mod shape;
 pub mod snap;
 pub mod split;
 pub mod touching;

@@ -46,7 +46,7 @@ pub fn split_disconnected_objects(
     reserved: u32,
     config: &LiftConfig,
 ) -> SplitStats {
-    let voxel = config.split_voxel_factor * crate::touching::typical_sigma(gaussians);
+    let voxel = config.split_voxel_factor * crate::shape::typical_sigma(gaussians);
     if !config.split_disconnected || voxel <= 0.0 || !voxel.is_finite() {
         return SplitStats::default();
     }
@@ -147,7 +147,7 @@ const OFF_PLANE_VOXELS: f32 = 2.0;
 impl PlaneLayers {
     fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32, config: &LiftConfig) -> Self {
         let normals: HashMap<u32, glam::Vec3> =
-            crate::touching::planarity(gaussians, ids, config.seam_max_angle_deg)
+            crate::shape::planarity(gaussians, ids, config.seam_max_angle_deg)
                 .into_iter()
                 .filter(|&(_, (n, share))| share >= config.seam_smooth_share && n != glam::Vec3::ZERO)
                 .map(|(id, (n, _))| (id, n))
