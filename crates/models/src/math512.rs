@@ -16,9 +16,10 @@ pub(crate) use imp::*;
 mod imp {
     use std::arch::x86_64::*;
 
-    /// Lanes `< remaining` set (all 16 when `remaining ≥ 16`).
+    /// Lanes `< remaining` set (all 16 when `remaining ≥ 16`); the AVX-512 kernels' tail mask
+    /// (also `skinny`'s).
     #[inline(always)]
-    fn lane_mask(remaining: usize) -> __mmask16 {
+    pub(crate) fn lane_mask(remaining: usize) -> __mmask16 {
         if remaining >= 16 {
             0xFFFF
         } else {

@@ -185,21 +185,12 @@ pub fn disable_avx512_kernels() {
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
+    use crate::math512::lane_mask;
     use std::arch::x86_64::*;
 
     /// `(columns left from this panel on, k, row pointers of x, the panel at row k0, output row
     /// pointers at the panel's first column, accumulate)`; only the first `R` pointers are used.
     pub(super) type TileArgs = (usize, usize, [*const f32; 8], *const f32, [*mut f32; 8], bool);
-
-    /// Lanes `< remaining` set (all 16 when `remaining ≥ 16`).
-    #[inline(always)]
-    fn lane_mask(remaining: usize) -> __mmask16 {
-        if remaining >= 16 {
-            0xFFFF
-        } else {
-            ((1u32 << remaining) - 1) as __mmask16
-        }
-    }
 
     /// `R` rows times one 32-column panel (the output masked past the matrix's last column; one
     /// vector per row when at most 16 columns are left).
