@@ -11,8 +11,9 @@
 //! rendered label too, so nothing the Gaussians label is lost.
 //!
 //! A region over two objects (the second id covers at least `split_share` of its labelled
-//! pixels) keeps the rendered labels, except where a minor id is the splats of a neighbouring
-//! region's object bleeding across the SAM boundary: those pixels go to the region's own objects.
+//! pixels) keeps the rendered labels, except a thin band of another id along pixels of that id
+//! outside the region: the splats of a neighbouring object bleeding across the SAM boundary,
+//! given to the region's own objects.
 
 use splatseg_scene::Plane;
 use std::collections::BTreeMap;
@@ -90,6 +91,9 @@ fn give_bleeding_pixels_to_their_region(
     data: &mut [u32],
     bleed_px: f32,
 ) {
+    if bleed_px <= 0.0 || !winner.values().any(|&(_, split)| split) {
+        return;
+    }
     let (w, h) = (regions.width, regions.height);
     let split = |r: u32| matches!(winner.get(&r), Some(&(_, true)));
     let wins = |r: u32, k: u32| matches!(winner.get(&r), Some(&(id, _)) if id == k);

@@ -22,8 +22,9 @@
 //!   not a plane, so none of these joins; or
 //! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_part`, the views agree (at least
 //!   `part_min_together_share` of the views seeing both have one merged mask over both), and
-//!   they meet at convex or smooth edges: at most `part_max_concave_share` of the contact voxel
-//!   pairs whose two sides have outward normals ([`Facing`]) are concave. Different objects that
+//!   they meet at convex edges: of the contact voxel pairs whose two sides have outward normals
+//!   ([`Facing`]), at most `part_max_concave_share` are concave and at least
+//!   `part_min_convex_share` convex (two boxes side by side meet flush). Different objects that
 //!   touch meet at concave edges (a box beside a box, a box on a box: 23–47 % of the pairs on the
 //!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none); or
 //! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
