@@ -41,7 +41,7 @@ pub use lifting::{
 pub use numbering::{drop_small_objects, renumber};
 pub use project::{project_view, raster_settings, PreparedGaussians};
 pub use render_labels::{label_map_of_view, render_label_map, render_votes, RenderVotes};
-pub use snap::snap_to_regions;
+pub use snap::{snap_to_regions, snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};
 pub use touching::{join_touching_counted, join_touching_objects, ViewCounts};
 pub use visibility::{

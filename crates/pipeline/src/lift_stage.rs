@@ -15,14 +15,14 @@ use crate::visible;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
-    join_touching_counted, render_label_map, render_votes, renumber, snap_to_regions,
-    split_disconnected_objects, Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
-    PreparedGaussians, ViewCounts, VoteAccumulator,
+    join_touching_counted, render_label_map, render_votes, renumber, snap_view, split_disconnected_objects,
+    Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera, PreparedGaussians, ViewCounts,
+    VoteAccumulator,
 };
 use splatseg_match::{match_masks_owned, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
 use splatseg_scene::Plane;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
 /// What the global stages keep of one view with masks.
@@ -199,31 +199,82 @@ pub fn lift_and_render(
     );
     let votes = render_votes(&lifted, config);
     let bar = progress(cams.len(), "render label maps");
-    let maps: Vec<RunLengths> = cams
+    let snapped: Vec<SnappedRuns> = cams
         .par_iter()
         .enumerate()
         .progress_with(bar.clone())
-        .map(|(v, c)| -> crate::Result<RunLengths> {
+        .map(|(v, c)| -> crate::Result<SnappedRuns> {
             let map = times.time("render back", || {
                 render_label_map(prepared, &votes, c.camera, c.world_from_cam, config)
             });
-            let map = match (&config.final_maps, &views[v]) {
+            Ok(match (&config.final_maps, &views[v]) {
                 (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => {
                     let regions = times.time("read the region maps back", || snap_map(v))?;
-                    let bleed_px = config.snap_bleed_px_for((map.width * map.height) as u64);
-                    times.time("snap", || snap_to_regions(&regions, &map, config.snap_split_share, bleed_px))
+                    let rule = config.snap_rule_for((map.width * map.height) as u64);
+                    let s = times.time("snap", || snap_view(&regions, &map, &rule));
+                    let has_fallback = s.contained_fallback.data.iter().any(|&id| id != 0);
+                    SnappedRuns {
+                        labels: RunLengths::encode(&s.labels),
+                        fallback: has_fallback.then(|| RunLengths::encode(&s.contained_fallback)),
+                        owned: Some(s.region_winners),
+                    }
                 }
-                _ => map,
-            };
-            Ok(RunLengths::encode(&map))
+                _ => SnappedRuns { labels: RunLengths::encode(&map), fallback: None, owned: None },
+            })
         })
         .collect::<crate::Result<_>>()?;
     bar.finish_and_clear();
+    let maps = give_unowned_ids_back(snapped);
     let mean_view_px =
         maps.iter().map(|m| (m.width * m.height) as u64).sum::<u64>() / maps.len().max(1) as u64;
     let new_of_old =
         drop_specks_and_number(&maps, &mut lifted.object_ids, config.min_object_px_for(mean_view_px));
     Ok(LiftOutput { lifted, maps, new_of_old })
+}
+
+/// One view's snapped map as runs, with what [`give_unowned_ids_back`] needs.
+struct SnappedRuns {
+    /// The final labels (before numbering).
+    labels: RunLengths,
+    /// [`splatseg_lift::Snapped::contained_fallback`], when it has any pixel.
+    fallback: Option<RunLengths>,
+    /// Ids that win a region of the view; `None` for a view kept as rendered (all its ids count).
+    owned: Option<Vec<u32>>,
+}
+
+/// Ids kept in some views only by snapping's containment rule that win no region in any view
+/// are fragments of the objects around them (an object of their own would be SAM's mask in some
+/// view): their pixels take the region winners they fell back to. Returns the final maps.
+fn give_unowned_ids_back(snapped: Vec<SnappedRuns>) -> Vec<RunLengths> {
+    let mut owners: BTreeSet<u32> = BTreeSet::new();
+    for s in &snapped {
+        match &s.owned {
+            Some(ids) => owners.extend(ids),
+            None => owners.extend(s.labels.runs.iter().map(|&(id, _)| id)),
+        }
+    }
+    snapped
+        .into_iter()
+        .map(|s| match s.fallback {
+            None => s.labels,
+            Some(fallback) => {
+                let mut labels = s.labels.decode(|id| id);
+                let fallback = fallback.decode(|id| id);
+                let mut changed = false;
+                for (id, &back) in labels.data.iter_mut().zip(&fallback.data) {
+                    if back != 0 && !owners.contains(id) {
+                        *id = back;
+                        changed = true;
+                    }
+                }
+                if changed {
+                    RunLengths::encode(&labels)
+                } else {
+                    s.labels
+                }
+            }
+        })
+        .collect()
 }
 
 /// The speck filter and the numbering of `splatseg_lift::{drop_small_objects, renumber}` over
