@@ -24,6 +24,7 @@ pub mod facing;
 pub mod lifting;
 pub mod numbering;
 pub mod project;
+pub mod refine;
 pub mod render_labels;
 mod shape;
 pub mod snap;
@@ -40,6 +41,7 @@ pub use lifting::{
 };
 pub use numbering::{drop_small_objects, renumber};
 pub use project::{project_view, raster_settings, PreparedGaussians};
+pub use refine::{refine_boundaries, RefineRule};
 pub use render_labels::{label_map_of_view, render_label_map, render_votes, RenderVotes};
 pub use snap::{snap_to_regions, snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};

@@ -302,7 +302,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
                 Some(_) => pc.lift.clone(),
                 None => pc.lift.for_model_free_descriptors(),
             };
-            Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &snap_map, &lift_config, &times)?)
+            let image_rgb = |v: usize| -> Result<Vec<u8>> {
+                Ok(splatseg_scene::images::load_image_rgb(&scene, &scene.views[v], &load)?.into_raw())
+            };
+            let inputs = lift_stage::FinalMapInputs { snap_map: &snap_map, image_rgb: &image_rgb };
+            Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &inputs, &lift_config, &times)?)
         }
         None => None,
     };

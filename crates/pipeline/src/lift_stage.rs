@@ -15,9 +15,9 @@ use crate::visible;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
-    join_touching_counted, render_label_map, render_votes, renumber, snap_view, split_disconnected_objects,
-    Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera, PreparedGaussians, ViewCounts,
-    VoteAccumulator,
+    join_touching_counted, refine_boundaries, render_label_map, render_votes, renumber, snap_view,
+    split_disconnected_objects, Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
+    PreparedGaussians, ViewCounts, VoteAccumulator,
 };
 use splatseg_match::{match_masks_owned, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
@@ -145,9 +145,19 @@ impl LiftOutput {
     }
 }
 
+/// What the final maps of a view are made from besides the rendered labels, read back one view
+/// at a time.
+pub struct FinalMapInputs<'a> {
+    /// `[H, W]` regions of view `v` to snap onto.
+    pub snap_map: &'a (dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
+    /// `[H, W, 3]` 8-bit row-major colours of view `v`'s image, for the boundary refinement.
+    pub image_rgb: &'a (dyn Fn(usize) -> crate::Result<Vec<u8>> + Sync),
+}
+
 /// Lifts the matched labels of the views with masks onto the Gaussians, renders every view back
-/// (snapping the rendered ids onto the regions read back by `snap_map(v)`: the SAM regions with
-/// `final_maps = "snapped-raw"`, the merged ones with `"snapped"`), drops specks and numbers the
+/// (snapping the rendered ids onto the regions read back by `view_inputs.snap_map(v)`: the SAM regions with
+/// `final_maps = "snapped-raw"`, the merged ones with `"snapped"`; then refining the boundaries
+/// by the colours of `view_inputs.image_rgb(v)`), drops specks and numbers the
 /// ids by first appearance. The views' visible Gaussians are read back from their spill files one
 /// view at a time, in view order.
 pub fn lift_and_render(
@@ -155,7 +165,7 @@ pub fn lift_and_render(
     cams: &[PosedCamera],
     views: &[Option<ViewResult>],
     matching: &Matching,
-    snap_map: &(dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
+    view_inputs: &FinalMapInputs,
     config: &LiftConfig,
     times: &PartTimes,
 ) -> crate::Result<LiftOutput> {
@@ -198,6 +208,14 @@ pub fn lift_and_render(
         split.parents.len()
     );
     let votes = render_votes(&lifted, config);
+    let refine = |v: usize, labels: &Plane<u32>| -> crate::Result<Plane<u32>> {
+        let rule = config.refine_rule_for((labels.width * labels.height) as u64);
+        if rule.window_px == 0 || rule.passes == 0 {
+            return Ok(labels.clone());
+        }
+        let rgb = times.time("read the image back", || (view_inputs.image_rgb)(v))?;
+        Ok(times.time("refine boundaries by colour", || refine_boundaries(labels, &rgb, &rule)))
+    };
     let bar = progress(cams.len(), "render label maps");
     let snapped: Vec<SnappedRuns> = cams
         .par_iter()
@@ -209,9 +227,10 @@ pub fn lift_and_render(
             });
             Ok(match (&config.final_maps, &views[v]) {
                 (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => {
-                    let regions = times.time("read the region maps back", || snap_map(v))?;
+                    let regions = times.time("read the region maps back", || (view_inputs.snap_map)(v))?;
                     let rule = config.snap_rule_for((map.width * map.height) as u64);
-                    let s = times.time("snap", || snap_view(&regions, &map, &rule));
+                    let mut s = times.time("snap", || snap_view(&regions, &map, &rule));
+                    s.labels = refine(v, &s.labels)?;
                     let has_fallback = s.contained_fallback.data.iter().any(|&id| id != 0);
                     SnappedRuns {
                         labels: RunLengths::encode(&s.labels),
@@ -219,7 +238,9 @@ pub fn lift_and_render(
                         owned: Some(s.region_winners),
                     }
                 }
-                _ => SnappedRuns { labels: RunLengths::encode(&map), fallback: None, owned: None },
+                _ => {
+                    SnappedRuns { labels: RunLengths::encode(&refine(v, &map)?), fallback: None, owned: None }
+                }
             })
         })
         .collect::<crate::Result<_>>()?;
