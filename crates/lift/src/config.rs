@@ -121,9 +121,11 @@ pub struct LiftConfig {
     pub snap_bleed_px: f32,
     /// Boundary refinement of the final maps by colour ([`crate::refine`]): the half-width of the
     /// window whose interior pixels give each id's mean colour (pixels, not scaled); 0 = off.
-    /// Measured on the stress suite's tuning seeds 0–2 (18 scenes, mean mIoU): off 0.947; 1 px
-    /// 0.949; **2 px 0.967**; 3 px 0.967; with the images blurred (σ 0.5 / 0.8 / 1.2 px, as a
-    /// lens or anti-aliasing would) 2 px still gives 0.967 / 0.966 / 0.960.
+    /// Measured on the stress suite's tuning seeds 0–2 (18 scenes; mean of the scenes' mean
+    /// instance IoU, by a prototype on the final maps): off 0.952; 1 px 0.954; **2 px 0.971**;
+    /// 3 px 0.973; with the images blurred (σ 0.5 / 0.8 / 1.2 px, as a lens or anti-aliasing
+    /// would; the synthetic images are not) 2 px still gives 0.972 / 0.971 / 0.964. As landed,
+    /// `bench quality` mIoU 0.947 → 0.966 (tuning seeds 4–7: 0.944 → 0.960).
     pub refine_window_px: usize,
     /// Refinement passes in a 320×240 view (each moves a boundary by at most one pixel); larger
     /// views scale it by the square root of their pixel count / 76,800, rounded
