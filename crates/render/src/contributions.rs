@@ -230,6 +230,9 @@ fn visit_tile<V: ContributionVisitor, const AVX2: bool>(
         *mask = span_bits(0, x1 - x0);
     }
     let mut n_open = (x1 - x0) * (y1 - y0);
+    // Per tile row: the α of the current splat's columns and the mask of those that blend.
+    let mut alpha_rows = [[0f32; 32]; TILE_SIZE];
+    let mut keeps = [0u32; TILE_SIZE];
     for (i, &gid) in list.iter().enumerate() {
         if n_open == 0 {
             break;
@@ -245,26 +248,35 @@ fn visit_tile<V: ContributionVisitor, const AVX2: bool>(
             (by0, by1) = fp.reaching_rows();
         }
         let box_bits = span_bits(bx0 - x0, bx1 - x0);
+        // First the α of every row (independent of one another, so the CPU overlaps their
+        // arithmetic), then the blends row by row; a row's blends change only its own open
+        // pixels, so every row sees the open pixels it would see row after row.
         for py in by0..by1 {
             let ty = py - y0;
-            if open[ty] & box_bits == 0 {
+            let todo = open[ty] & box_bits;
+            if todo == 0 {
+                keeps[ty] = 0;
                 continue;
             }
-            let mut todo = open[ty] & box_bits;
             // α of the columns from the first open pixel to the last.
             let span = (todo.trailing_zeros() as usize, 32 - todo.leading_zeros() as usize);
-            let mut alphas = [0f32; 32];
             let row = RowTerms::new(s, py);
+            let alphas = &mut alpha_rows[ty];
             #[cfg(target_arch = "x86_64")]
             let keep = if AVX2 {
                 // SAFETY: `AVX2` is only set inside `visit_tile_avx2`, which needs AVX2.
-                unsafe { row.alphas_row_avx2(x0, span, s.opacity, settings, &mut alphas) }
+                unsafe { row.alphas_row_avx2(x0, span, s.opacity, settings, alphas) }
             } else {
-                row.alphas_row(x0, span, s.opacity, settings, &mut alphas)
+                row.alphas_row(x0, span, s.opacity, settings, alphas)
             };
             #[cfg(not(target_arch = "x86_64"))]
-            let keep = row.alphas_row(x0, span, s.opacity, settings, &mut alphas);
-            todo &= keep;
+            let keep = row.alphas_row(x0, span, s.opacity, settings, alphas);
+            keeps[ty] = todo & keep;
+        }
+        for py in by0..by1 {
+            let ty = py - y0;
+            let mut todo = keeps[ty];
+            let alphas = &alpha_rows[ty];
             while todo != 0 {
                 let k = todo.trailing_zeros() as usize;
                 todo &= todo - 1;
