@@ -51,8 +51,16 @@ pub fn gaussian_blur(image: &Plane<f32>, sigma_px: f32) -> Plane<f32> {
         let row = image.row(y);
         for (x, o) in out.iter_mut().enumerate() {
             let mut acc = 0.0;
-            for (k, &kv) in kernel.iter().enumerate() {
-                acc += kv * row[reflect(x as isize + k as isize - radius, w)];
+            let first = x as isize - radius;
+            if first >= 0 && x as isize + radius < w as isize {
+                // Inside the row no tap is mirrored: the same sum, without the index arithmetic.
+                for (&kv, &v) in kernel.iter().zip(&row[first as usize..]) {
+                    acc += kv * v;
+                }
+            } else {
+                for (k, &kv) in kernel.iter().enumerate() {
+                    acc += kv * row[reflect(first + k as isize, w)];
+                }
             }
             *o = acc;
         }
@@ -80,7 +88,11 @@ fn stencil3x3(image: &Plane<f32>, f: impl Fn(&[[f32; 3]; 3]) -> f32 + Sync) -> P
         let rows =
             [image.row(reflect(y as isize - 1, h)), image.row(y), image.row(reflect(y as isize + 1, h))];
         for (x, o) in out_row.iter_mut().enumerate() {
-            let xs = [reflect(x as isize - 1, w), x, reflect(x as isize + 1, w)];
+            let xs = if x > 0 && x + 1 < w {
+                [x - 1, x, x + 1]
+            } else {
+                [reflect(x as isize - 1, w), x, reflect(x as isize + 1, w)]
+            };
             let mut n = [[0.0f32; 3]; 3];
             for (r, row) in rows.iter().enumerate() {
                 for (c, &xx) in xs.iter().enumerate() {
@@ -162,6 +174,82 @@ pub fn resize_bilinear(image: &Plane<f32>, width: usize, height: usize) -> Plane
 mod tests {
     use super::*;
     use approx::assert_abs_diff_eq;
+
+    /// The blur equals, bit for bit, the former one that mirrored every tap's index: images
+    /// narrower and wider than the kernel, several σ.
+    #[test]
+    fn blur_equals_the_blur_mirroring_every_tap() {
+        let reference = |image: &Plane<f32>, sigma: f32| {
+            let kernel = gaussian_kernel(sigma);
+            let radius = (kernel.len() / 2) as isize;
+            let (w, h) = image.size();
+            let mut tmp = vec![0.0f32; w * h];
+            for y in 0..h {
+                for x in 0..w {
+                    let mut acc = 0.0;
+                    for (k, &kv) in kernel.iter().enumerate() {
+                        acc += kv * image.row(y)[reflect(x as isize + k as isize - radius, w)];
+                    }
+                    tmp[y * w + x] = acc;
+                }
+            }
+            let mut out = vec![0.0f32; w * h];
+            for y in 0..h {
+                for (k, &kv) in kernel.iter().enumerate() {
+                    let src = reflect(y as isize + k as isize - radius, h);
+                    for x in 0..w {
+                        out[y * w + x] += kv * tmp[src * w + x];
+                    }
+                }
+            }
+            out
+        };
+        let mut seed = 3u32;
+        for (w, h) in [(1, 1), (3, 7), (17, 5), (64, 40), (200, 3)] {
+            let data: Vec<f32> = (0..w * h)
+                .map(|_| {
+                    seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    (seed >> 8) as f32 / 65_536.0 - 100.0
+                })
+                .collect();
+            let image = Plane { width: w, height: h, data };
+            for sigma in [0.0, 0.4, 1.0, 2.5, 6.0] {
+                let got: Vec<u32> = gaussian_blur(&image, sigma).data.iter().map(|v| v.to_bits()).collect();
+                let want: Vec<u32> = reference(&image, sigma).iter().map(|v| v.to_bits()).collect();
+                assert_eq!(got, want, "{w}×{h}, σ {sigma}");
+            }
+        }
+    }
+
+    /// The 3×3 stencils equal, bit for bit, a Laplacian and a Sobel magnitude that mirror every
+    /// neighbour's index.
+    #[test]
+    fn stencils_equal_the_ones_mirroring_every_neighbour() {
+        let mut seed = 9u32;
+        for (w, h) in [(1, 1), (2, 5), (9, 4), (33, 21)] {
+            let data: Vec<f32> = (0..w * h)
+                .map(|_| {
+                    seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    (seed >> 8) as f32 / 4096.0
+                })
+                .collect();
+            let image = Plane { width: w, height: h, data };
+            let at = |x: isize, y: isize| image.data[reflect(y, h) * w + reflect(x, w)];
+            let (lap, sob) = (laplacian(&image), sobel_magnitude(&image));
+            for y in 0..h as isize {
+                for x in 0..w as isize {
+                    let n = |dy: isize, dx: isize| at(x + dx, y + dy);
+                    let l = n(-1, 0) + n(0, -1) + n(0, 1) + n(1, 0) - 4.0 * n(0, 0);
+                    let gx = (n(-1, 1) + 2.0 * n(0, 1) + n(1, 1)) - (n(-1, -1) + 2.0 * n(0, -1) + n(1, -1));
+                    let gy = (n(1, -1) + 2.0 * n(1, 0) + n(1, 1)) - (n(-1, -1) + 2.0 * n(-1, 0) + n(-1, 1));
+                    let i = y as usize * w + x as usize;
+                    assert_eq!(lap.data[i].to_bits(), l.to_bits(), "laplacian ({x}, {y}) of {w}×{h}");
+                    let g = (gx * gx + gy * gy).sqrt();
+                    assert_eq!(sob.data[i].to_bits(), g.to_bits(), "sobel ({x}, {y}) of {w}×{h}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn reflect_101_mirrors_without_repeating_the_edge() {

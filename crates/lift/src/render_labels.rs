@@ -112,6 +112,12 @@ fn decided(ids: &[u32; PIXEL_SLOTS], weights: &[f32; PIXEL_SLOTS], t_left: f32, 
 
 impl ContributionVisitor for LabelBand<'_> {
     #[inline(always)]
+    fn prefetch(&self, gaussian: u32) {
+        splatseg_render::prefetch(&self.votes.labels[gaussian as usize]);
+        splatseg_render::prefetch(&self.votes.weights[gaussian as usize]);
+    }
+
+    #[inline(always)]
     fn contribution(&mut self, c: Contribution) -> bool {
         let g = c.gaussian as usize;
         let label = self.votes.labels[g];

@@ -179,11 +179,22 @@ pub fn lift_and_render(
     let mut facing = Facing::new(prepared.len());
     let mut lifted = times.time("votes, fusion, variance filter", || -> crate::Result<Lifted> {
         let mut votes = VoteAccumulator::new(prepared.len());
-        for &(v, path, table) in &spilled {
-            let (gaussians, weights, labels) = visible::read(path)?;
-            let ids: Vec<u32> = labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
-            votes.add_view(&gaussians, &weights, &ids)?;
-            facing.add_view(prepared, &gaussians, cams[v].world_from_cam.centre().as_vec3());
+        // A few views' spill files are read at once; the views then add their votes and their
+        // facing in view order (the two accumulators side by side), as one view at a time would.
+        for chunk in spilled.chunks(SPILLS_READ_AT_ONCE) {
+            let read: Vec<crate::Result<visible::Spilled>> =
+                chunk.par_iter().map(|&(_, path, _)| visible::read(path)).collect();
+            for (&(v, _, table), spill) in chunk.iter().zip(read) {
+                let (gaussians, weights, labels) = spill?;
+                let ids: Vec<u32> =
+                    labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
+                let centre = cams[v].world_from_cam.centre().as_vec3();
+                let (added, ()) = rayon::join(
+                    || votes.add_view(&gaussians, &weights, &ids),
+                    || facing.add_view(prepared, &gaussians, centre),
+                );
+                added?;
+            }
         }
         Ok(votes.finish(features, config)?)
     })?;
@@ -252,6 +263,10 @@ pub fn lift_and_render(
         drop_specks_and_number(&maps, &mut lifted.object_ids, config.min_object_px_for(mean_view_px));
     Ok(LiftOutput { lifted, maps, new_of_old })
 }
+
+/// How many views' spilled visible Gaussians the votes read at once (each ≈ 12 bytes per visible
+/// Gaussian; a bounded batch).
+const SPILLS_READ_AT_ONCE: usize = 4;
 
 /// One view's snapped map as runs, with what [`give_unowned_ids_back`] needs.
 struct SnappedRuns {

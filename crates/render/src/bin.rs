@@ -121,12 +121,24 @@ fn order_by_high_bits(mut keys: Vec<u64>) -> Vec<u32> {
     keys.into_iter().map(|k| k as u32).collect()
 }
 
+/// One visible splat in depth order: its index and the tile columns `[x0, x1)` and rows
+/// `[y0, y1)` it covers.
+#[derive(Clone, Copy)]
+struct Placed {
+    id: u32,
+    rect: [u32; 4],
+}
+
 /// Bins `splats [N]` into the tiles of a `width × height` image.
+///
+/// The visible splats are ordered by (depth, index) once (a radix sort of one integer key each,
+/// [`order_by_high_bits`]) and their tile rectangles gathered in that order; each row of tiles
+/// gets, front to back, the (splat, columns) of the splats crossing it (a count then a fill into
+/// one flat array), and the rows count and fill their tiles' lists in parallel.
 pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     let tiles_x = width.div_ceil(TILE_SIZE);
     let tiles_y = height.div_ceil(TILE_SIZE);
     let n_tiles = tiles_x * tiles_y;
-    let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
     // Sorted by (depth, index): one integer key per splat, the depth's bits in `total_cmp`
     // order above the index, in index order, then a stable radix sort on the depth bits.
     let keys: Vec<u64> = splats
@@ -136,21 +148,41 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
         .map(|(i, s)| (depth_order_bits(s.depth) as u64) << 32 | i as u64)
         .collect();
     let order = order_by_high_bits(keys);
-    // Splats per row of tiles, front to back.
-    let mut rows: Vec<Vec<u32>> = vec![Vec::new(); tiles_y];
-    for &i in &order {
-        let r = &rects[i as usize];
-        for row in &mut rows[r[2]..r[3]] {
-            row.push(i);
+    let placed: Vec<Placed> = order
+        .par_iter()
+        .map(|&id| {
+            let r = tile_rect(&splats[id as usize], tiles_x, tiles_y);
+            Placed { id, rect: r.map(|v| v as u32) }
+        })
+        .collect();
+    drop(order);
+    // Splats per row of tiles, front to back: `row_items[row_starts[r]..row_starts[r + 1]]`.
+    let mut row_starts = vec![0usize; tiles_y + 1];
+    for p in &placed {
+        for c in &mut row_starts[p.rect[2] as usize + 1..p.rect[3] as usize + 1] {
+            *c += 1;
         }
     }
+    for r in 0..tiles_y {
+        row_starts[r + 1] += row_starts[r];
+    }
+    let mut row_items = vec![(0u32, 0u32, 0u32); row_starts[tiles_y]];
+    let mut cursor = row_starts.clone();
+    for p in &placed {
+        for c in &mut cursor[p.rect[2] as usize..p.rect[3] as usize] {
+            row_items[*c] = (p.id, p.rect[0], p.rect[1]);
+            *c += 1;
+        }
+    }
+    drop(placed);
+    let rows: Vec<&[(u32, u32, u32)]> =
+        (0..tiles_y).map(|r| &row_items[row_starts[r]..row_starts[r + 1]]).collect();
     let counts: Vec<Vec<usize>> = rows
         .par_iter()
         .map(|row| {
             let mut counts = vec![0usize; tiles_x];
-            for &i in row {
-                let r = &rects[i as usize];
-                for c in &mut counts[r[0]..r[1]] {
+            for &(_, x0, x1) in row.iter() {
+                for c in &mut counts[x0 as usize..x1 as usize] {
                     *c += 1;
                 }
             }
@@ -172,9 +204,8 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     slices.into_par_iter().zip(rows.par_iter()).enumerate().for_each(|(ty, (out, row))| {
         let base = offsets[ty * tiles_x];
         let mut cursor: Vec<usize> = (0..tiles_x).map(|tx| offsets[ty * tiles_x + tx] - base).collect();
-        for &i in row {
-            let r = &rects[i as usize];
-            for c in &mut cursor[r[0]..r[1]] {
+        for &(i, x0, x1) in row.iter() {
+            for c in &mut cursor[x0 as usize..x1 as usize] {
                 out[*c] = i;
                 *c += 1;
             }
@@ -186,6 +217,69 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The former [`bin`] (a rectangle per splat kept in index order, a growing list per row of
+    /// tiles): the reference the new one is compared with.
+    fn bin_reference(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
+        let tiles_x = width.div_ceil(TILE_SIZE);
+        let tiles_y = height.div_ceil(TILE_SIZE);
+        let n_tiles = tiles_x * tiles_y;
+        let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
+        // Sorted by (depth, index): one integer key per splat, the depth's bits in `total_cmp`
+        // order above the index, in index order, then a stable radix sort on the depth bits.
+        let keys: Vec<u64> = splats
+            .par_iter()
+            .enumerate()
+            .filter(|(_, s)| !s.is_culled())
+            .map(|(i, s)| (depth_order_bits(s.depth) as u64) << 32 | i as u64)
+            .collect();
+        let order = order_by_high_bits(keys);
+        // Splats per row of tiles, front to back.
+        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); tiles_y];
+        for &i in &order {
+            let r = &rects[i as usize];
+            for row in &mut rows[r[2]..r[3]] {
+                row.push(i);
+            }
+        }
+        let counts: Vec<Vec<usize>> = rows
+            .par_iter()
+            .map(|row| {
+                let mut counts = vec![0usize; tiles_x];
+                for &i in row {
+                    let r = &rects[i as usize];
+                    for c in &mut counts[r[0]..r[1]] {
+                        *c += 1;
+                    }
+                }
+                counts
+            })
+            .collect();
+        let mut offsets = vec![0usize; n_tiles + 1];
+        for (t, &c) in counts.iter().flatten().enumerate() {
+            offsets[t + 1] = offsets[t] + c;
+        }
+        let mut ids = vec![0u32; offsets[n_tiles]];
+        let mut slices: Vec<&mut [u32]> = Vec::with_capacity(tiles_y);
+        let mut rest = ids.as_mut_slice();
+        for ty in 0..tiles_y {
+            let (head, tail) = rest.split_at_mut(offsets[(ty + 1) * tiles_x] - offsets[ty * tiles_x]);
+            slices.push(head);
+            rest = tail;
+        }
+        slices.into_par_iter().zip(rows.par_iter()).enumerate().for_each(|(ty, (out, row))| {
+            let base = offsets[ty * tiles_x];
+            let mut cursor: Vec<usize> = (0..tiles_x).map(|tx| offsets[ty * tiles_x + tx] - base).collect();
+            for &i in row {
+                let r = &rects[i as usize];
+                for c in &mut cursor[r[0]..r[1]] {
+                    out[*c] = i;
+                    *c += 1;
+                }
+            }
+        });
+        TileBins { tiles_x, tiles_y, offsets, ids }
+    }
 
     fn splat(x: f32, y: f32, r: i32, depth: f32) -> Splat2d {
         Splat2d { mean2d: [x, y], conic: [1.0, 0.0, 1.0], opacity: 0.5, depth, radii: [r, r] }
@@ -254,6 +348,38 @@ mod tests {
             for b in depths {
                 assert_eq!(depth_order_bits(a).cmp(&depth_order_bits(b)), a.total_cmp(&b), "{a} vs {b}");
             }
+        }
+    }
+
+    /// The binning gives the former binning's tiles and lists: many splats, culled ones, equal
+    /// depths, footprints off the image's edges and larger than it, partial edge tiles.
+    #[test]
+    fn binning_equals_the_former_binning() {
+        let mut seed = 31u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for (n, width, height) in [(0usize, 64, 48), (1, 16, 16), (5000, 200, 150), (20_000, 333, 97)] {
+            let splats: Vec<Splat2d> = (0..n)
+                .map(|_| {
+                    let r = if next() < 0.1 { 0 } else { (next() * next() * 120.0) as i32 };
+                    let depth = if next() < 0.2 { 3.0 } else { 0.1 + 20.0 * next() };
+                    let mut s = splat(
+                        next() * 1.4 * width as f32 - 30.0,
+                        next() * 1.4 * height as f32 - 30.0,
+                        r,
+                        depth,
+                    );
+                    s.radii[1] = (s.radii[1] as f32 * (0.3 + next())) as i32;
+                    s
+                })
+                .collect();
+            let (new, old) = (bin(&splats, width, height), bin_reference(&splats, width, height));
+            assert_eq!((new.tiles_x, new.tiles_y), (old.tiles_x, old.tiles_y));
+            assert_eq!(new.offsets, old.offsets, "{n} splats");
+            assert_eq!(new.ids, old.ids, "{n} splats");
+            assert!(n < 5000 || new.intersection_count() > n, "{n} splats: few intersections");
         }
     }
 

@@ -50,6 +50,40 @@ impl Footprint {
         (bx0 < bx1 && by0 < by1).then_some(fp)
     }
 
+    /// `(dy, disc)` of row `py`: its offset from the centre and the discriminant of
+    /// σ = ½(a·dx² + 2b·dx·dy + c·dy²) ≤ smax as a quadratic in dx = mean_x − pixel centre x.
+    /// It is negative (no pixel of the row reaches) when the row's smallest 2σ, dy²·det/a,
+    /// exceeds 2·smax; [`Self::row`] keeps rows grazing the ellipse within rounding.
+    #[inline(always)]
+    fn row_discriminant(&self, py: usize) -> (f32, f32) {
+        let dy = self.my - (py as f32 + 0.5);
+        (dy, self.conic[0] * self.two_smax - dy * dy * self.det)
+    }
+
+    /// Whether [`Self::row`] can give row `py` a non-empty span: false exactly where it returns
+    /// an empty span for the discriminant alone.
+    #[inline(always)]
+    fn row_may_reach(&self, py: usize) -> bool {
+        !self.exact || self.row_discriminant(py).1 >= -1e-4 * self.conic[0] * self.two_smax
+    }
+
+    /// The box's rows `(y0, y1)` (half-open) without those at its top and bottom edges that
+    /// [`Self::row`] gives an empty span by the discriminant: every row it drops has no pixel
+    /// with α ≥ alpha_min. The rows kept by that test are contiguous (`dy` falls with `py`, so
+    /// `dy²` — rounding included — first falls then rises, and the discriminant first rises
+    /// then falls), so trimming the two ends drops every such row and keeps every other.
+    #[inline(always)]
+    pub fn reaching_rows(&self) -> (usize, usize) {
+        let (_, _, mut y0, mut y1) = self.bbox;
+        while y0 < y1 && !self.row_may_reach(y0) {
+            y0 += 1;
+        }
+        while y1 > y0 && !self.row_may_reach(y1 - 1) {
+            y1 -= 1;
+        }
+        (y0, y1)
+    }
+
     /// Half-open pixel range of row `py` (inside the box) that can reach α ≥ alpha_min.
     #[inline(always)]
     pub fn row(&self, py: usize) -> (usize, usize) {
@@ -58,11 +92,7 @@ impl Footprint {
             return (bx0, bx1);
         }
         let [a, b, _] = self.conic;
-        let dy = self.my - (py as f32 + 0.5);
-        // σ = ½(a·dx² + 2b·dx·dy + c·dy²) ≤ smax, a quadratic in dx = mean_x − pixel centre x.
-        // Its discriminant is negative (no pixel of the row reaches) when the row's smallest
-        // 2σ, dy²·det/a, exceeds 2·smax; rows grazing the ellipse within rounding are kept.
-        let disc = a * self.two_smax - dy * dy * self.det;
+        let (dy, disc) = self.row_discriminant(py);
         if disc < -1e-4 * a * self.two_smax {
             return (bx0, bx0);
         }
@@ -103,6 +133,46 @@ fn span_hi(edge: f32, hi: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The trimmed rows are exactly the box rows the discriminant test keeps: every dropped row
+    /// gets an empty span from `row`, every kept one passes the test (they are contiguous).
+    #[test]
+    fn reaching_rows_drop_exactly_the_rows_without_reach() {
+        let mut seed = 11u32;
+        let mut unit = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let (mut dropped, mut kept) = (0, 0);
+        for _ in 0..20_000 {
+            let (sx, sy) = (0.3 + 6.0 * unit(), 0.3 + 6.0 * unit());
+            let rho = 1.8 * unit() - 0.9;
+            let det = (sx * sy) * (sx * sy) * (1.0 - rho * rho);
+            let conic = [sy * sy / det, -rho * sx * sy / det, sx * sx / det];
+            let s = Splat2d {
+                mean2d: [40.0 * unit() - 4.0, 40.0 * unit() - 4.0],
+                conic,
+                opacity: unit(),
+                depth: 1.0,
+                radii: [20, 20],
+            };
+            let tile = (16, 32, 16, 32);
+            let Some(fp) = Footprint::new(&s, 1.0 / 255.0, tile) else { continue };
+            let (y0, y1) = fp.reaching_rows();
+            assert!(fp.bbox.2 <= y0 && y0 <= y1 && y1 <= fp.bbox.3);
+            for py in fp.bbox.2..fp.bbox.3 {
+                if (y0..y1).contains(&py) {
+                    assert!(fp.row_may_reach(py), "{s:?}: kept row {py} fails the test");
+                    kept += 1;
+                } else {
+                    let (lo, hi) = fp.row(py);
+                    assert_eq!(lo, hi, "{s:?}: dropped row {py} has the span {lo}..{hi}");
+                    dropped += 1;
+                }
+            }
+        }
+        assert!(dropped > 1000 && kept > dropped, "{dropped} dropped, {kept} kept");
+    }
 
     /// Every pixel with α ≥ alpha_min lies in a row span; spans are not much wider than needed.
     #[test]

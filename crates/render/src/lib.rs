@@ -43,7 +43,7 @@ pub mod settings;
 pub mod sh;
 
 pub use camera::RenderCamera;
-pub use contributions::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
+pub use contributions::{prefetch, visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 pub use error::{RenderError, RenderResult};
 pub use render::{render, render_bwd, render_with_state, RenderState};
 pub use request::{FeatureInput, GaussianGrads, OutputGrads, RenderOutput, RenderRequest, RenderStats};

@@ -238,15 +238,34 @@ fn view_terms(cam: &ProjCam, mean: [f32; 3], cov: Mat3, eps2d: f32) -> ViewTerms
     }
 }
 
+/// `v.ceil()`, bit for bit, without a libm call (`f32::ceil` is one without SSE4.1): below 2²³
+/// in magnitude the truncation is exact and is raised by one when below `v`; zero keeps `v`'s
+/// sign (`ceil(-0.3) = -0.0`); larger values, infinities and NaN are whole already.
+#[inline(always)]
+fn ceil_without_libm(v: f32) -> f32 {
+    if v.is_nan() || v.abs() >= 8_388_608.0 {
+        return v;
+    }
+    let t = v as i32 as f32;
+    let c = if t < v { t + 1.0 } else { t };
+    if c == 0.0 && v.is_sign_negative() {
+        -0.0
+    } else {
+        c
+    }
+}
+
 fn footprint(extent: Extent, cov2d: [f32; 3], det: f32) -> [f32; 2] {
     match extent {
         Extent::MaxEigen { sigmas } => {
             let b = 0.5 * (cov2d[0] + cov2d[2]);
             let v1 = b + (b * b - det).max(0.1).sqrt();
-            let r = (sigmas * v1.sqrt()).ceil();
+            let r = ceil_without_libm(sigmas * v1.sqrt());
             [r, r]
         }
-        Extent::PerAxis { sigmas } => [(sigmas * cov2d[0].sqrt()).ceil(), (sigmas * cov2d[2].sqrt()).ceil()],
+        Extent::PerAxis { sigmas } => {
+            [ceil_without_libm(sigmas * cov2d[0].sqrt()), ceil_without_libm(sigmas * cov2d[2].sqrt())]
+        }
     }
 }
 
@@ -451,6 +470,22 @@ mod tests {
             for (i, (a, b)) in direct.iter().zip(&again).enumerate() {
                 assert_eq!(bits(a), bits(b), "Gaussian {i}");
             }
+        }
+    }
+
+    /// The libm-free ceiling equals `f32::ceil` bit for bit: every float from a sweep of bit
+    /// patterns (both signs, all exponents), halves, zeros, infinities and NaN.
+    #[test]
+    fn ceil_without_libm_equals_ceil() {
+        let mut values: Vec<f32> = (0..=u32::MAX).step_by(997).map(f32::from_bits).collect();
+        values.extend((-40_000..40_000).map(|i| i as f32 * 0.25));
+        values.extend([0.0, -0.0, 8_388_607.5, -8_388_607.5, 8_388_608.0, f32::INFINITY, f32::NEG_INFINITY]);
+        for v in values {
+            let (got, want) = (ceil_without_libm(v), v.ceil());
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "{v}: {got} vs {want}"
+            );
         }
     }
 

@@ -166,32 +166,45 @@ const BOUNDARY_DARKEN: f32 = 0.3;
 pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
     let (w, h) = (rgb.width() as usize, rgb.height() as usize);
     let mut out = rgb.clone();
-    if labels.width == 0 || labels.height == 0 {
+    if labels.width == 0 || labels.height == 0 || w == 0 || h == 0 {
         return out;
     }
     let alpha = alpha.clamp(0.0, 1.0);
-    let col: Vec<usize> = (0..w).map(|x| x * labels.width / w).collect();
-    let row: Vec<usize> = (0..h).map(|y| y * labels.height / h).collect();
-    let label_at = |x: usize, y: usize| labels.data[row[y] * labels.width + col[x]];
+    // The ids at the image's pixels: the map itself, or its nearest-neighbour samples.
+    let resampled;
+    let ids: &[u32] = if labels.width == w && labels.height == h {
+        &labels.data
+    } else {
+        let col: Vec<usize> = (0..w).map(|x| x * labels.width / w).collect();
+        resampled = (0..h)
+            .flat_map(|y| {
+                let row = &labels.data[y * labels.height / h * labels.width..];
+                col.iter().map(move |&c| row[c])
+            })
+            .collect::<Vec<u32>>();
+        &resampled
+    };
+    let pixels: &mut [u8] = &mut out;
     // Neighbouring pixels mostly share their id: its colour is kept from the pixel before.
     let mut last = (0u32, colour_of_id(0));
     for y in 0..h {
-        for x in 0..w {
-            let id = label_at(x, y);
-            let differs = |nx: usize, ny: usize| label_at(nx, ny) != id;
-            let boundary = (x > 0 && differs(x - 1, y))
-                || (x + 1 < w && differs(x + 1, y))
-                || (y > 0 && differs(x, y - 1))
-                || (y + 1 < h && differs(x, y + 1));
+        let row = &ids[y * w..(y + 1) * w];
+        let above = (y > 0).then(|| &ids[(y - 1) * w..y * w]);
+        let below = (y + 1 < h).then(|| &ids[(y + 1) * w..(y + 2) * w]);
+        for (x, &id) in row.iter().enumerate() {
+            let boundary = (x > 0 && row[x - 1] != id)
+                || (x + 1 < w && row[x + 1] != id)
+                || above.is_some_and(|r| r[x] != id)
+                || below.is_some_and(|r| r[x] != id);
             if id == 0 && !boundary {
                 continue;
             }
-            let px = out.get_pixel_mut(x as u32, y as u32);
             if last.0 != id {
                 last = (id, colour_of_id(id));
             }
             let colour = last.1;
-            for (channel, &tint) in px.0.iter_mut().zip(&colour) {
+            let px = &mut pixels[(y * w + x) * 3..][..3];
+            for (channel, &tint) in px.iter_mut().zip(&colour) {
                 let mut v = *channel as f32;
                 if id != 0 {
                     v = (1.0 - alpha) * v + alpha * tint as f32;
@@ -209,6 +222,79 @@ pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The former [`overlay`] (pixel by pixel through `get_pixel_mut`, neighbours through the
+    /// sampling closure): the reference the new one is compared with.
+    fn overlay_reference(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
+        let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+        let mut out = rgb.clone();
+        if labels.width == 0 || labels.height == 0 {
+            return out;
+        }
+        let alpha = alpha.clamp(0.0, 1.0);
+        let col: Vec<usize> = (0..w).map(|x| x * labels.width / w).collect();
+        let row: Vec<usize> = (0..h).map(|y| y * labels.height / h).collect();
+        let label_at = |x: usize, y: usize| labels.data[row[y] * labels.width + col[x]];
+        // Neighbouring pixels mostly share their id: its colour is kept from the pixel before.
+        let mut last = (0u32, colour_of_id(0));
+        for y in 0..h {
+            for x in 0..w {
+                let id = label_at(x, y);
+                let differs = |nx: usize, ny: usize| label_at(nx, ny) != id;
+                let boundary = (x > 0 && differs(x - 1, y))
+                    || (x + 1 < w && differs(x + 1, y))
+                    || (y > 0 && differs(x, y - 1))
+                    || (y + 1 < h && differs(x, y + 1));
+                if id == 0 && !boundary {
+                    continue;
+                }
+                let px = out.get_pixel_mut(x as u32, y as u32);
+                if last.0 != id {
+                    last = (id, colour_of_id(id));
+                }
+                let colour = last.1;
+                for (channel, &tint) in px.0.iter_mut().zip(&colour) {
+                    let mut v = *channel as f32;
+                    if id != 0 {
+                        v = (1.0 - alpha) * v + alpha * tint as f32;
+                    }
+                    if boundary {
+                        v *= BOUNDARY_DARKEN;
+                    }
+                    *channel = round_non_negative(v).clamp(0.0, 255.0) as u8;
+                }
+            }
+        }
+        out
+    }
+
+    /// The overlay gives the former overlay's pixels: maps of the image's size and of other
+    /// sizes (sampled), runs of ids, id 0 areas and boundaries, several blend weights.
+    #[test]
+    fn overlay_equals_the_former_overlay() {
+        let mut seed = 17u32;
+        let mut next = move |n: u32| {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) % n
+        };
+        for (w, h, lw, lh) in
+            [(37, 23, 37, 23), (40, 30, 20, 15), (33, 17, 50, 40), (1, 1, 1, 1), (5, 1, 3, 2)]
+        {
+            let raw: Vec<u8> = (0..w * h * 3).map(|_| next(256) as u8).collect();
+            let image = RgbImage::from_raw(w as u32, h as u32, raw).expect("sized");
+            let mut data = Vec::with_capacity(lw * lh);
+            while data.len() < lw * lh {
+                let (id, run) = (if next(3) == 0 { 0 } else { next(7) }, 1 + next(9) as usize);
+                data.extend(std::iter::repeat_n(id, run));
+            }
+            data.truncate(lw * lh);
+            let labels = Plane { width: lw, height: lh, data };
+            for alpha in [0.0, 0.5, 0.77, 1.0] {
+                let (new, old) = (overlay(&image, &labels, alpha), overlay_reference(&image, &labels, alpha));
+                assert_eq!(new.as_raw(), old.as_raw(), "{w}×{h} image, {lw}×{lh} map, alpha {alpha}");
+            }
+        }
+    }
 
     /// The libm-free rounding equals `f32::round` on every value an overlay channel takes
     /// (halves included) and beyond.
