@@ -125,7 +125,9 @@ pub struct LiftConfig {
     /// instance IoU, by a prototype on the final maps): off 0.952; 1 px 0.954; **2 px 0.971**;
     /// 3 px 0.973; with the images blurred (σ 0.5 / 0.8 / 1.2 px, as a lens or anti-aliasing
     /// would; the synthetic images are not) 2 px still gives 0.972 / 0.971 / 0.964. As landed,
-    /// `bench quality` mIoU 0.947 → 0.966 (tuning seeds 4–7: 0.944 → 0.960).
+    /// `bench quality` mIoU 0.947 → 0.966 (tuning seeds 4–7: 0.944 → 0.960); with a thin
+    /// object's own mean taken over all its pixels when it has no interior one (a post two
+    /// pixels wide), 0.970 (4–7: 0.966).
     pub refine_window_px: usize,
     /// Refinement passes in a 320×240 view (each moves a boundary by at most one pixel); larger
     /// views scale it by the square root of their pixel count / 76,800, rounded

@@ -6,7 +6,9 @@
 //! boundary (a 4-neighbour has another id) and gives it the id whose interior pixels (not on a
 //! boundary) within a `(2·window + 1)²` window around it have the mean colour nearest to the
 //! pixel's own colour. The pixel keeps its id unless another id is strictly nearer; ties between
-//! other ids go to the smaller id. All pixels of a pass are decided from the labels before it,
+//! other ids go to the smaller id. When the pixel's own id has no interior pixel in the window (a
+//! post two pixels wide is all boundary), its mean is taken over all its pixels there instead, so
+//! a thin object is not erased for being thin. All pixels of a pass are decided from the labels before it,
 //! so the result does not depend on pixel order.
 //!
 //! This moves a boundary by at most one pixel per pass, and only where the colours say so: two
@@ -54,8 +56,9 @@ pub fn refine_boundaries(labels: &Plane<u32>, rgb: &[u8], rule: &RefineRule) -> 
                 if !boundary[i] {
                     continue;
                 }
-                window_sums(&current, &boundary, rgb, x, y, rule.window_px, &mut sums);
-                let id = nearest_id(current.data[i], [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]], &sums);
+                let own = window_sums(&current, &boundary, rgb, x, y, rule.window_px, &mut sums);
+                let id =
+                    nearest_id(current.data[i], [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]], &sums, &own);
                 if id != current.data[i] {
                     next.data[i] = id;
                     changed = true;
@@ -92,7 +95,8 @@ fn boundary_pixels(labels: &Plane<u32>) -> Vec<bool> {
 }
 
 /// Colour sums per id of the interior pixels in the window of half-width `half` around
-/// `(x, y)` (clipped at the image border), into `sums` (sorted by id).
+/// `(x, y)` (clipped at the image border), into `sums` (sorted by id). Returns the sum over all
+/// pixels (interior or not) of the id at `(x, y)`.
 fn window_sums(
     labels: &Plane<u32>,
     boundary: &[bool],
@@ -101,18 +105,26 @@ fn window_sums(
     y: usize,
     half: usize,
     sums: &mut Vec<ColourSum>,
-) {
+) -> ColourSum {
     sums.clear();
     let w = labels.width;
+    let own_id = labels.data[y * w + x];
+    let mut own = ColourSum { id: own_id, sum: [0; 3], count: 0 };
     let (x0, x1) = (x.saturating_sub(half), (x + half).min(w - 1));
     let (y0, y1) = (y.saturating_sub(half), (y + half).min(labels.height - 1));
     for yy in y0..=y1 {
         for xx in x0..=x1 {
             let j = yy * w + xx;
+            let id = labels.data[j];
+            if id == own_id {
+                for c in 0..3 {
+                    own.sum[c] += rgb[3 * j + c] as u32;
+                }
+                own.count += 1;
+            }
             if boundary[j] {
                 continue;
             }
-            let id = labels.data[j];
             let slot = match sums.iter().position(|s| s.id == id) {
                 Some(k) => k,
                 None => {
@@ -128,11 +140,13 @@ fn window_sums(
         }
     }
     sums.sort_unstable_by_key(|s| s.id);
+    own
 }
 
 /// The id whose mean colour in `sums` is nearest to `colour`: `own` unless another id is strictly
-/// nearer (then the nearest, the smaller id on ties).
-fn nearest_id(own: u32, colour: [u8; 3], sums: &[ColourSum]) -> u32 {
+/// nearer (then the nearest, the smaller id on ties). `own_all`: the own id's sum over all its
+/// pixels in the window, used when `sums` has no interior pixel of it.
+fn nearest_id(own: u32, colour: [u8; 3], sums: &[ColourSum], own_all: &ColourSum) -> u32 {
     let distance = |s: &ColourSum| -> f64 {
         (0..3)
             .map(|c| {
@@ -141,7 +155,7 @@ fn nearest_id(own: u32, colour: [u8; 3], sums: &[ColourSum]) -> u32 {
             })
             .sum()
     };
-    let own_distance = sums.iter().find(|s| s.id == own).map_or(f64::INFINITY, distance);
+    let own_distance = distance(sums.iter().find(|s| s.id == own).unwrap_or(own_all));
     let mut best = (own, own_distance);
     for s in sums.iter().filter(|s| s.id != own) {
         let d = distance(s);
@@ -218,6 +232,14 @@ mod tests {
         let (labels, rgb, _) = blurred_post(20, 12, 8, 3, 1);
         assert_eq!(refine_boundaries(&labels, &rgb, &RefineRule { window_px: 0, passes: 3 }), labels);
         assert_eq!(refine_boundaries(&labels, &rgb[3..], &RefineRule { window_px: 2, passes: 1 }), labels);
+    }
+
+    #[test]
+    fn a_post_two_pixels_wide_is_all_boundary_and_stays() {
+        let (labels, rgb, truth) = blurred_post(20, 12, 8, 2, 0);
+        assert_eq!(labels, truth);
+        let refined = refine_boundaries(&labels, &rgb, &RefineRule { window_px: 2, passes: 3 });
+        assert_eq!(refined, truth, "the post has no interior pixel, its own mean colour is its own");
     }
 
     #[test]
