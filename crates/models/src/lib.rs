@@ -27,7 +27,6 @@ pub mod error;
 pub mod image;
 pub mod kernels;
 mod math512;
-pub mod memory;
 pub mod resample;
 pub mod sam;
 pub mod skinny;

@@ -209,7 +209,18 @@ struct ViewTerms {
 
 #[inline(always)]
 fn view_terms(cam: &ProjCam, mean: [f32; 3], cov: Mat3, eps2d: f32) -> ViewTerms {
-    let p_c = cam.w * Vec3::from(mean) + cam.t;
+    view_terms_at(cam, camera_point(cam, mean), cov, eps2d)
+}
+
+/// The camera-space centre `W p + t` of a Gaussian at `mean`.
+#[inline(always)]
+fn camera_point(cam: &ProjCam, mean: [f32; 3]) -> Vec3 {
+    cam.w * Vec3::from(mean) + cam.t
+}
+
+/// [`view_terms`] of a Gaussian whose camera-space centre is `p_c`.
+#[inline(always)]
+fn view_terms_at(cam: &ProjCam, p_c: Vec3, cov: Mat3, eps2d: f32) -> ViewTerms {
     let cov_c = cam.w * cov * cam.w.transpose();
     let tz = p_c.z;
     let (rx, ry) = (p_c.x / tz, p_c.y / tz);
@@ -278,7 +289,18 @@ pub(crate) fn project_one(cam: &ProjCam, g: &Gaussians, i: usize, settings: &Ras
 /// The splat of a Gaussian at `mean` with covariance `cov` and opacity `opacity`.
 #[inline(always)]
 fn splat_of(cam: &ProjCam, mean: [f32; 3], cov: Mat3, opacity: f32, settings: &RasterSettings) -> Splat2d {
-    let f = view_terms(cam, mean, cov, settings.eps2d);
+    let p_c = camera_point(cam, mean);
+    if !(p_c.z > cam.near && p_c.z < cam.far) {
+        // Culled by depth whatever its footprint (most Gaussians behind a camera inside a room):
+        // no covariance, conic or footprint is computed; only `radii` matters for a culled splat.
+        return Splat2d { opacity, depth: p_c.z, ..Splat2d::default() };
+    }
+    splat_of_terms(cam, view_terms_at(cam, p_c, cov, settings.eps2d), opacity, settings)
+}
+
+/// The splat of a Gaussian of opacity `opacity` from its view terms `f`.
+#[inline(always)]
+fn splat_of_terms(cam: &ProjCam, f: ViewTerms, opacity: f32, settings: &RasterSettings) -> Splat2d {
     let depth = f.p_c.z;
     let mean2d = [cam.fx * f.p_c.x / depth + cam.cx, cam.fy * f.p_c.y / depth + cam.cy];
     let conic = [f.cov2d[2] / f.det, -f.cov2d[1] / f.det, f.cov2d[0] / f.det];
@@ -471,6 +493,51 @@ mod tests {
                 assert_eq!(bits(a), bits(b), "Gaussian {i}");
             }
         }
+    }
+
+    /// Culling by depth before the covariance is projected culls exactly the Gaussians the full
+    /// computation culls, and leaves every other splat bit for bit as the full computation makes
+    /// it: Gaussians behind the camera, at the near and far planes, beside and in front of it.
+    #[test]
+    fn early_depth_cull_changes_nothing_but_culled_fields() {
+        let mut seed = 11u32;
+        let mut unit = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let pose = Pose { translation: glam::DVec3::new(0.1, 0.2, -0.3), ..Pose::IDENTITY };
+        let mut camera = RenderCamera::from_scene(&Camera::pinhole(1, 80, 60, 70.0, 70.0, 40.0, 30.0), &pose);
+        camera.far = 8.0;
+        let cam = ProjCam::new(&camera);
+        let (mut early_culled, mut kept) = (0, 0);
+        for settings in [RasterSettings::default(), RasterSettings::gsplat_1_5()] {
+            for k in 0..4000 {
+                // Depths on both sides of the near and far planes, some exactly on them.
+                let z = match k % 8 {
+                    0 => camera.near - 0.3,
+                    1 => camera.far - 0.3,
+                    _ => 14.0 * unit() - 4.0,
+                };
+                let mean = [(unit() - 0.5) * 3.0 * z.abs(), (unit() - 0.5) * 2.0 * z.abs(), z];
+                let cov = covariance(
+                    [3.0 * unit() - 4.0, 3.0 * unit() - 4.0, 3.0 * unit() - 4.0],
+                    [unit() - 0.5, unit() - 0.5, unit() - 0.5, unit() - 0.5],
+                )
+                .cov;
+                let full = splat_of_terms(&cam, view_terms(&cam, mean, cov, settings.eps2d), 0.7, &settings);
+                let fast = splat_of(&cam, mean, cov, 0.7, &settings);
+                assert_eq!(fast.radii, full.radii, "Gaussian {k} at z {z}");
+                if full.is_culled() {
+                    let p_c = camera_point(&cam, mean);
+                    early_culled += usize::from(!(p_c.z > cam.near && p_c.z < cam.far));
+                } else {
+                    assert_eq!(fast, full, "Gaussian {k} at z {z}");
+                    assert_eq!(fast.conic.map(f32::to_bits), full.conic.map(f32::to_bits));
+                    kept += 1;
+                }
+            }
+        }
+        assert!(early_culled > 1000 && kept > 1000, "{early_culled} culled by depth, {kept} kept");
     }
 
     /// The libm-free ceiling equals `f32::ceil` bit for bit: every float from a sweep of bit

@@ -22,6 +22,7 @@ pub mod images;
 pub mod labels;
 pub mod limits;
 pub mod load;
+pub mod memory;
 pub mod npy;
 pub mod plane;
 pub mod ply;
