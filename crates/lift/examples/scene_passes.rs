@@ -26,6 +26,8 @@ fn checksum(words: impl Iterator<Item = u32>) -> u64 {
 }
 
 fn main() {
+    // As `splatseg` does: freed buffers reused, not fresh pages per view.
+    splatseg_scene::memory::keep_freed_memory_for_reuse();
     let mut args = std::env::args().skip(1);
     let Some(dir) = args.next().map(PathBuf::from) else {
         eprintln!("usage: scene_passes SCENE_DIR [VIEWS]");

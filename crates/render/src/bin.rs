@@ -1,8 +1,8 @@
 //! Tile binning: which splats touch which 16×16 tile, each tile's list sorted front to back.
 //!
 //! Work mapping: tile rectangles per splat in parallel (one splat per work item); the visible
-//! splats are sorted once by (depth, index) — one `u64` key per splat, a radix sort —
-//! and appended, in that order, to the list of every row of tiles they touch (sequential); then
+//! splats' (depth key, index, rectangle) records are sorted once by (depth, index) — a stable
+//! radix sort on the depth key — and appended, in that order, to the list of every row of tiles they touch (sequential); then
 //! one rayon work item per row of tiles counts and fills its tiles' lists (a counting sort), so
 //! every list comes out front to back (ties in index order) without per-tile sorting. The result
 //! is independent of the thread count.
@@ -93,69 +93,67 @@ fn depth_order_bits(depth: f32) -> u32 {
     ((bits ^ (((bits >> 31) as u32) >> 1) as i32) as u32) ^ 0x8000_0000
 }
 
-/// The low halves of `keys` (`[n]`, sorted by their low halves) ordered by the whole key: a
-/// stable least-significant-digit radix sort on the high 32 bits, 8 bits per pass (a pass whose
-/// byte is the same for every key is skipped). Stable, so equal high halves keep the low
-/// halves' order: the same order as sorting the `u64`s.
-fn order_by_high_bits(mut keys: Vec<u64>) -> Vec<u32> {
-    let mut spare = vec![0u64; keys.len()];
-    for shift in [32u32, 40, 48, 56] {
+/// One visible splat in depth order: its index and the tile columns `[x0, x1)` and rows
+/// `[y0, y1)` it covers.
+#[derive(Clone, Copy)]
+struct Placed {
+    key: u32,
+    id: u32,
+    rect: [u32; 4],
+}
+
+/// `records` (`[n]`, in index order) ordered by their depth keys: a stable least-significant-digit
+/// radix sort, 8 bits per pass (a pass whose byte is the same for every key is skipped), so equal
+/// keys keep index order.
+fn order_records(mut records: Vec<Placed>) -> Vec<Placed> {
+    let mut spare = records.clone();
+    for shift in [0u32, 8, 16, 24] {
         let mut counts = [0usize; 256];
-        for &k in &keys {
-            counts[((k >> shift) & 0xff) as usize] += 1;
+        for r in &records {
+            counts[((r.key >> shift) & 0xff) as usize] += 1;
         }
-        if counts.contains(&keys.len()) {
+        if counts.contains(&records.len()) {
             continue;
         }
         let mut next = 0;
         for c in &mut counts {
             (*c, next) = (next, next + *c);
         }
-        for &k in &keys {
-            let bucket = &mut counts[((k >> shift) & 0xff) as usize];
-            spare[*bucket] = k;
+        for r in &records {
+            let bucket = &mut counts[((r.key >> shift) & 0xff) as usize];
+            spare[*bucket] = *r;
             *bucket += 1;
         }
-        std::mem::swap(&mut keys, &mut spare);
+        std::mem::swap(&mut records, &mut spare);
     }
-    keys.into_iter().map(|k| k as u32).collect()
-}
-
-/// One visible splat in depth order: its index and the tile columns `[x0, x1)` and rows
-/// `[y0, y1)` it covers.
-#[derive(Clone, Copy)]
-struct Placed {
-    id: u32,
-    rect: [u32; 4],
+    records
 }
 
 /// Bins `splats [N]` into the tiles of a `width × height` image.
 ///
-/// The visible splats are ordered by (depth, index) once (a radix sort of one integer key each,
-/// [`order_by_high_bits`]) and their tile rectangles gathered in that order; each row of tiles
+/// The visible splats' records (depth key, index, tile rectangle), made in one pass over the
+/// splats, are ordered by (depth, index) once ([`order_records`]; the rectangles travel with the
+/// keys instead of being gathered from the splats in depth order); each row of tiles
 /// gets, front to back, the (splat, columns) of the splats crossing it (a count then a fill into
 /// one flat array), and the rows count and fill their tiles' lists in parallel.
 pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     let tiles_x = width.div_ceil(TILE_SIZE);
     let tiles_y = height.div_ceil(TILE_SIZE);
     let n_tiles = tiles_x * tiles_y;
-    // Sorted by (depth, index): one integer key per splat, the depth's bits in `total_cmp`
-    // order above the index, in index order, then a stable radix sort on the depth bits.
-    let keys: Vec<u64> = splats
-        .par_iter()
-        .enumerate()
-        .filter(|(_, s)| !s.is_culled())
-        .map(|(i, s)| (depth_order_bits(s.depth) as u64) << 32 | i as u64)
-        .collect();
-    let order = order_by_high_bits(keys);
-    let placed: Vec<Placed> = order
-        .par_iter()
-        .map(|&id| {
-            let r = tile_rect(&splats[id as usize], tiles_x, tiles_y);
-            Placed { id, rect: r.map(|v| v as u32) }
-        })
-        .collect();
-    drop(order);
+    // Each visible splat's depth key, index and tile rectangle in one pass over the splats (in
+    // index order), then a stable radix sort of these records by depth: (depth, index) order,
+    // the rectangles carried along instead of gathered from the splats in depth order.
+    let placed: Vec<Placed> = order_records(
+        splats
+            .par_iter()
+            .enumerate()
+            .filter(|(_, s)| !s.is_culled())
+            .map(|(i, s)| {
+                let r = tile_rect(s, tiles_x, tiles_y);
+                Placed { key: depth_order_bits(s.depth), id: i as u32, rect: r.map(|v| v as u32) }
+            })
+            .collect(),
+    );
     // Splats per row of tiles, front to back: `row_items[row_starts[r]..row_starts[r + 1]]`.
     let mut row_starts = vec![0usize; tiles_y + 1];
     for p in &placed {
@@ -226,14 +224,15 @@ mod tests {
         let n_tiles = tiles_x * tiles_y;
         let rects: Vec<[usize; 4]> = splats.par_iter().map(|s| tile_rect(s, tiles_x, tiles_y)).collect();
         // Sorted by (depth, index): one integer key per splat, the depth's bits in `total_cmp`
-        // order above the index, in index order, then a stable radix sort on the depth bits.
-        let keys: Vec<u64> = splats
+        // order above the index, sorted as integers.
+        let mut keys: Vec<u64> = splats
             .par_iter()
             .enumerate()
             .filter(|(_, s)| !s.is_culled())
             .map(|(i, s)| (depth_order_bits(s.depth) as u64) << 32 | i as u64)
             .collect();
-        let order = order_by_high_bits(keys);
+        keys.sort_unstable();
+        let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
         // Splats per row of tiles, front to back.
         let mut rows: Vec<Vec<u32>> = vec![Vec::new(); tiles_y];
         for &i in &order {
@@ -294,11 +293,15 @@ mod tests {
             (seed >> 33) as u32
         };
         for (n, spread) in [(0usize, 1u32), (1, 1), (5000, 7), (20_000, u32::MAX), (3000, 1 << 20)] {
-            let keys: Vec<u64> = (0..n as u64).map(|i| ((next() % spread.max(1)) as u64) << 32 | i).collect();
-            let mut sorted = keys.clone();
+            let records: Vec<Placed> = (0..n as u32)
+                .map(|id| Placed { key: next() % spread.max(1), id, rect: [id, 1, 2, id ^ 7] })
+                .collect();
+            let mut sorted: Vec<(u32, u32, [u32; 4])> =
+                records.iter().map(|r| (r.key, r.id, r.rect)).collect();
             sorted.sort_unstable();
-            let want: Vec<u32> = sorted.iter().map(|&k| k as u32).collect();
-            assert_eq!(order_by_high_bits(keys), want, "{n} keys over {spread}");
+            let got: Vec<(u32, u32, [u32; 4])> =
+                order_records(records).iter().map(|r| (r.key, r.id, r.rect)).collect();
+            assert_eq!(got, sorted, "{n} keys over {spread}");
         }
     }
 
