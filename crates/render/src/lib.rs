@@ -36,6 +36,7 @@ pub mod export;
 mod fast_exp;
 mod footprint;
 pub mod project;
+mod project_lanes;
 pub mod rasterise;
 pub mod render;
 pub mod request;
