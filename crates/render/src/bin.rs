@@ -93,9 +93,9 @@ fn depth_order_bits(depth: f32) -> u32 {
     ((bits ^ (((bits >> 31) as u32) >> 1) as i32) as u32) ^ 0x8000_0000
 }
 
-/// One visible splat in depth order: its index and the tile columns `[x0, x1)` and rows
+/// One visible splat: its depth key, its index and the tile columns `[x0, x1)` and rows
 /// `[y0, y1)` it covers.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct Placed {
     key: u32,
     id: u32,
@@ -104,28 +104,61 @@ struct Placed {
 
 /// `records` (`[n]`, in index order) ordered by their depth keys: a stable least-significant-digit
 /// radix sort, 8 bits per pass (a pass whose byte is the same for every key is skipped), so equal
-/// keys keep index order.
+/// keys keep index order. The four digits' counts are taken in one pass over the records.
 fn order_records(mut records: Vec<Placed>) -> Vec<Placed> {
-    let mut spare = records.clone();
-    for shift in [0u32, 8, 16, 24] {
-        let mut counts = [0usize; 256];
-        for r in &records {
-            counts[((r.key >> shift) & 0xff) as usize] += 1;
+    let mut counts = [[0usize; 256]; 4];
+    for r in &records {
+        for (d, c) in counts.iter_mut().enumerate() {
+            c[((r.key >> (8 * d)) & 0xff) as usize] += 1;
         }
+    }
+    let mut spare: Vec<Placed> = Vec::new();
+    for (d, mut counts) in counts.into_iter().enumerate() {
         if counts.contains(&records.len()) {
             continue;
+        }
+        if spare.is_empty() {
+            spare = vec![Placed::default(); records.len()];
         }
         let mut next = 0;
         for c in &mut counts {
             (*c, next) = (next, next + *c);
         }
         for r in &records {
-            let bucket = &mut counts[((r.key >> shift) & 0xff) as usize];
+            let bucket = &mut counts[((r.key >> (8 * d)) & 0xff) as usize];
             spare[*bucket] = *r;
             *bucket += 1;
         }
         std::mem::swap(&mut records, &mut spare);
     }
+    records
+}
+
+/// The records of the visible splats of `splats` (`[N]`), in index order: counted per chunk,
+/// then written in place (no per-thread lists joined afterwards).
+fn visible_records(splats: &[Splat2d], tiles_x: usize, tiles_y: usize) -> Vec<Placed> {
+    const CHUNK: usize = 16_384;
+    let counts: Vec<usize> =
+        splats.par_chunks(CHUNK).map(|c| c.iter().filter(|s| !s.is_culled()).count()).collect();
+    let mut records = vec![Placed::default(); counts.iter().sum()];
+    let mut outs: Vec<&mut [Placed]> = Vec::with_capacity(counts.len());
+    let mut rest = records.as_mut_slice();
+    for &n in &counts {
+        let (head, tail) = rest.split_at_mut(n);
+        outs.push(head);
+        rest = tail;
+    }
+    outs.into_par_iter().zip(splats.par_chunks(CHUNK)).enumerate().for_each(|(k, (out, chunk))| {
+        let visible = chunk.iter().enumerate().filter(|(_, s)| !s.is_culled());
+        for (slot, (i, s)) in out.iter_mut().zip(visible) {
+            let r = tile_rect(s, tiles_x, tiles_y);
+            *slot = Placed {
+                key: depth_order_bits(s.depth),
+                id: (k * CHUNK + i) as u32,
+                rect: r.map(|v| v as u32),
+            };
+        }
+    });
     records
 }
 
@@ -143,17 +176,7 @@ pub fn bin(splats: &[Splat2d], width: usize, height: usize) -> TileBins {
     // Each visible splat's depth key, index and tile rectangle in one pass over the splats (in
     // index order), then a stable radix sort of these records by depth: (depth, index) order,
     // the rectangles carried along instead of gathered from the splats in depth order.
-    let placed: Vec<Placed> = order_records(
-        splats
-            .par_iter()
-            .enumerate()
-            .filter(|(_, s)| !s.is_culled())
-            .map(|(i, s)| {
-                let r = tile_rect(s, tiles_x, tiles_y);
-                Placed { key: depth_order_bits(s.depth), id: i as u32, rect: r.map(|v| v as u32) }
-            })
-            .collect(),
-    );
+    let placed = order_records(visible_records(splats, tiles_x, tiles_y));
     // Splats per row of tiles, front to back: `row_items[row_starts[r]..row_starts[r + 1]]`.
     let mut row_starts = vec![0usize; tiles_y + 1];
     for p in &placed {
