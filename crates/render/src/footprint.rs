@@ -25,7 +25,94 @@ pub(crate) struct Footprint {
     exact: bool,
 }
 
+/// What [`Footprint::new`] computes of a splat before it looks at the tile: made once per splat
+/// (a contribution pass visits a splat in several tiles), then clipped to each tile by
+/// [`Footprint::in_tile`], which gives exactly [`Footprint::new`]'s footprint.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Reach {
+    /// The pixel box over the whole image plane, half-open `(x0, x1, y0, y1)` before clipping:
+    /// `x0 = −⌊0.5 − (mx − ex)⌋`, `x1 = ⌊mx + ex − 0.5⌋ + 1` (likewise y).
+    span: [i32; 4],
+    /// `2 · ln(opacity / alpha_min)`.
+    two_smax: f32,
+    /// `a·c − b²`.
+    det: f32,
+    /// Which footprint the splat has.
+    kind: ReachKind,
+}
+
+/// Whether a splat reaches pixels, and how its footprint is bounded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum ReachKind {
+    /// Opacity below `alpha_min`: no pixel.
+    #[default]
+    Nothing,
+    /// A conic that is not positive definite: the whole tile.
+    WholeTile,
+    /// The ellipse's box ([`Reach::span`]).
+    Ellipse,
+}
+
+impl Reach {
+    /// The reach of `s` for the threshold `alpha_min`.
+    #[inline(always)]
+    pub fn new(s: &Splat2d, alpha_min: f32) -> Self {
+        if s.opacity < alpha_min {
+            return Reach::default();
+        }
+        let [a, b, c] = s.conic;
+        let det = a * c - b * b;
+        let [mx, my] = s.mean2d;
+        let two_smax = 2.0 * (s.opacity / alpha_min).ln();
+        if !(det > 0.0 && a > 0.0 && two_smax.is_finite()) {
+            return Reach { span: [0; 4], two_smax, det, kind: ReachKind::WholeTile };
+        }
+        let ex = (two_smax * c / det).sqrt() + MARGIN_PX;
+        let ey = (two_smax * a / det).sqrt() + MARGIN_PX;
+        // `floor_i64` clamps to ±1e9, so every bound fits an i32.
+        let lo = |edge: f32| -floor_i64(0.5 - edge) as i32;
+        let hi = |edge: f32| (floor_i64(edge - 0.5) + 1) as i32;
+        let span = [lo(mx - ex), hi(mx + ex), lo(my - ey), hi(my + ey)];
+        Reach { span, two_smax, det, kind: ReachKind::Ellipse }
+    }
+}
+
 impl Footprint {
+    /// [`Footprint::new`] from the splat's precomputed [`Reach`] (made with the same
+    /// `alpha_min`): the same footprint, field for field, without its logarithm, square roots
+    /// and divisions (test `in_tile_equals_new`).
+    #[inline(always)]
+    pub fn in_tile(s: &Splat2d, reach: &Reach, tile: (usize, usize, usize, usize)) -> Option<Self> {
+        let conic = s.conic;
+        let [mx, my] = s.mean2d;
+        let (two_smax, det) = (reach.two_smax, reach.det);
+        match reach.kind {
+            ReachKind::Nothing => None,
+            ReachKind::WholeTile => {
+                Some(Footprint { mx, my, conic, two_smax, det, bbox: tile, exact: false })
+            }
+            ReachKind::Ellipse => {
+                let (x0, x1, y0, y1) = tile;
+                let [lx, hx, ly, hy] = reach.span;
+                // `span_lo` / `span_hi` of the same edges, clipped to the tile.
+                let bx0 = lx.max(x0 as i32) as usize;
+                let bx1 = (hx.max(0) as usize).min(x1);
+                let by0 = ly.max(y0 as i32) as usize;
+                let by1 = (hy.max(0) as usize).min(y1);
+                let bbox = (bx0, bx1, by0, by1);
+                (bx0 < bx1 && by0 < by1).then_some(Footprint {
+                    mx,
+                    my,
+                    conic,
+                    two_smax,
+                    det,
+                    bbox,
+                    exact: true,
+                })
+            }
+        }
+    }
+
     /// The reach of `s` inside `tile` (`(x0, x1, y0, y1)` half-open); `None` if it reaches no pixel.
     #[inline(always)]
     pub fn new(s: &Splat2d, alpha_min: f32, tile: (usize, usize, usize, usize)) -> Option<Self> {
@@ -133,6 +220,49 @@ fn span_hi(edge: f32, hi: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The footprint clipped from a precomputed reach is `Footprint::new`'s, field for field
+    /// (compared as printed, so NaN fields compare too), over random splats — positive definite
+    /// or not, far off the image, opacity below the threshold, non-finite values — and tiles.
+    #[test]
+    fn in_tile_equals_new() {
+        let mut seed = 5u32;
+        let mut unit = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let alpha_min = 1.0 / 255.0;
+        let (mut some, mut none, mut whole) = (0, 0, 0);
+        for i in 0..200_000 {
+            let spread = [1.0, 50.0, 5.0e3, 3.0e9][i % 4];
+            let mut s = Splat2d {
+                mean2d: [spread * (unit() - 0.3), spread * (unit() - 0.3)],
+                conic: [2.0 * unit() - 0.2, unit() - 0.5, 2.0 * unit() - 0.2]
+                    .map(|v| v * [1.0, 1e-4, 10.0][i % 3]),
+                opacity: 1.02 * unit(),
+                depth: 1.0,
+                radii: [5, 5],
+            };
+            match i % 97 {
+                0 => s.opacity = f32::NAN,
+                1 => s.conic[0] = f32::INFINITY,
+                2 => s.mean2d[1] = f32::NAN,
+                3 => s.opacity = alpha_min,
+                _ => {}
+            }
+            let (tx, ty) = ((unit() * 80.0) as usize, (unit() * 60.0) as usize);
+            let tile = (16 * tx, (16 * tx + 16).min(1270), 16 * ty, (16 * ty + 16).min(957));
+            let reach = Reach::new(&s, alpha_min);
+            let (ours, theirs) = (Footprint::in_tile(&s, &reach, tile), Footprint::new(&s, alpha_min, tile));
+            assert_eq!(format!("{ours:?}"), format!("{theirs:?}"), "{s:?} in {tile:?}");
+            match theirs {
+                Some(f) if !f.exact => whole += 1,
+                Some(_) => some += 1,
+                None => none += 1,
+            }
+        }
+        assert!(some > 1000 && none > 1000 && whole > 100, "{some} boxes, {none} none, {whole} whole tiles");
+    }
 
     /// The trimmed rows are exactly the box rows the discriminant test keeps: every dropped row
     /// gets an empty span from `row`, every kept one passes the test (they are contiguous).
