@@ -110,6 +110,14 @@ fn decided(ids: &[u32; PIXEL_SLOTS], weights: &[f32; PIXEL_SLOTS], t_left: f32, 
     lead > (other + t_left * factor) * (1.0 + DECISION_MARGIN) + 1e-6
 }
 
+/// [`decided`] for slots holding one label of weight `weight` (the others empty).
+#[inline(always)]
+fn decided_alone(weight: f32, t_left: f32, factor: f32) -> bool {
+    // `decided` leads with `weight` when it is positive (else with 0), the other at 0.
+    let lead = if weight > 0.0 { weight } else { 0.0 };
+    lead > (0.0 + t_left * factor) * (1.0 + DECISION_MARGIN) + 1e-6
+}
+
 impl ContributionVisitor for LabelBand<'_> {
     #[inline(always)]
     fn prefetch(&self, gaussian: u32) {
@@ -123,6 +131,12 @@ impl ContributionVisitor for LabelBand<'_> {
         let label = self.votes.labels[g];
         let p = c.pixel - self.first;
         let (ids, weights) = (&mut self.ids[p], &mut self.weights[p]);
+        // The common case: the pixel has seen one label so far, and this is it. The general
+        // rule below would add to slot 0 and find slot 0 leading with nothing else tracked.
+        if label != ABSTAIN && ids[0] == label && ids[1..].iter().all(|&x| x == ABSTAIN) {
+            weights[0] += c.weight * self.votes.weights[g];
+            return !decided_alone(weights[0], c.t_after, self.remaining_factor);
+        }
         if label != ABSTAIN {
             let weight = c.weight * self.votes.weights[g];
             if let Some(s) = ids.iter().position(|&x| x == label) {
@@ -259,6 +273,36 @@ mod tests {
         });
         let taken = bands.iter().map(|b| b.1).sum();
         (bands.into_iter().flat_map(|b| b.0.labels).collect(), taken)
+    }
+
+    /// The one-label shortcut decides exactly as the general rule does on such slots, over
+    /// random weights, transmittances and factors and the edge values (0, −0, NaN, ∞).
+    #[test]
+    fn the_one_label_decision_equals_the_general_one() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let edges = [0.0f32, -0.0, f32::NAN, f32::INFINITY, 1e-6, 0.5, 1.0];
+        let (mut yes, mut no) = (0, 0);
+        for i in 0..200_000 {
+            let pick = |rng: &mut ChaCha8Rng, hi: f32| {
+                if rng.gen_bool(0.05) {
+                    edges[rng.gen_range(0..edges.len())]
+                } else {
+                    rng.gen_range(0.0..hi)
+                }
+            };
+            let (w, t) = (pick(&mut rng, 1.2), pick(&mut rng, 1.0));
+            let factor = [1.0, 2.5, f32::INFINITY, 0.25][i % 4];
+            let ids = [7, ABSTAIN, ABSTAIN, ABSTAIN];
+            let weights = [w, rng.gen_range(0.0..1.0), 0.0, 3.0];
+            let general = decided(&ids, &weights, t, factor);
+            assert_eq!(decided_alone(w, t, factor), general, "w {w}, t {t}, factor {factor}");
+            if general {
+                yes += 1;
+            } else {
+                no += 1;
+            }
+        }
+        assert!(yes > 10_000 && no > 10_000, "{yes} decided, {no} not");
     }
 
     /// Finishing a pixel once its label is decided gives exactly the labels of compositing every

@@ -54,10 +54,11 @@ enum ReachKind {
 }
 
 impl Reach {
-    /// The reach of `s` for the threshold `alpha_min`.
+    /// The reach of `s` for the threshold `alpha_min`. A culled splat (in no tile's list, so
+    /// never asked for its footprint) gets the empty reach without its logarithm.
     #[inline(always)]
     pub fn new(s: &Splat2d, alpha_min: f32) -> Self {
-        if s.opacity < alpha_min {
+        if s.opacity < alpha_min || s.is_culled() {
             return Reach::default();
         }
         let [a, b, c] = s.conic;
@@ -222,7 +223,8 @@ mod tests {
     use super::*;
 
     /// The footprint clipped from a precomputed reach is `Footprint::new`'s, field for field
-    /// (compared as printed, so NaN fields compare too), over random splats — positive definite
+    /// (compared as printed, so NaN fields compare too; a culled splat has none), over random
+    /// splats — positive definite
     /// or not, far off the image, opacity below the threshold, non-finite values — and tiles.
     #[test]
     fn in_tile_equals_new() {
@@ -248,12 +250,18 @@ mod tests {
                 1 => s.conic[0] = f32::INFINITY,
                 2 => s.mean2d[1] = f32::NAN,
                 3 => s.opacity = alpha_min,
+                4 => s.radii = [0, 0],
                 _ => {}
             }
             let (tx, ty) = ((unit() * 80.0) as usize, (unit() * 60.0) as usize);
             let tile = (16 * tx, (16 * tx + 16).min(1270), 16 * ty, (16 * ty + 16).min(957));
             let reach = Reach::new(&s, alpha_min);
             let (ours, theirs) = (Footprint::in_tile(&s, &reach, tile), Footprint::new(&s, alpha_min, tile));
+            if s.is_culled() {
+                // In no tile's list: no footprint is ever asked for.
+                assert!(ours.is_none());
+                continue;
+            }
             assert_eq!(format!("{ours:?}"), format!("{theirs:?}"), "{s:?} in {tile:?}");
             match theirs {
                 Some(f) if !f.exact => whole += 1,
