@@ -137,11 +137,8 @@ fn visit_contributions_with<V: ContributionVisitor + Send>(
 ) -> Vec<V> {
     let Build { avx2, trim_rows, reach } = build;
     // `[N]` reach of every splat (empty: made per tile instead).
-    let reaches: Vec<Reach> = if reach {
-        view.splats.par_iter().with_min_len(4096).map(|s| Reach::new(s, settings.alpha_min)).collect()
-    } else {
-        Vec::new()
-    };
+    let reaches: Vec<Reach> =
+        if reach { crate::reach_lanes::reaches(&view.splats, settings.alpha_min) } else { Vec::new() };
     let pass = Pass { view, settings, reaches: &reaches, trim_rows };
     (0..view.bins.tiles_y)
         .into_par_iter()

@@ -6,7 +6,7 @@
 use crate::project::Splat2d;
 
 /// Extra pixels kept on each side of the exact ellipse.
-const MARGIN_PX: f32 = 1.0;
+pub(crate) const MARGIN_PX: f32 = 1.0;
 
 /// A splat's reach inside one tile.
 #[derive(Clone, Copy, Debug)]
@@ -54,6 +54,19 @@ enum ReachKind {
 }
 
 impl Reach {
+    /// The reach of a splat whose ellipse covers `span` (see [`Reach::span`]).
+    #[inline(always)]
+    pub(crate) fn ellipse(span: [i32; 4], two_smax: f32, det: f32) -> Self {
+        Reach { span, two_smax, det, kind: ReachKind::Ellipse }
+    }
+
+    /// The reach of a splat whose conic is not positive definite (or whose `two_smax` is not
+    /// finite): every pixel of a tile.
+    #[inline(always)]
+    pub(crate) fn whole_tile(two_smax: f32, det: f32) -> Self {
+        Reach { span: [0; 4], two_smax, det, kind: ReachKind::WholeTile }
+    }
+
     /// The reach of `s` for the threshold `alpha_min`. A culled splat (in no tile's list, so
     /// never asked for its footprint) gets the empty reach without its logarithm.
     #[inline(always)]
@@ -66,7 +79,7 @@ impl Reach {
         let [mx, my] = s.mean2d;
         let two_smax = 2.0 * (s.opacity / alpha_min).ln();
         if !(det > 0.0 && a > 0.0 && two_smax.is_finite()) {
-            return Reach { span: [0; 4], two_smax, det, kind: ReachKind::WholeTile };
+            return Reach::whole_tile(two_smax, det);
         }
         let ex = (two_smax * c / det).sqrt() + MARGIN_PX;
         let ey = (two_smax * a / det).sqrt() + MARGIN_PX;
@@ -74,7 +87,7 @@ impl Reach {
         let lo = |edge: f32| -floor_i64(0.5 - edge) as i32;
         let hi = |edge: f32| (floor_i64(edge - 0.5) + 1) as i32;
         let span = [lo(mx - ex), hi(mx + ex), lo(my - ey), hi(my + ey)];
-        Reach { span, two_smax, det, kind: ReachKind::Ellipse }
+        Reach::ellipse(span, two_smax, det)
     }
 }
 

@@ -38,6 +38,7 @@ mod footprint;
 pub mod project;
 mod project_lanes;
 pub mod rasterise;
+mod reach_lanes;
 pub mod render;
 pub mod request;
 pub mod settings;
