@@ -91,20 +91,21 @@ pub fn snap_view(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -
     assert_eq!(regions.size(), rendered.size(), "regions and rendered map differ in size");
     // in_view[id] = pixels rendered with that id over the whole view.
     let mut in_view: BTreeMap<u32, u64> = BTreeMap::new();
-    for &k in rendered.data.iter().filter(|&&k| k != 0) {
-        *in_view.entry(k).or_insert(0) += 1;
-    }
     // counts[region] = (pixels rendered 0, pixels per rendered id ≥ 1).
     let mut counts: BTreeMap<u32, (u64, BTreeMap<u32, u64>)> = BTreeMap::new();
-    for (&r, &k) in regions.data.iter().zip(&rendered.data) {
+    // Counted run by run of equal (region, id) pixels (row-major), the same sums.
+    for ((r, k), n) in pair_runs(&regions.data, &rendered.data) {
+        if k != 0 {
+            *in_view.entry(k).or_insert(0) += n;
+        }
         if r == 0 {
             continue;
         }
         let entry = counts.entry(r).or_default();
         if k == 0 {
-            entry.0 += 1;
+            entry.0 += n;
         } else {
-            *entry.1.entry(k).or_insert(0) += 1;
+            *entry.1.entry(k).or_insert(0) += n;
         }
     }
     // winner[region] = (its id, why it is split, if it is); absent = keep the rendered labels.
@@ -141,13 +142,23 @@ pub fn snap_view(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -
             Some((r, (best.0, split)))
         })
         .collect();
+    // The region's entry is looked up once per run of pixels of one region.
+    let mut last: Option<(u32, Option<(u32, Split)>)> = None;
+    let mut winner_of = |r: u32| match last {
+        Some((region, w)) if region == r => w,
+        _ => {
+            let w = winner.get(&r).copied();
+            last = Some((r, w));
+            w
+        }
+    };
     let mut data: Vec<u32> = regions
         .data
         .iter()
         .zip(&rendered.data)
-        .map(|(r, &k)| match winner.get(r) {
-            Some(&(_, Split::Share | Split::Contained)) if k != 0 => k,
-            Some(&(id, _)) => id,
+        .map(|(&r, &k)| match winner_of(r) {
+            Some((_, Split::Share | Split::Contained)) if k != 0 => k,
+            Some((id, _)) => id,
             None => k,
         })
         .collect();
@@ -156,8 +167,8 @@ pub fn snap_view(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -
         .data
         .iter()
         .zip(&data)
-        .map(|(r, &k)| match winner.get(r) {
-            Some(&(id, Split::Contained)) if k != 0 && k != id => id,
+        .map(|(&r, &k)| match winner_of(r) {
+            Some((id, Split::Contained)) if k != 0 && k != id => id,
             _ => 0,
         })
         .collect();
@@ -170,6 +181,19 @@ pub fn snap_view(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -
         contained_fallback: Plane { width, height, data: fallback },
         region_winners,
     }
+}
+
+/// The runs of equal `(a[p], b[p])` pairs of `a`, `b` (`[n]` each), in order, with their lengths.
+fn pair_runs<'a>(a: &'a [u32], b: &'a [u32]) -> impl Iterator<Item = ((u32, u32), u64)> + 'a {
+    let mut pairs = a.iter().copied().zip(b.iter().copied()).peekable();
+    std::iter::from_fn(move || {
+        let first = pairs.next()?;
+        let mut n = 1u64;
+        while pairs.next_if_eq(&first).is_some() {
+            n += 1;
+        }
+        Some((first, n))
+    })
 }
 
 /// In a region split between objects, the pixels of a rendered id other than the region's
@@ -205,8 +229,18 @@ fn give_bleeding_pixels_to_their_region(
     };
     // (pixels, contact pixels) per (split region, non-winning id).
     let mut bands: BTreeMap<(u32, u32), (u64, u64)> = BTreeMap::new();
+    // Neighbouring pixels mostly repeat the (region, id) pair: its test is kept for the next.
+    let mut last: Option<((u32, u32), bool)> = None;
     for (p, (&r, &k)) in regions.data.iter().zip(data.iter()).enumerate() {
-        if r == 0 || k == 0 || !split(r) || wins(r, k) {
+        let skip = match last {
+            Some((pair, skip)) if pair == (r, k) => skip,
+            _ => {
+                let skip = r == 0 || k == 0 || !split(r) || wins(r, k);
+                last = Some(((r, k), skip));
+                skip
+            }
+        };
+        if skip {
             continue;
         }
         let band = bands.entry((r, k)).or_default();
@@ -223,8 +257,20 @@ fn give_bleeding_pixels_to_their_region(
     if bleeding.is_empty() {
         return;
     }
-    let is_bleeding = |p: usize| bleeding.binary_search(&(regions.data[p], data[p])).is_ok();
-    let mut todo: Vec<bool> = (0..data.len()).map(|p| regions.data[p] != 0 && is_bleeding(p)).collect();
+    let mut last: Option<((u32, u32), bool)> = None;
+    let mut todo: Vec<bool> = regions
+        .data
+        .iter()
+        .zip(data.iter())
+        .map(|(&r, &k)| match last {
+            Some((pair, bleeds)) if pair == (r, k) => bleeds,
+            _ => {
+                let bleeds = r != 0 && bleeding.binary_search(&(r, k)).is_ok();
+                last = Some(((r, k), bleeds));
+                bleeds
+            }
+        })
+        .collect();
     // Seeds: pixels of the region's other ids next to a pixel to relabel.
     let mut queue: std::collections::VecDeque<usize> = (0..data.len())
         .filter(|&p| !todo[p] && neighbours(p).any(|q| todo[q] && regions.data[q] == regions.data[p]))
@@ -251,6 +297,13 @@ mod tests {
 
     fn plane(width: usize, rows: &[&[u32]]) -> Plane<u32> {
         Plane::from_vec(width, rows.len(), rows.concat()).expect("rectangular")
+    }
+
+    #[test]
+    fn pair_runs_are_the_runs_of_equal_pairs() {
+        let runs: Vec<_> = pair_runs(&[1, 1, 2, 2, 2, 1], &[0, 0, 0, 1, 1, 0]).collect();
+        assert_eq!(runs, vec![((1, 0), 2), ((2, 0), 1), ((2, 1), 2), ((1, 0), 1)]);
+        assert_eq!(pair_runs(&[], &[]).count(), 0);
     }
 
     #[test]
