@@ -22,6 +22,7 @@ use crate::config::LiftConfig;
 use crate::lifting::Lifted;
 use crate::project::PreparedGaussians;
 use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
+use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 
 /// Voxels a Gaussian may reach on each side of the one holding its mean.
@@ -54,7 +55,7 @@ pub fn split_disconnected_objects(
     let group = |i: usize, id: u32| ((id as u64) << 1) | layers.off_plane(gaussians, i, id) as u64;
     let groups: Vec<u64> = lifted
         .object_ids
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, &id)| if id > 0 { group(i, id as u32) } else { 0 })
         .collect();

@@ -143,7 +143,18 @@ pub fn join_touching_counted(
         return 0;
     }
     let n_objects = features.n_objects();
-    let planes = planarity(gaussians, &lifted.object_ids, config.seam_max_angle_deg);
+    // The objects' planes, lines and contacts are independent passes over the Gaussians: run
+    // side by side (each the same as alone).
+    let ids = &lifted.object_ids;
+    let ((planes, lines), contacts) = rayon::join(
+        || {
+            rayon::join(
+                || planarity(gaussians, ids, config.seam_max_angle_deg),
+                || object_lines(gaussians, ids),
+            )
+        },
+        || contacts(gaussians, ids, voxel, facing, config),
+    );
     let cos_max_angle = config.seam_max_angle_deg.to_radians().cos();
     let coplanar = |a: u32, b: u32| match (planes.get(&a), planes.get(&b)) {
         (Some(&(na, pa)), Some(&(nb, pb))) => {
@@ -153,10 +164,9 @@ pub fn join_touching_counted(
         }
         _ => false,
     };
-    let lines = object_lines(gaussians, &lifted.object_ids);
     let cos_of =
         |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
-    let mut pairs: Vec<(f32, u32, u32)> = contacts(gaussians, &lifted.object_ids, voxel, facing, config)
+    let mut pairs: Vec<(f32, u32, u32)> = contacts
         .into_iter()
         .filter(|&((a, b), c)| c.voxel_pairs >= 1 && (b as usize) <= n_objects && a >= 1)
         .filter_map(|((a, b), c)| {

@@ -179,22 +179,34 @@ pub fn lift_and_render(
     let mut facing = Facing::new(prepared.len());
     let mut lifted = times.time("votes, fusion, variance filter", || -> crate::Result<Lifted> {
         let mut votes = VoteAccumulator::new(prepared.len());
-        // A few views' spill files are read at once; the views then add their votes and their
-        // facing in view order (the two accumulators side by side), as one view at a time would.
-        for chunk in spilled.chunks(SPILLS_READ_AT_ONCE) {
-            let read: Vec<crate::Result<visible::Spilled>> =
-                chunk.par_iter().map(|&(_, path, _)| visible::read(path)).collect();
-            for (&(v, _, table), spill) in chunk.iter().zip(read) {
-                let (gaussians, weights, labels) = spill?;
-                let ids: Vec<u32> =
-                    labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
-                let centre = cams[v].world_from_cam.centre().as_vec3();
-                let (added, ()) = rayon::join(
-                    || votes.add_view(&gaussians, &weights, &ids),
-                    || facing.add_view(prepared, &gaussians, centre),
-                );
-                added?;
-            }
+        // A few views' spill files are read at once, the next few while these are added; the
+        // views add their votes and their facing in view order (the two accumulators side by
+        // side), as one view at a time would.
+        let read_chunk = |chunk: &[(usize, &PathBuf, &[u32])]| -> Vec<crate::Result<visible::Spilled>> {
+            chunk.par_iter().map(|&(_, path, _)| visible::read(path)).collect()
+        };
+        let chunks: Vec<_> = spilled.chunks(SPILLS_READ_AT_ONCE).collect();
+        let mut read = chunks.first().map(|c| read_chunk(c)).unwrap_or_default();
+        for (k, chunk) in chunks.iter().enumerate() {
+            let mut add_chunk = |read: Vec<crate::Result<visible::Spilled>>| -> crate::Result<()> {
+                for (&(v, _, table), spill) in chunk.iter().zip(read) {
+                    let (gaussians, weights, labels) = spill?;
+                    let ids: Vec<u32> =
+                        labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
+                    let centre = cams[v].world_from_cam.centre().as_vec3();
+                    let (added, ()) = rayon::join(
+                        || votes.add_view(&gaussians, &weights, &ids),
+                        || facing.add_view(prepared, &gaussians, centre),
+                    );
+                    added?;
+                }
+                Ok(())
+            };
+            let next = chunks.get(k + 1);
+            let (added, next_read) =
+                rayon::join(|| add_chunk(std::mem::take(&mut read)), || next.map(|c| read_chunk(c)));
+            added?;
+            read = next_read.unwrap_or_default();
         }
         Ok(votes.finish(features, config)?)
     })?;
