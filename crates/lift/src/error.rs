@@ -61,6 +61,9 @@ pub enum LiftError {
         /// Objects with identity features.
         n_objects: usize,
     },
+    /// Tile lists kept from an earlier pass that do not fit the view.
+    #[error(transparent)]
+    Render(#[from] splatseg_render::RenderError),
 }
 
 /// Result alias for this crate.

@@ -40,15 +40,17 @@ pub use lifting::{
     lift_labels, FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator,
 };
 pub use numbering::{drop_small_objects, renumber};
-pub use project::{project_view, raster_settings, PreparedGaussians};
+pub use project::{project_view, project_view_binned, raster_settings, PreparedGaussians};
 pub use refine::{refine_boundaries, RefineRule};
-pub use render_labels::{label_map_of_view, render_label_map, render_votes, RenderVotes};
+pub use render_labels::{
+    label_map_of_view, render_label_map, render_label_map_binned, render_votes, RenderVotes,
+};
 pub use snap::{snap_to_regions, snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};
 pub use touching::{join_touching_counted, join_touching_objects, ViewCounts};
 pub use visibility::{
-    surface_depth, view_depth_and_visibility, view_surface_depth, view_visibility, visible_gaussians,
-    ViewVisibility,
+    surface_depth, view_depth_and_visibility, view_depth_visibility_and_bins, view_surface_depth,
+    view_visibility, visible_gaussians, ViewVisibility,
 };
 
 use rayon::prelude::*;

@@ -8,6 +8,8 @@
 use crate::config::LiftConfig;
 use crate::error::{LiftError, LiftResult};
 use glam::{Mat3, Quat, Vec3};
+use splatseg_render::bin::TileBins;
+use splatseg_render::project::Splat2d;
 use splatseg_render::project::ViewIndependent;
 use splatseg_render::{ProjectedView, RasterSettings, RenderCamera};
 use splatseg_scene::{Camera, Gaussians, Pose};
@@ -129,6 +131,31 @@ pub fn project_view(
     world_from_cam: &Pose,
     config: &LiftConfig,
 ) -> ProjectedView {
+    let splats = project_splats(gaussians, camera, world_from_cam, config);
+    ProjectedView::from_splats(splats, camera.width as usize, camera.height as usize)
+}
+
+/// [`project_view`] with the tile lists a [`project_view`] of the same Gaussians, camera and
+/// config made before (e.g. kept on disk between two passes over the view), not sorted again.
+/// Lists that cannot index these splats or this image are an error.
+pub fn project_view_binned(
+    gaussians: &PreparedGaussians,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    config: &LiftConfig,
+    bins: TileBins,
+) -> LiftResult<ProjectedView> {
+    let splats = project_splats(gaussians, camera, world_from_cam, config);
+    Ok(ProjectedView::from_binned(splats, bins, camera.width as usize, camera.height as usize)?)
+}
+
+/// The splats of [`project_view`] (centres moved by the camera's distortion), not binned.
+fn project_splats(
+    gaussians: &PreparedGaussians,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    config: &LiftConfig,
+) -> Vec<Splat2d> {
     let mut render_camera = RenderCamera::from_scene(camera, world_from_cam);
     render_camera.near = config.near;
     let mut splats = splatseg_render::project::project_prepared(
@@ -150,5 +177,5 @@ pub fn project_view(
             }
         }
     }
-    ProjectedView::from_splats(splats, camera.width as usize, camera.height as usize)
+    splats
 }

@@ -19,8 +19,10 @@
 //! the end; test `stopping_at_the_decision_gives_the_full_pass_labels`).
 
 use crate::config::LiftConfig;
+use crate::error::LiftResult;
 use crate::lifting::{GaussianStatus, Lifted};
-use crate::project::{project_view, raster_settings, PreparedGaussians};
+use crate::project::{project_view, project_view_binned, raster_settings, PreparedGaussians};
+use splatseg_render::bin::TileBins;
 use splatseg_render::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 use splatseg_scene::{Camera, Plane, Pose};
 
@@ -211,6 +213,20 @@ pub fn render_label_map(
     label_map_of_view(&project_view(gaussians, camera, world_from_cam, config), votes)
 }
 
+/// [`render_label_map`] with the view's tile lists from an earlier pass
+/// ([`crate::view_depth_visibility_and_bins`] of the same Gaussians, camera and config): the
+/// same map without sorting the splats again. Lists that do not fit the view are an error.
+pub fn render_label_map_binned(
+    gaussians: &PreparedGaussians,
+    votes: &RenderVotes,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    config: &LiftConfig,
+    bins: TileBins,
+) -> LiftResult<Plane<u32>> {
+    Ok(label_map_of_view(&project_view_binned(gaussians, camera, world_from_cam, config, bins)?, votes))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,6 +289,38 @@ mod tests {
         });
         let taken = bands.iter().map(|b| b.1).sum();
         (bands.into_iter().flat_map(|b| b.0.labels).collect(), taken)
+    }
+
+    /// Rendering back with the tile lists the visibility pass kept gives the map of rendering
+    /// from scratch, pixel for pixel; lists of another view's image are an error.
+    #[test]
+    fn the_kept_tile_lists_give_the_same_map() {
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let mut g = Gaussians::default();
+        for _ in 0..2000 {
+            let z = rng.gen_range(2.0f32..6.0);
+            g.means.push([rng.gen_range(-0.6..0.6) * z, rng.gen_range(-0.5..0.5) * z, z]);
+            let s = rng.gen_range(-3.5f32..-1.5);
+            g.log_scales.push([s, s, s + 0.3]);
+            g.rotations.push([1.0, rng.gen_range(-1.0..1.0), 0.0, 0.0]);
+            g.raw_opacities.push(rng.gen_range(-1.0..5.0));
+            g.sh_dc.push([0.0; 3]);
+        }
+        let prepared = PreparedGaussians::new(&g).expect("finite");
+        let camera = Camera::pinhole(1, 90, 70, 70.0, 70.0, 45.0, 35.0);
+        let config = LiftConfig::default();
+        let votes = RenderVotes::uniform((0..2000u32).map(|i| i % 7).collect());
+        let (_, _, bins) =
+            crate::view_depth_visibility_and_bins(&prepared, &camera, &Pose::IDENTITY, &config);
+        let fresh = render_label_map(&prepared, &votes, &camera, &Pose::IDENTITY, &config);
+        let kept =
+            render_label_map_binned(&prepared, &votes, &camera, &Pose::IDENTITY, &config, bins.clone())
+                .expect("the lists fit");
+        assert_eq!(kept.data, fresh.data);
+        let labels: std::collections::BTreeSet<u32> = fresh.data.iter().copied().collect();
+        assert!(labels.len() >= 5, "{labels:?}");
+        let other = Camera::pinhole(1, 120, 70, 70.0, 70.0, 60.0, 35.0);
+        assert!(render_label_map_binned(&prepared, &votes, &other, &Pose::IDENTITY, &config, bins).is_err());
     }
 
     /// The one-label shortcut decides exactly as the general rule does on such slots, over

@@ -17,6 +17,7 @@
 
 use crate::config::LiftConfig;
 use crate::project::{project_view, raster_settings, PreparedGaussians};
+use splatseg_render::bin::TileBins;
 use splatseg_render::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 use splatseg_scene::{Camera, Plane, Pose};
 
@@ -163,8 +164,20 @@ pub fn view_depth_and_visibility(
     world_from_cam: &Pose,
     config: &LiftConfig,
 ) -> (Plane<f32>, ViewVisibility) {
+    let (depth, visibility, _) = view_depth_visibility_and_bins(gaussians, camera, world_from_cam, config);
+    (depth, visibility)
+}
+
+/// [`view_depth_and_visibility`], and the view's tile lists, which a later pass over the same
+/// view may reuse instead of sorting the splats again ([`crate::render_label_map_binned`]).
+pub fn view_depth_visibility_and_bins(
+    gaussians: &PreparedGaussians,
+    camera: &Camera,
+    world_from_cam: &Pose,
+    config: &LiftConfig,
+) -> (Plane<f32>, ViewVisibility, TileBins) {
     let view = project_view(gaussians, camera, world_from_cam, config);
     let depth = surface_depth(&view, config);
     let visibility = visible_gaussians(gaussians, &view, camera, world_from_cam, &depth, config);
-    (depth, visibility)
+    (depth, visibility, view.bins)
 }

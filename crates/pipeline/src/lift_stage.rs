@@ -10,14 +10,15 @@
 //! (which need every view) are decided, then decoded one view at a time.
 
 use super::progress;
+use crate::error::Context;
 use crate::profile::PartTimes;
 use crate::visible;
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
 use splatseg_lift::{
-    join_touching_counted, refine_boundaries, render_label_map, render_votes, renumber, snap_view,
-    split_disconnected_objects, Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures, PosedCamera,
-    PreparedGaussians, ViewCounts, VoteAccumulator,
+    join_touching_counted, refine_boundaries, render_label_map, render_label_map_binned, render_votes,
+    renumber, snap_view, split_disconnected_objects, Facing, FinalMaps, LiftConfig, Lifted, ObjectFeatures,
+    PosedCamera, PreparedGaussians, ViewCounts, VoteAccumulator,
 };
 use splatseg_match::{match_masks_owned, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
@@ -245,9 +246,19 @@ pub fn lift_and_render(
         .enumerate()
         .progress_with(bar.clone())
         .map(|(v, c)| -> crate::Result<SnappedRuns> {
-            let map = times.time("render back", || {
-                render_label_map(prepared, &votes, c.camera, c.world_from_cam, config)
-            });
+            let map = times.time("render back", || -> crate::Result<Plane<u32>> {
+                // The tile lists the per-view pass kept for this view, if any (else the splats are
+                // sorted again): the same lists, so the same map.
+                let kept = views[v].as_ref().and_then(|m| m.spill.as_deref()).map(visible::bins_path);
+                match kept.filter(|p| p.is_file()) {
+                    Some(path) => {
+                        let bins = visible::read_bins(&path)?;
+                        render_label_map_binned(prepared, &votes, c.camera, c.world_from_cam, config, bins)
+                            .with_context(|| format!("rendering the labels back with {}", path.display()))
+                    }
+                    None => Ok(render_label_map(prepared, &votes, c.camera, c.world_from_cam, config)),
+                }
+            })?;
             Ok(match (&config.final_maps, &views[v]) {
                 (FinalMaps::Snapped | FinalMaps::SnappedRaw, Some(_)) => {
                     let regions = times.time("read the region maps back", || (view_inputs.snap_map)(v))?;

@@ -15,7 +15,7 @@ use splatseg_cues::{
     FeatureGrids, NpyDepthSource,
 };
 use splatseg_lift::{
-    view_depth_and_visibility, view_surface_depth, LiftConfig, PosedCamera, PreparedGaussians,
+    view_depth_visibility_and_bins, view_surface_depth, LiftConfig, PosedCamera, PreparedGaussians,
 };
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
@@ -168,14 +168,14 @@ impl PerView<'_> {
     pub fn result(&self, v: usize) -> crate::Result<ViewResult> {
         let c = &self.cams[v];
         // One projection of the Gaussians: the surface depth and the visibility test against it.
-        let (depth, visibility) = match self.prepared {
+        let (depth, visibility, bins) = match self.prepared {
             Some(p) => {
-                let (depth, visibility) = self.times.time("surface depth and visibility", || {
-                    view_depth_and_visibility(p, c.camera, c.world_from_cam, self.lift)
+                let (depth, visibility, bins) = self.times.time("surface depth and visibility", || {
+                    view_depth_visibility_and_bins(p, c.camera, c.world_from_cam, self.lift)
                 });
-                (Some(depth), Some(visibility))
+                (Some(depth), Some(visibility), Some(bins))
             }
-            None => (None, None),
+            None => (None, None, None),
         };
         let metric = depth.as_ref().map(finite_depth);
         drop(depth);
@@ -189,7 +189,14 @@ impl PerView<'_> {
             Some(vis) => {
                 let labels: Vec<u32> = vis.pixels.iter().map(|&p| merged.merged.data[p as usize]).collect();
                 let path = visible::spill_path(self.out, &self.ctx.scene.views[v].stem);
-                self.times.time("spill the visible Gaussians", || visible::write(&path, &vis, &labels))?;
+                self.times.time("spill the visible Gaussians", || -> crate::Result<()> {
+                    visible::write(&path, &vis, &labels)?;
+                    // The tile lists too: rendering the labels back reuses them.
+                    match &bins {
+                        Some(bins) => visible::write_bins(&visible::bins_path(&path), bins),
+                        None => Ok(()),
+                    }
+                })?;
                 (Some(visible::sampled(&vis, &labels, self.sample_stride)), Some(path))
             }
             None => (None, None),

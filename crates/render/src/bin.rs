@@ -40,6 +40,33 @@ impl TileBins {
     pub fn intersection_count(&self) -> usize {
         self.ids.len()
     }
+
+    /// Whether these lists can be those of `n_splats` splats on a `width × height` image: the
+    /// tile grid of that image, offsets starting at 0, never decreasing and ending at the
+    /// number of entries, every entry a splat index below `n_splats`. (It does not check the
+    /// order within a list.) The error says what does not fit.
+    pub fn check(&self, n_splats: usize, width: usize, height: usize) -> Result<(), String> {
+        let (tx, ty) = (width.div_ceil(TILE_SIZE), height.div_ceil(TILE_SIZE));
+        if (self.tiles_x, self.tiles_y) != (tx, ty) {
+            return Err(format!("{}×{} tiles, the image has {tx}×{ty}", self.tiles_x, self.tiles_y));
+        }
+        if self.offsets.len() != tx * ty + 1
+            || self.offsets.first() != Some(&0)
+            || self.offsets.last() != Some(&self.ids.len())
+            || self.offsets.windows(2).any(|w| w[0] > w[1])
+        {
+            return Err(format!(
+                "{} offsets do not bound {} entries in {} tiles",
+                self.offsets.len(),
+                self.ids.len(),
+                tx * ty
+            ));
+        }
+        match self.ids.iter().max() {
+            Some(&m) if m as usize >= n_splats => Err(format!("splat index {m} of {n_splats} splats")),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// Half-open tile rectangle `[x0, x1) × [y0, y1)` a splat covers.
@@ -406,7 +433,33 @@ mod tests {
             assert_eq!(new.offsets, old.offsets, "{n} splats");
             assert_eq!(new.ids, old.ids, "{n} splats");
             assert!(n < 5000 || new.intersection_count() > n, "{n} splats: few intersections");
+            assert_eq!(new.check(n, width, height), Ok(()));
         }
+    }
+
+    /// Lists that cannot index the splats or tile the image are refused, each with its reason.
+    #[test]
+    fn check_refuses_lists_that_do_not_fit() {
+        let splats: Vec<Splat2d> = (0..50).map(|i| splat(3.0 * i as f32, 20.0, 9, 1.0 + i as f32)).collect();
+        let good = bin(&splats, 100, 60);
+        assert!(good.intersection_count() > 50);
+        assert_eq!(good.check(50, 100, 60), Ok(()));
+        let refused = |bins: &TileBins, n: usize, w: usize, h: usize, what: &str| {
+            let err = bins.check(n, w, h).expect_err(what);
+            assert!(err.contains(what), "{err}");
+        };
+        refused(&good, 50, 120, 60, "tiles");
+        let top = good.ids.iter().copied().max().unwrap_or(0);
+        refused(&good, top as usize, 100, 60, &format!("splat index {top}"));
+        let mut b = good.clone();
+        b.offsets[3] = b.offsets[4] + 1;
+        refused(&b, 50, 100, 60, "offsets");
+        let mut b = good.clone();
+        b.ids.pop();
+        refused(&b, 50, 100, 60, "offsets");
+        let mut b = good;
+        b.offsets.pop();
+        refused(&b, 50, 100, 60, "offsets");
     }
 
     #[test]

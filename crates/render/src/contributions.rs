@@ -12,7 +12,7 @@
 
 use crate::bin::{bin, TileBins, TILE_SIZE};
 use crate::camera::RenderCamera;
-use crate::error::RenderResult;
+use crate::error::{RenderError, RenderResult};
 use crate::footprint::{Footprint, Reach};
 use crate::project::{project, Splat2d};
 use crate::rasterise::{tile_pixels, RowTerms};
@@ -52,6 +52,20 @@ impl ProjectedView {
     pub fn from_splats(splats: Vec<Splat2d>, width: usize, height: usize) -> Self {
         let bins = bin(&splats, width, height);
         ProjectedView { splats, bins, width, height }
+    }
+
+    /// The view of `splats` with tile lists `bins` that [`crate::bin::bin`] made of the same
+    /// splats before (kept, e.g. on disk, between two passes over one view), so they are not
+    /// sorted again. Lists that cannot index these splats or this image are an error
+    /// ([`TileBins::check`]); lists of other splats that pass the check give other contributions.
+    pub fn from_binned(
+        splats: Vec<Splat2d>,
+        bins: TileBins,
+        width: usize,
+        height: usize,
+    ) -> RenderResult<Self> {
+        bins.check(splats.len(), width, height).map_err(RenderError::Bins)?;
+        Ok(ProjectedView { splats, bins, width, height })
     }
 }
 

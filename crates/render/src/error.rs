@@ -34,6 +34,9 @@ pub enum RenderError {
     /// Writing an output file failed.
     #[error(transparent)]
     Output(#[from] splatseg_scene::SceneError),
+    /// Tile lists that do not fit the splats or the image they were given with.
+    #[error("tile lists do not fit the view: {0}")]
+    Bins(String),
     /// A gradient was given for an output the forward pass did not produce.
     #[error("gradient given for `{0}`, which the render request did not ask for")]
     GradientWithoutOutput(&'static str),
