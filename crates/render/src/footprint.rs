@@ -83,11 +83,7 @@ impl Reach {
         }
         let ex = (two_smax * c / det).sqrt() + MARGIN_PX;
         let ey = (two_smax * a / det).sqrt() + MARGIN_PX;
-        // `floor_i64` clamps to ±1e9, so every bound fits an i32.
-        let lo = |edge: f32| -floor_i64(0.5 - edge) as i32;
-        let hi = |edge: f32| (floor_i64(edge - 0.5) + 1) as i32;
-        let span = [lo(mx - ex), hi(mx + ex), lo(my - ey), hi(my + ey)];
-        Reach::ellipse(span, two_smax, det)
+        Reach::ellipse(pixel_span(mx, my, ex, ey), two_smax, det)
     }
 }
 
@@ -207,11 +203,14 @@ impl Footprint {
     }
 }
 
-/// `floor(x)` clamped to ±2³⁰, without a libm call (`f32::floor` is one without SSE4.1).
+/// `floor(x)` of `x` clamped to ±1e9 (NaN gives 0), without a libm call (`f32::floor` is one
+/// without SSE4.1): the truncation, lowered by one where it lies above `x` (exact: |x| ≤ 1e9 <
+/// 2³¹, and a value too large for `t as f32` to be exact is a whole number already). Written
+/// over `i32` so the eight-lane reaches ([`crate::reach_lanes`]) vectorise it.
 #[inline(always)]
-fn floor_i64(x: f32) -> i64 {
+pub(crate) fn floor_clamped(x: f32) -> i32 {
     let x = x.clamp(-1.0e9, 1.0e9);
-    let t = x as i64;
+    let t = x as i32;
     if (t as f32) > x {
         t - 1
     } else {
@@ -219,16 +218,55 @@ fn floor_i64(x: f32) -> i64 {
     }
 }
 
+/// The half-open pixel box `(x0, x1, y0, y1)` of an ellipse centred at `(mx, my)` with
+/// half-extents `(ex, ey)` (margin included), unclipped: [`span_lo`] / [`span_hi`] of its edges.
+#[inline(always)]
+pub(crate) fn pixel_span(mx: f32, my: f32, ex: f32, ey: f32) -> [i32; 4] {
+    [
+        -floor_clamped(0.5 - (mx - ex)),
+        floor_clamped((mx + ex) - 0.5) + 1,
+        -floor_clamped(0.5 - (my - ey)),
+        floor_clamped((my + ey) - 0.5) + 1,
+    ]
+}
+
 /// First pixel whose centre is at or right of `edge`, at least `lo`.
 #[inline]
 fn span_lo(edge: f32, lo: usize) -> usize {
-    (-floor_i64(0.5 - edge)).max(lo as i64) as usize
+    (-(floor_clamped(0.5 - edge) as i64)).max(lo as i64) as usize
 }
 
 /// One past the last pixel whose centre is at or left of `edge`, at most `hi`.
 #[inline]
 fn span_hi(edge: f32, hi: usize) -> usize {
-    (floor_i64(edge - 0.5) + 1).clamp(0, hi as i64) as usize
+    (floor_clamped(edge - 0.5) as i64 + 1).clamp(0, hi as i64) as usize
+}
+
+/// Splat `i` of a test set mixing the awkward cases: near and far off the image, conics that
+/// are not positive definite or nearly singular, opacities below and at the threshold, culled
+/// splats and non-finite fields; `unit` gives uniform numbers in [0, 1).
+#[cfg(test)]
+pub(crate) fn awkward_splat(i: usize, unit: &mut impl FnMut() -> f32, alpha_min: f32) -> Splat2d {
+    let spread = [1.0, 50.0, 5.0e3, 3.0e9][i % 4];
+    let mut s = Splat2d {
+        mean2d: [spread * (unit() - 0.3), spread * (unit() - 0.3)],
+        conic: [2.0 * unit() - 0.2, unit() - 0.5, 2.0 * unit() - 0.2]
+            .map(|v| v * [1.0, 1e-4, 10.0, 1e-30][i % 4]),
+        opacity: 1.02 * unit(),
+        depth: 1.0,
+        radii: [5, 5],
+    };
+    match i % 89 {
+        0 => s.opacity = f32::NAN,
+        1 => s.conic[0] = f32::INFINITY,
+        2 => s.mean2d[1] = f32::NAN,
+        3 => s.opacity = alpha_min,
+        4 => s.radii = [0, 0],
+        5 => s.conic[2] = f32::NAN,
+        6 => s.mean2d[0] = f32::INFINITY,
+        _ => {}
+    }
+    s
 }
 
 #[cfg(test)]
@@ -249,23 +287,7 @@ mod tests {
         let alpha_min = 1.0 / 255.0;
         let (mut some, mut none, mut whole) = (0, 0, 0);
         for i in 0..200_000 {
-            let spread = [1.0, 50.0, 5.0e3, 3.0e9][i % 4];
-            let mut s = Splat2d {
-                mean2d: [spread * (unit() - 0.3), spread * (unit() - 0.3)],
-                conic: [2.0 * unit() - 0.2, unit() - 0.5, 2.0 * unit() - 0.2]
-                    .map(|v| v * [1.0, 1e-4, 10.0][i % 3]),
-                opacity: 1.02 * unit(),
-                depth: 1.0,
-                radii: [5, 5],
-            };
-            match i % 97 {
-                0 => s.opacity = f32::NAN,
-                1 => s.conic[0] = f32::INFINITY,
-                2 => s.mean2d[1] = f32::NAN,
-                3 => s.opacity = alpha_min,
-                4 => s.radii = [0, 0],
-                _ => {}
-            }
+            let s = awkward_splat(i, &mut unit, alpha_min);
             let (tx, ty) = ((unit() * 80.0) as usize, (unit() * 60.0) as usize);
             let tile = (16 * tx, (16 * tx + 16).min(1270), 16 * ty, (16 * ty + 16).min(957));
             let reach = Reach::new(&s, alpha_min);

@@ -7,7 +7,7 @@
 //! [`Reach::new`]'s, bit for bit (test `lanes_equal_reach_new`). Compiled for AVX2 and used when
 //! the CPU has it.
 
-use crate::footprint::{Reach, MARGIN_PX};
+use crate::footprint::{pixel_span, Reach, MARGIN_PX};
 use crate::project::Splat2d;
 use crate::project_lanes::{lanes_available, LANES};
 use rayon::prelude::*;
@@ -47,20 +47,6 @@ unsafe fn reaches_of_lanes_avx2(splats: &[Splat2d], alpha_min: f32, out: &mut [R
     reaches_of_lanes(splats, alpha_min, out)
 }
 
-/// `floor(x)` of `x` clamped to ±1e9 (not NaN), as `footprint::floor_i64` gives it: the
-/// truncation, lowered by one where it lies above `x` (exact: |x| ≤ 1e9 < 2³¹, and a value too
-/// large for `t as f32` to be exact is a whole number already).
-#[inline(always)]
-fn floor_clamped(x: f32) -> i32 {
-    let x = x.clamp(-1.0e9, 1.0e9);
-    let t = x as i32;
-    if (t as f32) > x {
-        t - 1
-    } else {
-        t
-    }
-}
-
 /// The reaches of `splats` (`[LANES]`) into `out` (`[LANES]`).
 #[inline(always)]
 fn reaches_of_lanes(splats: &[Splat2d], alpha_min: f32, out: &mut [Reach]) {
@@ -85,12 +71,7 @@ fn reaches_of_lanes(splats: &[Splat2d], alpha_min: f32, out: &mut [Reach]) {
     }
     let mut span = [[0i32; 4]; LANES];
     for l in 0..LANES {
-        span[l] = [
-            -floor_clamped(0.5 - (mx[l] - ex[l])),
-            floor_clamped((mx[l] + ex[l]) - 0.5) + 1,
-            -floor_clamped(0.5 - (my[l] - ey[l])),
-            floor_clamped((my[l] + ey[l]) - 0.5) + 1,
-        ];
+        span[l] = pixel_span(mx[l], my[l], ex[l], ey[l]);
     }
     for l in 0..LANES {
         let ellipse = det[l] > 0.0 && a[l] > 0.0 && two_smax[l].is_finite();
@@ -109,6 +90,7 @@ fn reaches_of_lanes(splats: &[Splat2d], alpha_min: f32, out: &mut [Reach]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::footprint::awkward_splat;
 
     /// Every lane's reach is [`Reach::new`]'s, bit for bit (compared as printed, NaN included),
     /// over splats near and far off the image, with conics that are not positive definite,
@@ -121,30 +103,7 @@ mod tests {
             (seed >> 8) as f32 / (1u32 << 24) as f32
         };
         let alpha_min = 1.0 / 255.0;
-        let splats: Vec<Splat2d> = (0..100_003)
-            .map(|i| {
-                let spread = [1.0, 50.0, 5.0e3, 3.0e9][i % 4];
-                let mut s = Splat2d {
-                    mean2d: [spread * (unit() - 0.3), spread * (unit() - 0.3)],
-                    conic: [2.0 * unit() - 0.2, unit() - 0.5, 2.0 * unit() - 0.2]
-                        .map(|v| v * [1.0, 1e-4, 10.0, 1e-30][i % 4]),
-                    opacity: 1.02 * unit(),
-                    depth: 1.0,
-                    radii: [5, 5],
-                };
-                match i % 89 {
-                    0 => s.opacity = f32::NAN,
-                    1 => s.conic[0] = f32::INFINITY,
-                    2 => s.mean2d[1] = f32::NAN,
-                    3 => s.opacity = alpha_min,
-                    4 => s.radii = [0, 0],
-                    5 => s.conic[2] = f32::NAN,
-                    6 => s.mean2d[0] = f32::INFINITY,
-                    _ => {}
-                }
-                s
-            })
-            .collect();
+        let splats: Vec<Splat2d> = (0..100_003).map(|i| awkward_splat(i, &mut unit, alpha_min)).collect();
         let print = |r: &[Reach]| r.iter().map(|r| format!("{r:?}")).collect::<Vec<_>>();
         let expected: Vec<Reach> = splats.iter().map(|s| Reach::new(s, alpha_min)).collect();
         let mut portable = vec![Reach::default(); splats.len()];
