@@ -21,6 +21,7 @@
 
 mod cache;
 pub mod config;
+pub mod digest;
 mod error;
 mod eval_stage;
 pub mod identity_study;

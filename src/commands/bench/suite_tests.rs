@@ -52,6 +52,7 @@ fn reduced_stress_suite_meets_its_floors_on_the_worst_decile() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let overrides = SceneOverrides { size: None, views: Some(VIEWS) };
     let mut scores = Vec::new();
+    let mut digests = Vec::new();
     for family in DEFAULT_FAMILIES {
         for seed in SEEDS {
             let work = tmp.path().join(format!("{family}_{seed}"));
@@ -59,11 +60,20 @@ fn reduced_stress_suite_meets_its_floors_on_the_worst_decile() {
                 score_scene(family, seed, overrides, &[Descriptors::Features], &Default::default(), &work)
                     .expect("scene runs"),
             );
+            // Every output byte of every scene is pinned (tests/golden_outputs.rs says why).
+            let skip = |rel: &str| rel.ends_with(".splatseg.lock") || rel.contains("/cache/");
+            let files = splatseg_pipeline::digest::folder_digests(&work, skip).expect("digests");
+            digests.extend(files.into_iter().map(|(path, d)| (format!("{family}_{seed}/{path}"), d)));
             std::fs::remove_dir_all(&work).expect("clean up");
         }
     }
     let table = super::suite::markdown(&scores, 4);
     println!("{table}");
+    let golden = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/reduced_suite.digests");
+    let update = std::env::var_os("SPLATSEG_UPDATE_GOLDEN").is_some();
+    if let Err(e) = splatseg_pipeline::digest::compare_with_golden(&digests, &golden, update) {
+        panic!("{e}");
+    }
     let dist =
         |f: fn(&super::suite::SceneScore) -> f64| Distribution::of(scores.iter().map(f)).expect("scores");
     let miou = dist(|s| s.miou);
