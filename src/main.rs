@@ -2,13 +2,14 @@
 use clap::Parser;
 
 mod commands;
+mod memory;
 
 fn main() -> std::process::ExitCode {
     let cli = commands::Cli::parse();
     commands::logging::init(cli.quiet, cli.verbose);
     // Before any thread starts: one arena, freed buffers reused (see the function's docs).
-    splatseg_scene::memory::keep_freed_memory_for_reuse();
-    splatseg_pipeline::ply_input::set_strict(cli.strict);
+    memory::keep_freed_memory_for_reuse();
+    commands::set_run_options(splatseg_pipeline::RunOptions { strict: cli.strict, quiet: cli.quiet });
     match commands::run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {

@@ -68,6 +68,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gt: Some(scene_dir.join("gt")),
         pipeline: PipelineConfig::default(),
         out: args.out.join("run"),
+        options: super::run_options(),
     };
     let result = run_pipeline(&run).context("running the pipeline on the synthetic scene")?;
     println!(
@@ -96,6 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 &lifted,
                 &args.out.join("study"),
                 &demo_train_config(args.train_iterations),
+                super::run_options(),
             )?;
             println!(
                 "\nidentity study, seed {} ({} iterations, joint from 100):\n{table}",
@@ -142,6 +144,7 @@ fn train_after_pipeline(
         config,
         resolution: 1,
         label_maps: None,
+        options: super::run_options(),
     })
     .context("training the synthetic scene's Gaussians")?;
     println!(

@@ -214,7 +214,7 @@ fn ply_files(root: &Path, explicit: Option<&Path>) -> Vec<PathBuf> {
 }
 
 fn describe_ply(path: &Path) -> anyhow::Result<GaussiansInfo> {
-    let g = splatseg_pipeline::ply_input::read_rows(path, "commands skip them")
+    let g = splatseg_pipeline::ply_input::read_rows(path, "commands skip them", super::run_options().strict)
         .with_context(|| format!("cannot read Gaussians from {}", path.display()))?
         .gaussians;
     Ok(GaussiansInfo {

@@ -38,7 +38,6 @@ pub fn use_colour(stderr_is_terminal: bool, no_color: Option<&std::ffi::OsStr>) 
 /// Installs the stderr logger for the process.
 pub fn init(quiet: bool, verbose: u8) {
     QUIET.store(quiet, Ordering::Relaxed);
-    splatseg_pipeline::set_progress_hidden(quiet);
     let rust_log = std::env::var("RUST_LOG").ok();
     let filter = tracing_subscriber::EnvFilter::new(filter_directive(quiet, verbose, rust_log.as_deref()));
     let colour = use_colour(std::io::stderr().is_terminal(), std::env::var_os("NO_COLOR").as_deref());

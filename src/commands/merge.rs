@@ -252,6 +252,7 @@ fn run_shard(args: Args, shard: Shard) -> anyhow::Result<()> {
         gt: None,
         pipeline,
         out: args.out,
+        options: super::run_options(),
     };
     let summary = merge_shard(&config, shard)?;
     println!(
@@ -291,7 +292,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.gaussians.clone().or_else(|| Some(args.scene.join("gaussians.ply")).filter(|p| p.is_file()));
     let gaussians = match &ply {
         Some(p) if args.depth.is_none() || args.metric_depth.is_none() => {
-            Some(splatseg_pipeline::ply_input::read_finite(p)?)
+            Some(splatseg_pipeline::ply_input::read_finite(p, super::run_options().strict)?)
         }
         _ => None,
     };

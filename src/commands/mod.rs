@@ -21,6 +21,20 @@ pub mod synth;
 pub mod train;
 pub mod view;
 
+/// `--strict` and `--quiet`, set once by `main` (the binary's own state: the libraries take them
+/// in their settings).
+static RUN_OPTIONS: std::sync::OnceLock<splatseg_pipeline::RunOptions> = std::sync::OnceLock::new();
+
+/// Records the global flags' options for the commands (first call wins).
+pub fn set_run_options(options: splatseg_pipeline::RunOptions) {
+    let _ = RUN_OPTIONS.set(options);
+}
+
+/// The global flags' options (the defaults before `main` set them, as in tests).
+pub fn run_options() -> splatseg_pipeline::RunOptions {
+    RUN_OPTIONS.get().copied().unwrap_or_default()
+}
+
 /// splatseg: view-consistent object instances for 3D Gaussian Splatting scenes.
 ///
 /// Turns a multi-view capture (COLMAP or transforms.json) and its 3DGS PLY into refined per-view

@@ -23,7 +23,10 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let g = require_labels(splatseg_pipeline::ply_input::read_finite(&args.ply)?, &args.ply)?;
+    let g = require_labels(
+        splatseg_pipeline::ply_input::read_finite(&args.ply, super::run_options().strict)?,
+        &args.ply,
+    )?;
     let mut table = objects(&g).map_err(|e| e.with_path(&args.ply))?;
     if let Some(dir) = &args.masks {
         let maps = splatseg_eval::list_label_maps(dir)?;

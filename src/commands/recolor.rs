@@ -38,7 +38,10 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let g = require_labels(splatseg_pipeline::ply_input::read_finite(&args.ply)?, &args.ply)?;
+    let g = require_labels(
+        splatseg_pipeline::ply_input::read_finite(&args.ply, super::run_options().strict)?,
+        &args.ply,
+    )?;
     let style = match args.unlabelled {
         Unlabelled::Grey => UnlabelledStyle::Grey,
         Unlabelled::Keep => UnlabelledStyle::Keep,

@@ -29,7 +29,10 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let g = require_labels(splatseg_pipeline::ply_input::read_finite(&args.ply)?, &args.ply)?;
+    let g = require_labels(
+        splatseg_pipeline::ply_input::read_finite(&args.ply, super::run_options().strict)?,
+        &args.ply,
+    )?;
     let kept = remove(&g, &args.ids).map_err(|e| e.with_path(&args.ply))?;
     let count = kept.len();
     let extras = if args.keep_extras { ExtraFields::Keep } else { ExtraFields::Strip };

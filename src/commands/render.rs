@@ -55,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for warning in &scene.warnings {
         tracing::warn!("{warning}");
     }
-    let gaussians = splatseg_pipeline::ply_input::read_finite(&args.gaussians)?;
+    let gaussians = splatseg_pipeline::ply_input::read_finite(&args.gaussians, super::run_options().strict)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let want = |w: What| args.what.contains(&w);
     let request = RenderRequest {

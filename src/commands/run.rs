@@ -121,6 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gt: args.gt,
         pipeline,
         out: args.out.clone(),
+        options: super::run_options(),
     };
     let summary = run_pipeline(&config)?;
     if let Some(path) = &args.profile {

@@ -145,6 +145,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         config,
         resolution,
         label_maps,
+        options: super::run_options(),
     })?;
     println!("{}", summary.table());
     println!("outputs: {} (gaussians.ply, quality.json, renders/)", summary.out.display());

@@ -26,8 +26,9 @@ fn checksum(words: impl Iterator<Item = u32>) -> u64 {
 }
 
 fn main() {
-    // As `splatseg` does: freed buffers reused, not fresh pages per view.
-    splatseg_scene::memory::keep_freed_memory_for_reuse();
+    // Unlike `splatseg`, this example keeps glibc's allocator defaults (the binary alone sets
+    // them, src/memory.rs): per-view buffers may come back as fresh pages, so its times include
+    // those page faults.
     let mut args = std::env::args().skip(1);
     let Some(dir) = args.next().map(PathBuf::from) else {
         eprintln!("usage: scene_passes SCENE_DIR [VIEWS]");

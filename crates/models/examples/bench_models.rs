@@ -1,15 +1,15 @@
 //! Times the models at real sizes (run with random-weight checkpoints; weights do not change speed):
 //!
 //! ```text
-//! cargo run --release -p splatseg-models --example bench_models -- dinov2 CHECKPOINT 518
-//! cargo run --release -p splatseg-models --example bench_models -- depth CHECKPOINT 518
-//! cargo run --release -p splatseg-models --example bench_models -- depth-vs-candle CHECKPOINT 518
-//! cargo run --release -p splatseg-models --example bench_models -- dinov2-vs-candle CHECKPOINT 518
-//! cargo run --release -p splatseg-models --example bench_models -- sam-encoder CHECKPOINT
-//! cargo run --release -p splatseg-models --example bench_models -- sam-vs-candle CHECKPOINT
-//! cargo run --release -p splatseg-models --example bench_models -- mobile-sam-vs-candle CHECKPOINT
-//! cargo run --release -p splatseg-models --example bench_models -- sam-decoder CHECKPOINT
-//! cargo run --release -p splatseg-models --example bench_models -- sam-amg CHECKPOINT 1024 [POINTS_PER_SIDE]
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- dinov2 CHECKPOINT 518
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- depth CHECKPOINT 518
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- depth-vs-candle CHECKPOINT 518
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- dinov2-vs-candle CHECKPOINT 518
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- sam-encoder CHECKPOINT
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- sam-vs-candle CHECKPOINT
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- mobile-sam-vs-candle CHECKPOINT
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- sam-decoder CHECKPOINT
+//! cargo run --release -p splatseg-models --features compare-candle --example bench_models -- sam-amg CHECKPOINT 1024 [POINTS_PER_SIDE]
 //! ```
 //!
 //! `depth-vs-candle` times ours against candle-transformers' Depth Anything V2-S (square inputs only;

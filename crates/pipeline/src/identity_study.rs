@@ -27,6 +27,7 @@ pub fn identity_study(
     lifted: &Metrics,
     out: &Path,
     config: &TrainConfig,
+    options: crate::RunOptions,
 ) -> crate::Result<String> {
     let eval = PipelineConfig::default().eval;
     let gt_maps = scene_dir.join("gt").join("instance");
@@ -42,6 +43,7 @@ pub fn identity_study(
             config,
             resolution: 1,
             label_maps: None,
+            options,
         })
         .with_context(|| format!("training {dir}"))
     };

@@ -30,6 +30,7 @@ mod lift_stage;
 pub mod lock;
 mod mask_input;
 mod merge_stage;
+mod options;
 mod outputs;
 mod per_view;
 pub mod ply_input;
@@ -49,6 +50,7 @@ use eval_stage::{eval_views, evaluate, local_offsets, offset_map, view_counts};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 use lift_stage::ViewResult;
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
+pub use options::RunOptions;
 pub use per_view::{merge_shard, ShardSummary};
 use profile::Profiler;
 pub use profile::{peak_rss_bytes, PartTimes, StageProfile};
@@ -86,6 +88,8 @@ pub struct RunConfig {
     pub pipeline: PipelineConfig,
     /// Output folder.
     pub out: PathBuf,
+    /// `--strict` and `--quiet`.
+    pub options: RunOptions,
 }
 
 /// What a run produced (also cached as `OUT/cache/run.json`).
@@ -136,19 +140,10 @@ impl RunSummary {
     }
 }
 
-/// True once the caller asked for no progress bars (the binary's `--quiet`).
-static PROGRESS_HIDDEN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// Hides (or shows again) the stages' progress bars; they are drawn on stderr only when it is a
-/// terminal in any case.
-pub fn set_progress_hidden(hidden: bool) {
-    PROGRESS_HIDDEN.store(hidden, std::sync::atomic::Ordering::Relaxed);
-}
-
 /// A progress bar over `len` items (hidden when stderr is not a terminal, and with `--quiet`).
-pub(crate) fn progress(len: usize, what: &str) -> ProgressBar {
+pub(crate) fn progress(len: usize, what: &str, options: RunOptions) -> ProgressBar {
     let bar = ProgressBar::new(len as u64);
-    if PROGRESS_HIDDEN.load(std::sync::atomic::Ordering::Relaxed) {
+    if options.quiet {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     if let Ok(style) = ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}") {
@@ -192,7 +187,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let ply_rows = match &ply_path {
         Some(p) => {
             tracing::info!("reading Gaussians from {}", p.display());
-            Some(inputs::read_gaussians(p)?)
+            Some(inputs::read_gaussians(p, config.options.strict)?)
         }
         None => None,
     };
@@ -272,7 +267,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         sample_stride: prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len())),
         times: &times,
     };
-    let bar = progress(scene.views.len(), "merge");
+    let bar = progress(scene.views.len(), "merge", config.options);
     // Every view's result, then the first error in view order: which view an error names does
     // not depend on the thread count or on which thread failed first.
     let results: Vec<crate::Result<Option<ViewResult>>> = (0..scene.views.len())
@@ -306,7 +301,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
             let image_rgb = |v: usize| -> Result<Vec<u8>> {
                 Ok(splatseg_scene::images::load_image_rgb(&scene, &scene.views[v], &load)?.into_raw())
             };
-            let inputs = lift_stage::FinalMapInputs { snap_map: &snap_map, image_rgb: &image_rgb };
+            let inputs = lift_stage::FinalMapInputs {
+                snap_map: &snap_map,
+                image_rgb: &image_rgb,
+                options: config.options,
+            };
             Some(lift_stage::lift_and_render(p, &cams, &views, &matching, &inputs, &lift_config, &times)?)
         }
         None => None,
@@ -356,7 +355,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         }
         Ok(())
     };
-    let bar = progress(scene.views.len(), "write label maps");
+    let bar = progress(scene.views.len(), "write label maps", config.options);
     let write_maps = || -> crate::Result<Vec<ViewOutputs>> {
         (0..scene.views.len())
             .into_par_iter()

@@ -153,6 +153,8 @@ pub struct FinalMapInputs<'a> {
     pub snap_map: &'a (dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
     /// `[H, W, 3]` 8-bit row-major colours of view `v`'s image, for the boundary refinement.
     pub image_rgb: &'a (dyn Fn(usize) -> crate::Result<Vec<u8>> + Sync),
+    /// `--quiet` hides the progress bar.
+    pub options: crate::RunOptions,
 }
 
 /// Lifts the matched labels of the views with masks onto the Gaussians, renders every view back
@@ -240,7 +242,7 @@ pub fn lift_and_render(
         let rgb = times.time("read the image back", || (view_inputs.image_rgb)(v))?;
         Ok(times.time("refine boundaries by colour", || refine_boundaries(labels, &rgb, &rule)))
     };
-    let bar = progress(cams.len(), "render label maps");
+    let bar = progress(cams.len(), "render label maps", view_inputs.options);
     let snapped: Vec<SnappedRuns> = cams
         .par_iter()
         .enumerate()

@@ -236,7 +236,8 @@ pub fn merge_shard(config: &RunConfig, shard: Shard) -> crate::Result<ShardSumma
     splatseg_scene::load::check_image_sizes(&scene, &load)?;
     let has_masks = inputs::views_with_masks(&scene, &config.masks)?;
     let ply_path = inputs::gaussians_path(&config.scene, config.gaussians.as_deref());
-    let ply_rows = ply_path.as_deref().map(inputs::read_gaussians).transpose()?;
+    let ply_rows =
+        ply_path.as_deref().map(|p| inputs::read_gaussians(p, config.options.strict)).transpose()?;
     let gaussians = ply_rows.as_ref().map(inputs::finite_gaussians);
     if gaussians.is_none() && config.depth.is_none() {
         bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
@@ -249,7 +250,7 @@ pub fn merge_shard(config: &RunConfig, shard: Shard) -> crate::Result<ShardSumma
     let sources = MergeSources::new(config, &ply_key);
     let ctx = sources.context(&scene, &load, config);
     let mine: Vec<usize> = (0..scene.views.len()).filter(|&v| shard.contains(v) && has_masks[v]).collect();
-    let bar = crate::progress(mine.len(), "merge shard");
+    let bar = crate::progress(mine.len(), "merge shard", config.options);
     let cached = mine
         .par_iter()
         .map(|&v| -> crate::Result<bool> {

@@ -5,21 +5,13 @@
 use splatseg_scene::ply::{read_ply_rows, PlyRows};
 use splatseg_scene::Gaussians;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 
-static STRICT: AtomicBool = AtomicBool::new(false);
-
-/// Sets whether non-finite Gaussians are refused (`--strict`) rather than skipped.
-pub fn set_strict(strict: bool) {
-    STRICT.store(strict, Ordering::Relaxed);
-}
-
-/// Every row of the PLY at `path` with the non-finite ones listed. With `--strict` a file with
-/// non-finite values is an error naming the first one; otherwise one warning says how many rows
-/// are skipped and `consequence` (what happens to them in the outputs).
-pub fn read_rows(path: &Path, consequence: &str) -> crate::Result<PlyRows> {
+/// Every row of the PLY at `path` with the non-finite ones listed. With `strict` (`--strict`) a
+/// file with non-finite values is an error naming the first one; otherwise one warning says how
+/// many rows are skipped and `consequence` (what happens to them in the outputs).
+pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<PlyRows> {
     let rows = read_ply_rows(path)?;
-    if STRICT.load(Ordering::Relaxed) {
+    if strict {
         rows.refuse_non_finite(path)?;
     } else if let Some(warning) = rows.skip_warning(path, consequence) {
         tracing::warn!("{warning} (--strict refuses such files)");
@@ -29,6 +21,6 @@ pub fn read_rows(path: &Path, consequence: &str) -> crate::Result<PlyRows> {
 
 /// The finite Gaussians of the PLY at `path`, in file order (see [`read_rows`]); the skipped
 /// rows are left out of whatever the command writes.
-pub fn read_finite(path: &Path) -> crate::Result<Gaussians> {
-    Ok(read_rows(path, "they are left out")?.into_finite())
+pub fn read_finite(path: &Path, strict: bool) -> crate::Result<Gaussians> {
+    Ok(read_rows(path, "they are left out", strict)?.into_finite())
 }

@@ -23,6 +23,7 @@ fn run_config(scene: &Path, out: &Path) -> RunConfig {
         gt: Some(scene.join("gt")),
         pipeline: PipelineConfig::default(),
         out: out.to_path_buf(),
+        options: Default::default(),
     }
 }
 
@@ -212,6 +213,7 @@ fn train_stage_after_the_pipeline_improves_3d_ids_and_keeps_2d_quality() {
         config: train_config,
         resolution: 1,
         label_maps: None,
+        options: Default::default(),
     })
     .expect("training runs");
     let (labelled_before, labelled_after) = summary.labelled.expect("joint stage ran");

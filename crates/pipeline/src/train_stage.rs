@@ -44,6 +44,8 @@ pub struct TrainRun {
     /// Folder of per-view label maps (`<stem>.png`, global ids) for the identity maps' 2D supervision;
     /// `None` = `masks/` beside the `gaussians` PLY (where `splatseg run` writes them).
     pub label_maps: Option<PathBuf>,
+    /// `--strict` and `--quiet`.
+    pub options: crate::RunOptions,
 }
 
 /// 3DGS's initialisation when no PLY is given: one Gaussian per sparse point when the scene has them
@@ -186,7 +188,7 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> crate::Result<Inputs> {
         .collect::<crate::Result<Vec<_>>>()?;
     let init = &run.init;
     let gaussians = match (&run.gaussians, &scene.points) {
-        (Some(path), _) => crate::ply_input::read_finite(path)?,
+        (Some(path), _) => crate::ply_input::read_finite(path, run.options.strict)?,
         (None, Some(points)) if !points.is_empty() => {
             tracing::info!("initialising one Gaussian per sparse point ({})", points.len());
             let xyz: Vec<[f32; 3]> = points.iter().map(|p| p.xyz.to_array().map(|v| v as f32)).collect();
@@ -341,7 +343,7 @@ pub fn run_training(run: &TrainRun) -> crate::Result<TrainSummary> {
     let labelled_before = labelled_share(&gaussians);
     let start_count = gaussians.len();
 
-    let bar = progress(run.config.iterations, "training");
+    let bar = progress(run.config.iterations, "training", run.options);
     let checkpoint_dir = run.out.join("point_cloud");
     let mut save = |iteration: usize, g: &Gaussians| -> splatseg_train::TrainResult<()> {
         let dir = checkpoint_dir.join(format!("iteration_{iteration}"));

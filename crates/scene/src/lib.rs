@@ -22,7 +22,6 @@ pub mod images;
 pub mod labels;
 pub mod limits;
 pub mod load;
-pub mod memory;
 pub mod npy;
 pub mod plane;
 pub mod ply;

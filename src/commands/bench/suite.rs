@@ -148,6 +148,7 @@ pub fn score_scene(
                 Descriptors::Features => "run_features",
                 Descriptors::ModelFree => "run_model_free",
             }),
+            options: crate::commands::run_options(),
         };
         let summary = run_pipeline(&run).with_context(|| format!("running {family} seed {seed}"))?;
         let report = summary.report.as_ref().context("the run scored no ground truth")?;

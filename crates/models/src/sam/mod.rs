@@ -106,7 +106,6 @@ pub struct ImageEmbedding {
 impl Sam {
     /// Loads a checkpoint (see [`checkpoint::resolve`]).
     pub fn load(path: &Path) -> ModelsResult<Self> {
-        splatseg_scene::memory::keep_freed_memory_for_reuse();
         let files = checkpoint::resolve(path, ModelKind::Sam)?;
         let weights = Weights::load(&files.weights, ModelKind::Sam)?;
         Self::from_weights(&weights)

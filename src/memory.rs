@@ -1,5 +1,6 @@
-//! Process-wide allocator settings for programs that allocate and free large buffers over and
-//! over: per-view maps of several MB in the pipeline, per-operation tensors in the models.
+//! The binary's allocator settings, set once by `main` (libraries set none): for a program that
+//! allocates and frees large buffers over and over (per-view maps of several MB in the pipeline,
+//! per-operation tensors in the models).
 //!
 //! With glibc's defaults, blocks above its (adaptive) mmap threshold are mapped and unmapped on
 //! every allocation, memory freed at the top of a heap is returned to the kernel beyond the trim
