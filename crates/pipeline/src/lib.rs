@@ -35,6 +35,7 @@ mod per_view;
 pub mod ply_input;
 pub mod profile;
 mod results;
+pub mod scene_info;
 pub mod shard;
 #[cfg(test)]
 mod tests;
