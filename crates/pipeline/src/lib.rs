@@ -3,10 +3,12 @@
 //! binary, the viewer's server or a binding can call it:
 //!
 //! - [`run_pipeline`] runs the whole pipeline ([`RunConfig`] → [`RunSummary`]);
-//! - [`merge_shard`] runs the per-view merge stage over one [`Shard`] `K/N` of the views (any
-//!   number of shards at once, as separate processes); a later [`run_pipeline`] on the same
-//!   output folder does only the global steps;
-//! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids).
+//! - [`merge_views`] runs `run`'s per-view merge stage alone (`splatseg merge`), over every view
+//!   or one [`Shard`] `K/N` of them (any number of shards at once, as separate processes), with
+//!   `run`'s inputs and cache keys; a later [`run_pipeline`] on the same output folder reuses it;
+//! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids);
+//! - [`scene_info`] (what a scene folder holds), [`demo`], [`render_views`], [`train_stage`]: the
+//!   other commands' work.
 //!
 //! Errors are [`PipelineError`]; [`PipelineError::report`] prints the chain of causes.
 //!
