@@ -2,6 +2,8 @@
 //! separate processes at once on one output folder, then `run` does only the global steps; the
 //! outputs (label maps, overlays, labelled PLY, report, metrics) are byte-identical to one
 //! unsharded run, with `RAYON_NUM_THREADS` = 1 and 2. A missing shard is named in `run`'s error.
+//! Unsharded `merge` is the same per-view merge with the same cache keys: `run` after it merges
+//! nothing and writes the same bytes.
 //!
 //! Every run writes to the same `--out` path (moved aside afterwards), since `metrics.json`
 //! records the output folder.
@@ -139,6 +141,29 @@ fn sharded_runs_and_thread_counts_give_byte_identical_outputs() {
         let what = format!("{count} shards, RAYON_NUM_THREADS={threads}");
         assert_same(&reference, &scene.take_outputs(&format!("sharded-{count}")), &what);
     }
+}
+
+#[test]
+fn unsharded_merge_fills_the_cache_run_reads() {
+    let scene = Scene::new();
+    check(scene.run(2), "run alone");
+    let reference = scene.take_outputs("run-alone");
+    check(scene.command("merge", &[], 2).output().expect("spawn merge"), "merge");
+    let log = scene.out.join("merge").join("view_000.json");
+    let first = std::fs::read(&log).expect("merge wrote its decisions");
+    let masks = std::fs::read(scene.out.join("masks").join("view_000.png")).expect("merged regions");
+    let text = String::from_utf8_lossy(&first).to_string();
+    assert!(text.contains("\"decisions\"") && text.contains("\"input_regions\""), "{text}");
+    // A rerun takes every view from the cache, decisions included, and writes the same bytes.
+    check(scene.command("merge", &[], 2).output().expect("spawn merge"), "merge again");
+    assert!(std::fs::read(&log).expect("log") == first, "the cached decisions differ");
+    let merged = scene.out.join("cache").join("merge").join("view_000.merged.png");
+    assert!(std::fs::read(merged).expect("cached merge") == masks, "merge's label map is run's merged map");
+    let output = check(scene.run(2), "run after merge");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("6 of 6 views' merges came from the cache"), "{stdout}");
+    std::fs::remove_dir_all(scene.out.join("merge")).expect("merge's own logs");
+    assert_same(&reference, &scene.take_outputs("run-after-merge"), "run after merge");
 }
 
 #[test]

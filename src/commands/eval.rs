@@ -3,12 +3,9 @@
 
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use splatseg_eval::{
-    evaluate_prediction_sets, label_accuracy_3d_files, EvalConfig, EvalReport, IdScope, NamedMetrics,
-    PredictionSet, UnlabelledGt,
-};
+use splatseg_eval::{evaluate_named_sets, EvalConfig, IdScope, NamedSets, UnlabelledGt};
 use splatseg_scene::atomic::write_bytes_atomic;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Score predicted label maps against ground truth.
 ///
@@ -59,19 +56,6 @@ pub struct Args {
     pub ignore_unlabelled: bool,
 }
 
-/// Splits `NAME=VALUE`; a bare value is named by `default_name`.
-fn split_named(text: &str, default_name: impl FnOnce(&Path) -> String) -> (String, PathBuf) {
-    match text.split_once('=') {
-        Some((name, value)) if !name.is_empty() && !value.is_empty() => {
-            (name.to_string(), PathBuf::from(value))
-        }
-        _ => {
-            let path = PathBuf::from(text);
-            (default_name(&path), path)
-        }
-    }
-}
-
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cfg = EvalConfig {
@@ -79,47 +63,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         unlabelled_gt: if args.ignore_unlabelled { UnlabelledGt::Ignore } else { UnlabelledGt::Background },
         pred_id_scope: IdScope::Global,
     };
-    let sets: Vec<(String, PathBuf)> = args
-        .pred
-        .iter()
-        .map(|p| {
-            split_named(p, |path| {
-                path.file_name()
-                    .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
-            })
-        })
-        .collect();
-    if let Some(name) = args.view_local.iter().find(|n| !sets.iter().any(|(s, _)| s == *n)) {
-        anyhow::bail!("--view-local names set `{name}` but no --pred set has that name");
-    }
-    let pred_sets: Vec<PredictionSet> = sets
-        .iter()
-        .map(|(name, dir)| PredictionSet {
-            dir,
-            id_scope: if args.view_local.contains(name) { IdScope::PerView } else { IdScope::Global },
-        })
-        .collect();
-    let metrics = evaluate_prediction_sets(&args.gt, &pred_sets, &cfg)
-        .with_context(|| format!("cannot score predictions against {}", args.gt.display()))?;
-    let mut report = EvalReport {
-        sets: sets
-            .iter()
-            .zip(metrics)
-            .map(|((name, _), metrics)| NamedMetrics { name: name.clone(), metrics })
-            .collect(),
+    let sets = NamedSets {
+        gt: args.gt.clone(),
+        pred: args.pred,
+        view_local: args.view_local,
+        gaussian_ids: args.gt_gaussian_ids.zip(args.pred_ply),
     };
-
-    if let (Some(gt_ids), Some(pred_ply)) = (&args.gt_gaussian_ids, &args.pred_ply) {
-        let last = report.sets.len() - 1;
-        let (name, ply) = split_named(pred_ply, |_| report.sets[last].name.clone());
-        let set = report
-            .sets
-            .iter_mut()
-            .find(|s| s.name == name)
-            .with_context(|| format!("--pred-ply names set `{name}` but no --pred set has that name"))?;
-        set.metrics.label_accuracy_3d = Some(label_accuracy_3d_files(gt_ids, &ply)?);
-    }
-
+    let report = evaluate_named_sets(&sets, &cfg)
+        .with_context(|| format!("cannot score predictions against {}", args.gt.display()))?;
     let markdown = report.to_markdown();
     for set in &report.sets {
         for w in &set.metrics.warnings {

@@ -1,11 +1,8 @@
 //! `splatseg render`: render every view of a scene from a 3DGS PLY with the CPU rasteriser.
 
-use anyhow::Context;
 use clap::Args as ClapArgs;
-use indicatif::{ProgressBar, ProgressStyle};
-use splatseg_render::export::{write_depth, write_ids_png, write_rgb_png, write_unit_png};
-use splatseg_render::{render, RenderCamera, RenderRequest};
-use splatseg_scene::{load_scene, LoadOptions};
+use splatseg_pipeline::render_views::{render_views, RenderViews};
+use splatseg_render::RenderRequest;
 use std::path::PathBuf;
 
 /// One kind of output image.
@@ -49,14 +46,6 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let options = LoadOptions { resolution: args.resolution, ..LoadOptions::default() };
-    let scene = load_scene(&args.scene, &options)
-        .with_context(|| format!("cannot load scene {}", args.scene.display()))?;
-    for warning in &scene.warnings {
-        tracing::warn!("{warning}");
-    }
-    let gaussians = splatseg_pipeline::ply_input::read_finite(&args.gaussians, super::run_options().strict)?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let want = |w: What| args.what.contains(&w);
     let request = RenderRequest {
         rgb: want(What::Rgb),
@@ -66,35 +55,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         background: args.background,
         ..RenderRequest::default()
     };
-    let bar = ProgressBar::new(scene.views.len() as u64);
-    if super::logging::quiet() {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} views ({eta})")?.progress_chars("=> "),
-    );
-    bar.set_message("rendering");
-    for view in &scene.views {
-        let camera = RenderCamera::from_scene(scene.camera(view), &view.world_from_cam);
-        let out = render(&gaussians, &camera, &request)
-            .with_context(|| format!("cannot render view {}", view.name))?;
-        let path = |suffix: &str| args.out.join(format!("{}_{suffix}", view.stem));
-        if let Some(rgb) = &out.rgb {
-            write_rgb_png(&path("rgb.png"), rgb, out.width, out.height)?;
-        }
-        if let Some(depth) = &out.depth {
-            write_depth(&path("depth.png"), &path("depth.npy"), depth)?;
-        }
-        if let Some(ids) = &out.max_weight_ids {
-            write_ids_png(&path("ids.png"), ids)?;
-        }
-        if let Some(alpha) = &out.alpha {
-            write_unit_png(&path("alpha.png"), alpha)?;
-        }
-        bar.inc(1);
-    }
-    bar.finish_with_message("rendered");
-    tracing::info!("wrote {} views to {}", scene.views.len(), args.out.display());
+    let job = RenderViews {
+        scene: args.scene,
+        gaussians: args.gaussians,
+        out: args.out.clone(),
+        request,
+        resolution: args.resolution,
+        options: super::run_options(),
+    };
+    let views = render_views(&job)?;
+    tracing::info!("wrote {views} views to {}", args.out.display());
     Ok(())
 }
 

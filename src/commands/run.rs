@@ -67,35 +67,6 @@ pub struct Args {
     pub profile: Option<PathBuf>,
 }
 
-/// Cue folders computed in-process by the models given on the command line.
-struct ComputedCues {
-    masks: Option<PathBuf>,
-    features: Option<PathBuf>,
-    depth: Option<PathBuf>,
-}
-
-/// Runs `splatseg cues` into OUT/cues for the models given (cached by model and image content).
-fn compute_model_cues(args: &Args) -> anyhow::Result<ComputedCues> {
-    if args.sam.is_none() && args.dinov2.is_none() && args.depth_model.is_none() {
-        return Ok(ComputedCues { masks: None, features: None, depth: None });
-    }
-    let out = args.out.join("cues");
-    super::cues::run(super::cues::Args {
-        dinov2: args.dinov2.clone(),
-        depth_model: args.depth_model.clone(),
-        sam: args.sam.clone(),
-        no_log: true,
-        ..super::cues::Args::defaults_for(args.scene.clone(), out.clone())
-    })
-    .context("computing cues with the given models")?;
-    let folder = |given: bool, name: &str| given.then(|| out.join(name));
-    Ok(ComputedCues {
-        masks: folder(args.sam.is_some(), "sam"),
-        features: folder(args.dinov2.is_some(), "features"),
-        depth: folder(args.depth_model.is_some(), "depth"),
-    })
-}
-
 fn parse_depth_kind(text: &str) -> Result<DepthKind, String> {
     match text {
         "inverse" | "inverse-relative" => Ok(DepthKind::InverseRelative),
@@ -110,7 +81,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => PipelineConfig::from_file(path)?,
         None => PipelineConfig::default(),
     };
-    let computed = compute_model_cues(&args)?;
+    let computed = splatseg_model_cues::models_for_run(
+        &args.scene,
+        &args.out,
+        args.sam.as_deref(),
+        args.dinov2.as_deref(),
+        args.depth_model.as_deref(),
+        !super::logging::quiet(),
+    )?;
     let config = RunConfig {
         masks: computed.masks.or(args.masks).context("either --masks or --sam is needed")?,
         features: computed.features.or(args.features),

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use splatseg_synth::{generate, write, Family, SynthConfig, SynthScene};
+use splatseg_synth::{generate, write, Family, SynthConfig};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -104,38 +104,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         generated.as_secs_f64(),
         (started.elapsed() - generated).as_secs_f64()
     );
-    text.push_str(&hard_case_lines(&scene));
+    text.push_str(&scene.hard_case_lines());
     // A closed pipe (e.g. `| head`) is not an error of the command: the files are written.
     let _ = std::io::stdout().write_all(text.as_bytes());
     Ok(())
-}
-
-/// One line per hard case: which objects, and in which views.
-fn hard_case_lines(scene: &SynthScene) -> String {
-    let stems = |views: Vec<usize>| {
-        views.into_iter().map(|v| scene.views[v].stem.clone()).collect::<Vec<_>>().join(" ")
-    };
-    let name = |id: u32| scene.objects.get((id as usize).wrapping_sub(1)).map_or("?", |o| o.name.as_str());
-    let names = |mut ids: Vec<u32>| {
-        ids.sort_unstable();
-        ids.dedup();
-        ids.iter().map(|&id| name(id)).collect::<Vec<_>>().join(", ")
-    };
-    let hc = &scene.hard_cases;
-    let pair = |p: &splatseg_synth::hard_cases::PairCase| {
-        format!(
-            "{} + {}, touching in: {}",
-            name(p.ids[0]),
-            name(p.ids[1]),
-            stems(p.views.iter().filter(|v| v.touching).map(|v| v.view).collect())
-        )
-    };
-    format!(
-        "  white-on-white pair: {}\n  same-depth pair:     {}\n  occluded objects:    {}\n  \
-         cut by the frame:    {}\n  details per view: gt/objects.json\n",
-        pair(&hc.white_on_white),
-        pair(&hc.same_depth_pair),
-        names(hc.occlusions.iter().map(|o| o.id).collect()),
-        names(hc.frame_cuts.iter().map(|c| c.id).collect()),
-    )
 }

@@ -1,6 +1,5 @@
 //! `splatseg train`: 3DGS training on the CPU, and the paper's joint optimisation of object features.
 
-use anyhow::Context;
 use clap::Args as ClapArgs;
 use splatseg_pipeline::train_stage::{run_training, InitOptions, TrainRun};
 use splatseg_pipeline::PipelineConfig;
@@ -131,7 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let resolution = match args.resolution {
         Some(factor) => factor,
-        None => automatic_resolution(&args.scene)?,
+        None => splatseg_pipeline::train_stage::automatic_resolution(&args.scene)?,
     };
     let summary = run_training(&TrainRun {
         scene: args.scene,
@@ -150,22 +149,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!("{}", summary.table());
     println!("outputs: {} (gaussians.ply, quality.json, renders/)", summary.out.display());
     Ok(())
-}
-
-/// Widest image a view is trained at without `--resolution` (3DGS's rule).
-const MAX_AUTO_WIDTH_PX: u32 = 1600;
-
-/// 1, or the smallest whole factor that brings the widest camera of `scene` to 1600 px or less.
-fn automatic_resolution(scene: &std::path::Path) -> anyhow::Result<u32> {
-    let loaded = splatseg_scene::load_scene(scene, &splatseg_scene::LoadOptions::default())
-        .with_context(|| format!("cannot load scene {}", scene.display()))?;
-    let widest = loaded.views.iter().map(|v| loaded.camera(v).width).max().unwrap_or(0);
-    let factor = widest.div_ceil(MAX_AUTO_WIDTH_PX).max(1);
-    if factor > 1 {
-        tracing::warn!(
-            "images are up to {widest} px wide: training at 1/{factor} resolution (as 3DGS rescales above \
-             {MAX_AUTO_WIDTH_PX} px); pass --resolution 1 to keep the full size"
-        );
-    }
-    Ok(factor)
 }

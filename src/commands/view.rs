@@ -66,22 +66,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!("open {}", server.url());
     std::io::stdout().flush().context("writing to stdout")?;
     if args.open {
-        open_in_browser(server.url());
+        if let Err(e) = splatseg_view::open_in_browser(server.url()) {
+            tracing::warn!("cannot open a browser ({e}); open {} yourself", server.url());
+        }
     }
     server.wait();
     Ok(())
-}
-
-/// Asks the desktop to open `url`; a failure is only a warning (the URL is printed).
-fn open_in_browser(url: &str) {
-    let (program, args): (&str, Vec<&str>) = if cfg!(target_os = "macos") {
-        ("open", vec![url])
-    } else if cfg!(windows) {
-        ("cmd", vec!["/C", "start", "", url])
-    } else {
-        ("xdg-open", vec![url])
-    };
-    if let Err(e) = std::process::Command::new(program).args(&args).spawn() {
-        tracing::warn!("cannot open a browser ({program}: {e}); open {url} yourself");
-    }
 }

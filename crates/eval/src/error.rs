@@ -25,6 +25,14 @@ pub enum EvalError {
         /// The prediction file, when known.
         path: Option<PathBuf>,
     },
+    /// An option names a prediction set that no `--pred` set has.
+    #[error("{option} names set `{name}` but no --pred set has that name")]
+    UnknownSet {
+        /// The option (`--view-local`, `--pred-ply`).
+        option: &'static str,
+        /// The name given.
+        name: String,
+    },
     /// A prediction exists for a view the ground truth does not have.
     #[error("prediction for a view the ground truth does not have (no `{view}.png` in {}): {}", gt_dir.display(), path.display())]
     UnknownView {

@@ -31,6 +31,7 @@ pub mod folders;
 pub mod hungarian;
 pub mod markdown;
 pub mod metrics;
+pub mod named;
 pub mod photometric;
 pub mod view;
 
@@ -40,5 +41,6 @@ pub use error::EvalError;
 pub use folders::{evaluate_folders, evaluate_prediction_sets, list_label_maps, PredictionSet};
 pub use markdown::{summary_table, EvalReport, NamedMetrics};
 pub use metrics::{InstanceScore, LabelAccuracy3d, Metrics, ViewScore};
+pub use named::{evaluate_named_sets, NamedSets};
 pub use photometric::{psnr, psnr_masked, ssim, ssim_map, ssim_with_grad};
 pub use view::ViewCounts;

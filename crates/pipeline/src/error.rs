@@ -46,6 +46,9 @@ pub enum PipelineError {
     /// Rendering.
     #[error(transparent)]
     Render(#[from] splatseg_render::RenderError),
+    /// Generating a synthetic scene (`demo`).
+    #[error(transparent)]
+    Synth(#[from] splatseg_synth::SynthError),
     /// The `--config` TOML file.
     #[error(transparent)]
     Toml(#[from] toml::de::Error),

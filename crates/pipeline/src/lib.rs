@@ -3,10 +3,12 @@
 //! binary, the viewer's server or a binding can call it:
 //!
 //! - [`run_pipeline`] runs the whole pipeline ([`RunConfig`] → [`RunSummary`]);
-//! - [`merge_shard`] runs the per-view merge stage over one [`Shard`] `K/N` of the views (any
-//!   number of shards at once, as separate processes); a later [`run_pipeline`] on the same
-//!   output folder does only the global steps;
-//! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids).
+//! - [`merge_views`] runs `run`'s per-view merge stage alone (`splatseg merge`), over every view
+//!   or one [`Shard`] `K/N` of them (any number of shards at once, as separate processes), with
+//!   `run`'s inputs and cache keys; a later [`run_pipeline`] on the same output folder reuses it;
+//! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids);
+//! - [`scene_info`] (what a scene folder holds), [`demo`], [`render_views`], [`train_stage`]: the
+//!   other commands' work.
 //!
 //! Errors are [`PipelineError`]; [`PipelineError::report`] prints the chain of causes.
 //!
@@ -21,6 +23,7 @@
 
 mod cache;
 pub mod config;
+pub mod demo;
 pub mod digest;
 mod error;
 mod eval_stage;
@@ -30,12 +33,15 @@ mod lift_stage;
 pub mod lock;
 mod mask_input;
 mod merge_stage;
+mod merge_views;
 mod options;
 mod outputs;
 mod per_view;
 pub mod ply_input;
 pub mod profile;
+pub mod render_views;
 mod results;
+pub mod scene_info;
 pub mod shard;
 #[cfg(test)]
 mod tests;
@@ -50,8 +56,8 @@ use eval_stage::{eval_views, evaluate, local_offsets, offset_map, view_counts};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 use lift_stage::ViewResult;
 pub use mask_input::{mask_inputs, read_view_mask_inputs};
+pub use merge_views::{merge_shard, merge_views, MergeRequest, ShardSummary};
 pub use options::RunOptions;
-pub use per_view::{merge_shard, ShardSummary};
 use profile::Profiler;
 pub use profile::{peak_rss_bytes, PartTimes, StageProfile};
 use rayon::prelude::*;

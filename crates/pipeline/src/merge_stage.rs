@@ -1,12 +1,13 @@
 //! The per-view stages before matching: SAM masks → regions ("raw") → Multi-Cue merging
-//! ("merged"), cached per view in `OUT/cache/merge/`.
+//! ("merged"), cached per view in `OUT/cache/merge/` (`<stem>.raw.png`, `<stem>.merged.png`,
+//! `<stem>.json`; and `<stem>.log.json`, the merge's decisions, when [`MergeContext::keep_log`]).
 
 use super::cache::{read_json, write_json, KeyHasher};
 use super::read_view_mask_inputs;
 use crate::error::Context;
 use serde::{Deserialize, Serialize};
-use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions};
-use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, RegionSummary};
+use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions, RegionSource};
+use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, MergeLog, RegionSummary};
 use splatseg_scene::labels::{read_label_png, write_label_png};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene, View};
@@ -23,6 +24,17 @@ pub struct MergedView {
     pub regions: Vec<RegionSummary>,
     /// True when read from the cache.
     pub cached: bool,
+    /// What the merge decided, when [`MergeContext::keep_log`] asked for it.
+    pub log: Option<ViewMergeLog>,
+}
+
+/// What the merge of one view decided (`splatseg merge` writes it to `OUT/merge/<stem>.json`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ViewMergeLog {
+    /// `[n]` input regions (SAM masks after overlaps were resolved), index = input label − 1.
+    pub input_regions: Vec<RegionSource>,
+    /// Every decision, and the final id of each input region.
+    pub log: MergeLog,
 }
 
 /// What is cached next to the two label maps.
@@ -30,6 +42,13 @@ pub struct MergedView {
 struct CacheEntry {
     key: String,
     regions: Vec<RegionSummary>,
+}
+
+/// `<stem>.log.json`: the decisions, under the same key.
+#[derive(Serialize, Deserialize)]
+struct LogEntry {
+    key: String,
+    log: ViewMergeLog,
 }
 
 /// Everything every view's merge shares.
@@ -50,6 +69,9 @@ pub struct MergeContext<'a> {
     pub region_options: RegionOptions,
     /// `OUT/cache/merge`.
     pub cache_dir: PathBuf,
+    /// Keep each view's decisions ([`MergedView::log`]) in the cache too; a cached view without
+    /// them is merged again (to the same maps).
+    pub keep_log: bool,
 }
 
 impl MergeContext<'_> {
@@ -87,6 +109,15 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
     if entry.key != key {
         return None;
     }
+    let log = if ctx.keep_log {
+        let logged: LogEntry = read_json(&ctx.cache_dir.join(format!("{stem}.log.json")))?;
+        if logged.key != key {
+            return None;
+        }
+        Some(logged.log)
+    } else {
+        None
+    };
     let raw = read_label_png(&ctx.cache_dir.join(format!("{stem}.raw.png"))).ok()?;
     let merged = read_label_png(&ctx.cache_dir.join(format!("{stem}.merged.png"))).ok()?;
     (raw.size() == size && merged.size() == size).then_some(MergedView {
@@ -94,6 +125,7 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
         merged,
         regions: entry.regions,
         cached: true,
+        log,
     })
 }
 
@@ -141,18 +173,26 @@ pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::R
     })
     .with_context(|| format!("preparing the merge cues of view `{}`", view.stem))?;
     let result = merge_view(&inputs, ctx.config).with_context(|| format!("merging view `{}`", view.stem))?;
+    let log = ctx.keep_log.then_some(ViewMergeLog { input_regions: inputs.regions.sources, log: result.log });
     let merged = MergedView {
         raw: inputs.regions.labels,
         merged: result.labels,
         regions: result.regions,
         cached: false,
+        log,
     };
     write_label_png(&ctx.cache_dir.join(format!("{}.raw.png", view.stem)), &merged.raw)?;
     write_label_png(&ctx.cache_dir.join(format!("{}.merged.png", view.stem)), &merged.merged)?;
     write_json(
         &ctx.cache_dir.join(format!("{}.json", view.stem)),
-        &CacheEntry { key, regions: merged.regions.clone() },
+        &CacheEntry { key: key.clone(), regions: merged.regions.clone() },
     )?;
+    if let Some(log) = &merged.log {
+        write_json(
+            &ctx.cache_dir.join(format!("{}.log.json", view.stem)),
+            &LogEntry { key, log: log.clone() },
+        )?;
+    }
     Ok(merged)
 }
 

@@ -1,22 +1,19 @@
-//! The per-view merge as `run` and the shards (`merge --shard K/N`) share it: one view's depth
-//! (from `--depth`, or rendered from the Gaussians), its cache key, and the merge itself.
+//! The per-view merge as `run` and `splatseg merge` (sharded or not, [`crate::merge_views`])
+//! share it: one view's depth (from `--depth`, or the surface depth rendered from the Gaussians),
+//! its cache key, and the merge itself.
 
 use crate::cache::KeyHasher;
-use crate::error::{bail, Context};
+use crate::error::bail;
 use crate::lift_stage::ViewResult;
 use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
 use crate::profile::PartTimes;
-use crate::shard::{write_manifest, Shard, ShardManifest};
-use crate::{inputs, lock, visible, RunConfig};
-use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use crate::shard::Shard;
+use crate::{visible, RunConfig};
 use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{
-    view_depth_visibility_and_bins, view_surface_depth, LiftConfig, PosedCamera, PreparedGaussians,
-};
+use splatseg_lift::{view_depth_visibility_and_bins, LiftConfig, PosedCamera, PreparedGaussians};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -78,6 +75,7 @@ impl MergeSources {
             config: &config.pipeline.merge,
             region_options: config.pipeline.regions,
             cache_dir: config.out.join("cache").join("merge"),
+            keep_log: false,
         }
     }
 
@@ -210,68 +208,4 @@ impl PerView<'_> {
             spill,
         })
     }
-}
-
-/// What one shard of the merge stage did.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct ShardSummary {
-    /// Which shard.
-    pub shard: Shard,
-    /// Views of the scene.
-    pub views: usize,
-    /// Views of this shard that had masks (merged or found in the cache).
-    pub merged: usize,
-    /// Of those, from the cache.
-    pub cached: usize,
-}
-
-/// Runs the per-view merge stage of `run` over the views of `shard` only, into `OUT/cache/merge`
-/// (exactly what `run` would compute for them), and records the shard as finished. Any number of
-/// shards may run at once on the same `OUT`; a later [`crate::run_pipeline`] on it finds every
-/// view's merge there and does only the global steps.
-pub fn merge_shard(config: &RunConfig, shard: Shard) -> crate::Result<ShardSummary> {
-    let _lock = lock::lock_output_shared(&config.out, "merge")?;
-    let load = LoadOptions::default();
-    let scene = splatseg_scene::load_scene(&config.scene, &load)?;
-    splatseg_scene::load::check_image_sizes(&scene, &load)?;
-    let has_masks = inputs::views_with_masks(&scene, &config.masks)?;
-    let ply_path = inputs::gaussians_path(&config.scene, config.gaussians.as_deref());
-    let ply_rows =
-        ply_path.as_deref().map(|p| inputs::read_gaussians(p, config.options.strict)).transpose()?;
-    let gaussians = ply_rows.as_ref().map(inputs::finite_gaussians);
-    if gaussians.is_none() && config.depth.is_none() {
-        bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
-    }
-    let prepared = gaussians.as_ref().map(|g| PreparedGaussians::new(g)).transpose()?;
-    drop(gaussians);
-    drop(ply_rows);
-    let lift = &config.pipeline.lift;
-    let ply_key = ply_key(ply_path.as_deref(), lift)?;
-    let sources = MergeSources::new(config, &ply_key);
-    let ctx = sources.context(&scene, &load, config);
-    let mine: Vec<usize> = (0..scene.views.len()).filter(|&v| shard.contains(v) && has_masks[v]).collect();
-    let bar = crate::progress(mine.len(), "merge shard", config.options);
-    let cached = mine
-        .par_iter()
-        .map(|&v| -> crate::Result<bool> {
-            let view = &scene.views[v];
-            let metric = prepared.as_ref().map(|p| {
-                finite_depth(&view_surface_depth(p, scene.camera(view), &view.world_from_cam, lift))
-            });
-            let merged = sources.merge(&ctx, v, metric).with_context(|| format!("shard {shard}"))?;
-            bar.inc(1);
-            Ok(merged.cached)
-        })
-        .collect::<Vec<crate::Result<bool>>>()
-        .into_iter()
-        .collect::<crate::Result<Vec<bool>>>()?; // the first error in view order
-    bar.finish_and_clear();
-    let views = mine.iter().map(|&v| scene.views[v].stem.clone()).collect();
-    write_manifest(&config.out, &ShardManifest { stage: "merge".into(), shard, views })?;
-    Ok(ShardSummary {
-        shard,
-        views: scene.views.len(),
-        merged: mine.len(),
-        cached: cached.iter().filter(|&&c| c).count(),
-    })
 }

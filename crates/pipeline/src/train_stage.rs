@@ -480,3 +480,21 @@ impl TrainSummary {
         s
     }
 }
+
+/// Widest image a view is trained at without `--resolution` (3DGS's rule).
+const MAX_AUTO_WIDTH_PX: u32 = 1600;
+
+/// The image down-scaling factor for training without `--resolution`: 1, or the smallest whole factor that brings the widest camera of `scene` to 1600 px or less.
+pub fn automatic_resolution(scene: &std::path::Path) -> crate::Result<u32> {
+    let loaded = splatseg_scene::load_scene(scene, &splatseg_scene::LoadOptions::default())
+        .with_context(|| format!("cannot load scene {}", scene.display()))?;
+    let widest = loaded.views.iter().map(|v| loaded.camera(v).width).max().unwrap_or(0);
+    let factor = widest.div_ceil(MAX_AUTO_WIDTH_PX).max(1);
+    if factor > 1 {
+        tracing::warn!(
+            "images are up to {widest} px wide: training at 1/{factor} resolution (as 3DGS rescales above \
+             {MAX_AUTO_WIDTH_PX} px); pass --resolution 1 to keep the full size"
+        );
+    }
+    Ok(factor)
+}

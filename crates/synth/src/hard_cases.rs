@@ -135,3 +135,37 @@ pub fn find_hard_cases(objects: &[SceneObject], views: &[RenderedView]) -> HardC
         frame_cuts,
     }
 }
+
+impl crate::SynthScene {
+    /// One line per hard case: which objects, and in which views (what `splatseg synth` prints).
+    pub fn hard_case_lines(&self) -> String {
+        let scene = self;
+        let stems = |views: Vec<usize>| {
+            views.into_iter().map(|v| scene.views[v].stem.clone()).collect::<Vec<_>>().join(" ")
+        };
+        let name =
+            |id: u32| scene.objects.get((id as usize).wrapping_sub(1)).map_or("?", |o| o.name.as_str());
+        let names = |mut ids: Vec<u32>| {
+            ids.sort_unstable();
+            ids.dedup();
+            ids.iter().map(|&id| name(id)).collect::<Vec<_>>().join(", ")
+        };
+        let hc = &scene.hard_cases;
+        let pair = |p: &PairCase| {
+            format!(
+                "{} + {}, touching in: {}",
+                name(p.ids[0]),
+                name(p.ids[1]),
+                stems(p.views.iter().filter(|v| v.touching).map(|v| v.view).collect())
+            )
+        };
+        format!(
+            "  white-on-white pair: {}\n  same-depth pair:     {}\n  occluded objects:    {}\n  \
+         cut by the frame:    {}\n  details per view: gt/objects.json\n",
+            pair(&hc.white_on_white),
+            pair(&hc.same_depth_pair),
+            names(hc.occlusions.iter().map(|o| o.id).collect()),
+            names(hc.frame_cuts.iter().map(|c| c.id).collect()),
+        )
+    }
+}

@@ -25,5 +25,5 @@ pub mod source;
 
 pub use error::{ViewError, ViewResult};
 pub use routes::Site;
-pub use server::ViewServer;
+pub use server::{open_in_browser, ViewServer};
 pub use source::{SourceOptions, ViewSource};

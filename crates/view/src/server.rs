@@ -98,3 +98,19 @@ fn to_response(reply: Reply<'_>) -> tiny_http::Response<std::io::Cursor<Vec<u8>>
     }
     response
 }
+
+/// Asks the desktop to open `url` in the default browser (`open`, `start` or `xdg-open`); the
+/// error names the program that failed.
+pub fn open_in_browser(url: &str) -> std::io::Result<()> {
+    let (program, args): (&str, Vec<&str>) = if cfg!(target_os = "macos") {
+        ("open", vec![url])
+    } else if cfg!(windows) {
+        ("cmd", vec!["/C", "start", "", url])
+    } else {
+        ("xdg-open", vec![url])
+    };
+    match std::process::Command::new(program).args(&args).spawn() {
+        Ok(_) => Ok(()),
+        Err(e) => Err(std::io::Error::new(e.kind(), format!("{program}: {e}"))),
+    }
+}

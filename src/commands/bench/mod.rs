@@ -3,12 +3,8 @@
 
 use clap::{Args as ClapArgs, Subcommand};
 
-pub mod ceiling;
 pub mod quality;
 pub mod scale;
-pub mod suite;
-#[cfg(test)]
-mod suite_tests;
 
 /// Measure the pipeline over many scenes and print the distributions.
 #[derive(Debug, ClapArgs)]

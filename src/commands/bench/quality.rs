@@ -1,16 +1,12 @@
-//! `splatseg bench quality`: the stress suite's distributions (see [`super::suite`]).
+//! `splatseg bench quality`: the stress suite's distributions (`splatseg_bench::quality`).
 
-use super::suite::{
-    markdown, parse_seeds, score_scene, Descriptors, SceneOverrides, SceneScore, DEFAULT_FAMILIES,
-    REPORT_SEEDS, TUNING_SEEDS,
-};
 use crate::commands::synth::parse_family;
-use anyhow::Context;
 use clap::Args as ClapArgs;
+use splatseg_bench::quality::{quality, QualityRequest};
+use splatseg_bench::suite::SceneOverrides;
 use splatseg_synth::Family;
 use std::io::Write;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// The long help.
 pub const LONG_ABOUT: &str = "\
@@ -74,84 +70,23 @@ pub struct Args {
     pub worst: usize,
 }
 
-fn seeds_of(text: &str) -> anyhow::Result<Vec<u64>> {
-    match text.trim() {
-        "tuning" => Ok(TUNING_SEEDS.collect()),
-        "report" => Ok(REPORT_SEEDS.collect()),
-        t => parse_seeds(t).map_err(anyhow::Error::msg).context("--seeds"),
-    }
-}
-
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let seeds = seeds_of(&args.seeds)?;
-    let families = if args.families.is_empty() { DEFAULT_FAMILIES.to_vec() } else { args.families.clone() };
-    let descriptors: Vec<Descriptors> = if args.no_features {
-        vec![Descriptors::Features, Descriptors::ModelFree]
-    } else {
-        vec![Descriptors::Features]
-    };
-    let overrides = SceneOverrides { size: args.size, views: args.views };
     let pipeline = match &args.config {
         Some(path) => splatseg_pipeline::PipelineConfig::from_file(path)?,
         None => splatseg_pipeline::PipelineConfig::default(),
     };
-    let work_root = match &args.out {
-        Some(out) => out.join("scenes"),
-        None => std::env::temp_dir().join(format!("splatseg-bench-{}", std::process::id())),
+    let request = QualityRequest {
+        seeds: args.seeds,
+        families: args.families,
+        overrides: SceneOverrides { size: args.size, views: args.views },
+        no_features: args.no_features,
+        out: args.out,
+        keep: args.keep,
+        pipeline,
+        worst: args.worst,
     };
-    let started = Instant::now();
-    let total = families.len() * seeds.len();
-    let mut scores: Vec<SceneScore> = Vec::new();
-    for (k, &family) in families.iter().enumerate() {
-        for (j, &seed) in seeds.iter().enumerate() {
-            let work = work_root.join(format!("{family}_{seed}"));
-            let scene = score_scene(family, seed, overrides, &descriptors, &pipeline, &work)?;
-            if !args.keep {
-                std::fs::remove_dir_all(&work)
-                    .with_context(|| format!("cannot remove the scene folder {}", work.display()))?;
-            }
-            for s in &scene {
-                eprintln!(
-                    "[{}/{total}] {family} seed {seed} ({}): mIoU {:.3}, boundary {:.3}, consistency {:.3}, \
-                     ids/GT {:.2}, 3D acc. {:.3}, unlabelled {:.3} ({:.1} s)",
-                    k * seeds.len() + j + 1,
-                    if s.descriptors == Descriptors::Features { "features" } else { "model-free" },
-                    s.miou,
-                    s.boundary_miou,
-                    s.consistency,
-                    s.ids_per_gt,
-                    s.accuracy_3d,
-                    s.unlabelled_share,
-                    s.seconds
-                );
-            }
-            scores.extend(scene);
-        }
-    }
-    if args.out.is_none() || !args.keep {
-        let _ = std::fs::remove_dir(&work_root);
-    }
-    let names: Vec<&str> = families.iter().map(|f| f.name()).collect();
-    let mut text = format!(
-        "# splatseg bench quality\n\nseeds {} ({} scenes per family), families {}{}{}; {:.0} s in all\n",
-        args.seeds,
-        seeds.len(),
-        names.join(" "),
-        args.size.map_or(String::new(), |(w, h)| format!(", size {w}x{h}")),
-        args.views.map_or(String::new(), |v| format!(", {v} views")),
-        started.elapsed().as_secs_f64()
-    );
-    for d in &descriptors {
-        let of: Vec<SceneScore> = scores.iter().filter(|s| s.descriptors == *d).cloned().collect();
-        text.push_str(&format!("\n## {}\n\n{}", d.name(), markdown(&of, args.worst)));
-    }
-    if let Some(out) = &args.out {
-        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        splatseg_scene::atomic::write_bytes_atomic(&out.join("quality.md"), text.as_bytes())?;
-        let json = serde_json::to_vec_pretty(&scores).context("encoding the scores")?;
-        splatseg_scene::atomic::write_bytes_atomic(&out.join("quality.json"), &json)?;
-    }
+    let text = quality(&request, &mut |line| eprintln!("{line}"))?;
     let _ = std::io::stdout().write_all(text.as_bytes());
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! (`synth` → `run` with features, Gaussians and ground truth), and the distributions over
 //! many scenes (per metric, per family, per failure class).
 
-use anyhow::Context;
+use crate::error::Context;
 use serde::Serialize;
 use splatseg_cues::DepthKind;
 use splatseg_pipeline::{run_pipeline, PipelineConfig, RunConfig};
@@ -124,7 +124,7 @@ pub fn score_scene(
     descriptors: &[Descriptors],
     pipeline: &PipelineConfig,
     work: &Path,
-) -> anyhow::Result<Vec<SceneScore>> {
+) -> crate::Result<Vec<SceneScore>> {
     let started = Instant::now();
     let config = scene_config(family, seed, overrides);
     let synth = generate(&config).with_context(|| format!("generating {family} seed {seed}"))?;
@@ -148,7 +148,7 @@ pub fn score_scene(
                 Descriptors::Features => "run_features",
                 Descriptors::ModelFree => "run_model_free",
             }),
-            options: crate::commands::run_options(),
+            options: Default::default(),
         };
         let summary = run_pipeline(&run).with_context(|| format!("running {family} seed {seed}"))?;
         let report = summary.report.as_ref().context("the run scored no ground truth")?;
@@ -160,7 +160,7 @@ pub fn score_scene(
         };
         let gt: Vec<(&str, &splatseg_scene::Plane<u32>)> =
             synth.views.iter().map(|v| (v.stem.as_str(), &v.gt_instance)).collect();
-        let ceilings = super::ceiling::ceilings(&run.out.join("cache").join("merge"), &gt)
+        let ceilings = crate::ceiling::ceilings(&run.out.join("cache").join("merge"), &gt)
             .with_context(|| format!("the ceilings of {family} seed {seed}"))?;
         let instances = m
             .instances

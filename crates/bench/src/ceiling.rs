@@ -4,7 +4,7 @@
 //! and the merged regions (what is left after merging; a wrong merge lowers it, a missing merge
 //! does not). The distance from these ceilings to the final maps says which stage loses what.
 
-use anyhow::Context;
+use crate::error::Context;
 use splatseg_eval::{EvalConfig, Metrics, ViewCounts};
 use splatseg_scene::labels::read_label_png;
 use splatseg_scene::Plane;
@@ -42,9 +42,9 @@ pub fn oracle_labels(regions: &Plane<u32>, gt: &Plane<u32>) -> Plane<u32> {
 
 /// The ceilings of the run whose merge cache is `cache_dir` (`OUT/cache/merge`), against the
 /// ground truth of `views` (`(stem, [H, W] instance ids)`).
-pub fn ceilings(cache_dir: &Path, views: &[(&str, &Plane<u32>)]) -> anyhow::Result<Ceilings> {
+pub fn ceilings(cache_dir: &Path, views: &[(&str, &Plane<u32>)]) -> crate::Result<Ceilings> {
     let cfg = EvalConfig::default();
-    let score = |kind: &str| -> anyhow::Result<f64> {
+    let score = |kind: &str| -> crate::Result<f64> {
         let mut counts = Vec::with_capacity(views.len());
         for &(stem, gt) in views {
             let path = cache_dir.join(format!("{stem}.{kind}.png"));

@@ -1,0 +1,40 @@
+//! The binary only parses arguments and prints (issue 26): the library logic lives in the crates
+//! under `crates/`, so `src/` stays small. Counts every line of every `.rs` file under `src/`.
+
+use std::path::{Path, PathBuf};
+
+/// Most lines `src/` may hold. Issue 26's target is 1,000; until the command-line options are
+/// reduced (its deliverable 3) the bar is what the thin binary measured, lowered as lines go and
+/// never raised.
+const MAX_SRC_LINES: usize = 1_700;
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("src/ is listable").flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn src_holds_at_most_its_line_budget() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    assert!(files.iter().any(|f| f.ends_with("main.rs")), "src/main.rs is counted");
+    let counts: Vec<(usize, &PathBuf)> = files
+        .iter()
+        .map(|f| (std::fs::read_to_string(f).expect("readable source").lines().count(), f))
+        .collect();
+    let total: usize = counts.iter().map(|c| c.0).sum();
+    let listing: Vec<String> = counts.iter().map(|(n, f)| format!("{n:5} {}", f.display())).collect();
+    assert!(
+        total <= MAX_SRC_LINES,
+        "src/ holds {total} lines, more than {MAX_SRC_LINES}: move library logic into a crate\n{}",
+        listing.join("\n")
+    );
+}
