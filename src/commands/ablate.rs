@@ -29,21 +29,9 @@ use std::path::PathBuf;
 /// depth; metric depth for the relative gate rendered from its Gaussians.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
-    /// Seed of the synthetic scene.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Number of views.
-    #[arg(long, default_value_t = 12)]
-    pub views: usize,
-    /// Image size as WIDTHxHEIGHT.
-    #[arg(long, value_parser = super::parse_size)]
-    pub size: Option<(u32, u32)>,
     /// Base merge settings (TOML `MergeConfig`); default: the paper profile.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Also write the tables to this Markdown file.
-    #[arg(long)]
-    pub markdown: Option<PathBuf>,
 }
 
 fn miou(stem: &str, gt: &Plane<u32>, pred: &Plane<u32>) -> Option<f64> {
@@ -103,10 +91,7 @@ fn table(rows: &Rows) -> String {
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let base = super::merge::read_config(args.config.as_deref())?;
-    let mut synth = SynthConfig { seed: args.seed, views: args.views, ..SynthConfig::default() };
-    if let Some((w, h)) = args.size {
-        (synth.width, synth.height) = (w, h);
-    }
+    let synth = SynthConfig::default(); // seed 0, 12 views: the scene the documented tables are of
     let scene = generate(&synth).context("generating the synthetic scene")?;
     let views = study_views(&scene, RegionOptions::default())?;
     let sam_masks =
@@ -120,7 +105,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         synth.seed, synth.views, synth.width, synth.height
     )?;
 
-    let profiles = [Profile::Literal, Profile::ReleasedCode]
+    let profiles = [Profile::Literal]
         .into_iter()
         .map(|p| (format!("{p:?}"), MergeConfig::for_profile(p)))
         .chain([("Paper (default)".to_string(), base.clone())])
@@ -160,7 +145,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ];
     writeln!(out, "### Depth gates\n\n{}", table(&rows_for(&views, gates)?))?;
     let pair = keep_apart_decisions(&views, &base)?;
-    let adjacent: Vec<_> = pair.iter().filter(|d| d.decision.terms.contact >= base.tau_contact).collect();
+    let adjacent: Vec<_> =
+        pair.iter().filter(|d| d.decision.terms.contact >= splatseg_merge::TAU_CONTACT).collect();
     let range = |f: &dyn Fn(&splatseg_merge::ScoreTerms) -> Option<f32>| {
         let v: Vec<f32> = adjacent.iter().filter_map(|d| f(&d.decision.terms)).collect();
         let lo = v.iter().cloned().fold(f32::INFINITY, f32::min);
@@ -196,8 +182,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     writeln!(out, "### Uncovered pixels (large SAM holes)\n\n{}", table(&rows))?;
 
     print!("{out}");
-    if let Some(path) = &args.markdown {
-        splatseg_scene::atomic::write_bytes_atomic(path, out.as_bytes())?;
-    }
     Ok(())
 }

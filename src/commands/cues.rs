@@ -35,39 +35,22 @@ pub struct Args {
     /// Segment Anything checkpoint (`sam_vit_{b,l,h}_*.pth`).
     #[arg(long)]
     pub sam: Option<PathBuf>,
-    /// Long side (px) of the image DINOv2 sees, rounded to multiples of 14.
-    #[arg(long, default_value_t = 518)]
-    pub dinov2_size: usize,
-    /// Short side (px) of the image Depth Anything sees, rounded to multiples of 14.
-    #[arg(long, default_value_t = 518)]
-    pub depth_size: usize,
-    /// SAM prompt grid points per side.
-    #[arg(long, default_value_t = 32)]
-    pub points_per_side: usize,
-    /// SAM crop layers (0 = whole image only).
-    #[arg(long, default_value_t = 0)]
-    pub crop_layers: usize,
-    /// SAM: holes and islands smaller than this many pixels are removed (0 = off).
-    #[arg(long, default_value_t = 0)]
-    pub min_region_area: usize,
-    /// Skip the LoG edge maps.
-    #[arg(long)]
+    /// Skip the LoG edge maps (not an option: `run` computes its own).
+    #[arg(skip)]
     pub no_log: bool,
     /// Image down-scaling factor (as 3DGS `--resolution`).
     #[arg(long, default_value_t = 1)]
     pub resolution: u32,
-    /// Blender split to read.
-    #[arg(long, default_value = "train")]
-    pub split: String,
-    /// Only the first N views.
-    #[arg(long)]
-    pub max_views: Option<usize>,
-    /// Shard `K/N` (0 ≤ K < N): only the views `v` with `v mod N = K` (after --max-views). Shards
+    /// Shard `K/N` (0 ≤ K < N): only the views `v` with `v mod N = K`. Shards
     /// may run at once on the same --out (a Slurm job array, a Kubernetes indexed Job); together
     /// they write exactly what one unsharded run writes.
     #[arg(long)]
     pub shard: Option<splatseg_pipeline::Shard>,
 }
+
+/// Side (px) of the image DINOv2 (long side) and Depth Anything (short side) see: both
+/// reference implementations' 518 (37 patches of 14).
+const MODEL_INPUT_PX: usize = 518;
 
 impl Args {
     /// The command-line defaults for `scene` → `out`, with no model (for callers such as `run`).
@@ -78,15 +61,8 @@ impl Args {
             dinov2: None,
             depth_model: None,
             sam: None,
-            dinov2_size: 518,
-            depth_size: 518,
-            points_per_side: 32,
-            crop_layers: 0,
-            min_region_area: 0,
             no_log: false,
             resolution: 1,
-            split: "train".to_string(),
-            max_views: None,
             shard: None,
         }
     }
@@ -214,43 +190,31 @@ fn checkpoint_id(path: &Path) -> String {
 
 /// Runs the chosen models on every view.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let options =
-        LoadOptions { resolution: args.resolution, split: args.split.clone(), ..LoadOptions::default() };
+    let options = LoadOptions { resolution: args.resolution, ..LoadOptions::default() }; // Blender: the train split, as `run`
     let scene = load_scene(&args.scene, &options)?;
     let _lock = match args.shard {
         Some(_) => splatseg_pipeline::lock::lock_output_shared(&args.out, "cues")?,
         None => splatseg_pipeline::lock::lock_output(&args.out, "cues")?,
     };
     let shard = args.shard.unwrap_or(splatseg_pipeline::Shard::ALL);
-    let views: Vec<&View> = scene
-        .views
-        .iter()
-        .take(args.max_views.unwrap_or(usize::MAX))
-        .enumerate()
-        .filter(|(v, _)| shard.contains(*v))
-        .map(|(_, view)| view)
-        .collect();
+    let views: Vec<&View> =
+        scene.views.iter().enumerate().filter(|(v, _)| shard.contains(*v)).map(|(_, view)| view).collect();
     let mut cues: Vec<Box<dyn Cue>> = Vec::new();
     if let Some(path) = &args.sam {
         let model = Sam::load(path)?;
-        let config = AmgConfig {
-            points_per_side: args.points_per_side,
-            crop_n_layers: args.crop_layers,
-            min_mask_region_area: args.min_region_area,
-            ..AmgConfig::default()
-        };
+        let config = AmgConfig::default(); // SAM's automatic mask generator defaults, as `run`
         cues.push(Box::new(SamCue { model, id: checkpoint_id(path), config }));
     }
     if let Some(path) = &args.dinov2 {
         cues.push(Box::new(FeatureCue {
             model: Dinov2::load(path)?,
             id: checkpoint_id(path),
-            long_side: args.dinov2_size,
+            long_side: MODEL_INPUT_PX,
         }));
     }
     if let Some(path) = &args.depth_model {
         let model = DepthAnything::load(path)?;
-        cues.push(Box::new(DepthCue { model, id: checkpoint_id(path), short_side: args.depth_size }));
+        cues.push(Box::new(DepthCue { model, id: checkpoint_id(path), short_side: MODEL_INPUT_PX }));
     }
     if !args.no_log {
         cues.push(Box::new(LogCue));

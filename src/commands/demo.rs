@@ -22,12 +22,6 @@ pub struct Args {
     /// Seed of the synthetic scene.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Number of views.
-    #[arg(long, default_value_t = 12)]
-    pub views: usize,
-    /// Image size as WIDTHxHEIGHT.
-    #[arg(long, default_value = "320x240", value_parser = super::parse_size)]
-    pub size: (u32, u32),
     /// Iterations of the train stage after the pipeline (0 = skip): the first 100 photometric only,
     /// the rest the joint optimisation of object features seeded by the lifted ids.
     #[arg(long, default_value_t = 300)]
@@ -42,10 +36,7 @@ pub struct Args {
 /// Runs the demo.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = splatseg_synth::SynthConfig {
-        seed: args.seed,
-        views: args.views,
-        width: args.size.0,
-        height: args.size.1,
+        seed: args.seed, // 12 views of 320×240: the demo's scene (`synth` + `run` for others)
         ..Default::default()
     };
     let scene_dir = args.out.join("scene");

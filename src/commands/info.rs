@@ -44,9 +44,6 @@ pub struct Args {
     /// `images_<f>/` is used when present.
     #[arg(long, default_value_t = 1)]
     pub resolution: u32,
-    /// Blender split to read (`train`, `val`, `test`).
-    #[arg(long, default_value = "train")]
-    pub split: String,
     /// Print the report as JSON on stdout (warnings included) instead of text.
     #[arg(long)]
     pub json: bool,
@@ -130,8 +127,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// Loads the scene and everything beside it that `args` points to.
 pub fn inspect(args: &Args) -> anyhow::Result<Report> {
-    let options =
-        LoadOptions { resolution: args.resolution, split: args.split.clone(), ..LoadOptions::default() };
+    let options = LoadOptions { resolution: args.resolution, ..LoadOptions::default() }; // Blender: the train split
     let scene = load_scene(&args.path, &options)
         .with_context(|| format!("cannot load a scene from {}", args.path.display()))?;
     let (views_resized_on_load, image_problems) = check_images(&scene, &options);

@@ -63,7 +63,7 @@ pub struct Args {
     /// 3DGS PLY for rendered depth (default: SCENE/gaussians.ply when present).
     #[arg(long)]
     pub gaussians: Option<PathBuf>,
-    /// Merge settings (TOML `MergeConfig`; `profile = "paper" | "literal" | "released-code"`). With
+    /// Merge settings (TOML `MergeConfig`; `profile = "paper" | "literal"`). With
     /// --shard: `run`'s pipeline TOML (`splatseg config`), the same file the later `run` gets.
     #[arg(long)]
     pub config: Option<PathBuf>,

@@ -39,6 +39,9 @@ Examples:
   splatseg bench quality --seeds 100..108 --family hires --no-features
   splatseg bench quality --seeds 0..4 --config merge-off.toml --out tuning-merge-off";
 
+/// How many of the worst scenes the report lists.
+const WORST_LISTED: usize = 8;
+
 /// Score the pipeline over many synthetic scenes of the stress suite.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
@@ -49,29 +52,16 @@ pub struct Args {
     /// sam_noise.
     #[arg(long = "family", value_parser = parse_family)]
     pub families: Vec<Family>,
-    /// Image size WIDTHxHEIGHT instead of the family's (SAM's pixel settings and the thin
-    /// posts scale with it).
-    #[arg(long, value_parser = crate::commands::parse_size)]
-    pub size: Option<(u32, u32)>,
-    /// Number of views instead of the family's.
-    #[arg(long)]
-    pub views: Option<usize>,
     /// Also run every scene without --features (the model-free descriptors) and report it too.
     #[arg(long)]
     pub no_features: bool,
-    /// Output folder: `quality.md`, `quality.json`, and with --keep the scenes and runs.
+    /// Output folder: `quality.md` and `quality.json`.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Keep every scene and run folder under OUT/scenes (they are deleted after scoring).
-    #[arg(long)]
-    pub keep: bool,
     /// A pipeline config (TOML, as for `splatseg run --config`) for every run instead of the
     /// defaults: to compare settings on the tuning seeds.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// How many of the worst scenes to list.
-    #[arg(long, default_value_t = 8)]
-    pub worst: usize,
 }
 
 fn seeds_of(text: &str) -> anyhow::Result<Vec<u64>> {
@@ -91,7 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         vec![Descriptors::Features]
     };
-    let overrides = SceneOverrides { size: args.size, views: args.views };
+    let overrides = SceneOverrides { size: None, views: None }; // each family's own size and views
     let pipeline = match &args.config {
         Some(path) => splatseg_pipeline::PipelineConfig::from_file(path)?,
         None => splatseg_pipeline::PipelineConfig::default(),
@@ -107,10 +97,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for (j, &seed) in seeds.iter().enumerate() {
             let work = work_root.join(format!("{family}_{seed}"));
             let scene = score_scene(family, seed, overrides, &descriptors, &pipeline, &work)?;
-            if !args.keep {
-                std::fs::remove_dir_all(&work)
-                    .with_context(|| format!("cannot remove the scene folder {}", work.display()))?;
-            }
+            std::fs::remove_dir_all(&work)
+                .with_context(|| format!("cannot remove the scene folder {}", work.display()))?;
             for s in &scene {
                 eprintln!(
                     "[{}/{total}] {family} seed {seed} ({}): mIoU {:.3}, boundary {:.3}, consistency {:.3}, \
@@ -129,22 +117,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             scores.extend(scene);
         }
     }
-    if args.out.is_none() || !args.keep {
-        let _ = std::fs::remove_dir(&work_root);
-    }
+    let _ = std::fs::remove_dir(&work_root);
     let names: Vec<&str> = families.iter().map(|f| f.name()).collect();
     let mut text = format!(
         "# splatseg bench quality\n\nseeds {} ({} scenes per family), families {}{}{}; {:.0} s in all\n",
         args.seeds,
         seeds.len(),
         names.join(" "),
-        args.size.map_or(String::new(), |(w, h)| format!(", size {w}x{h}")),
-        args.views.map_or(String::new(), |v| format!(", {v} views")),
+        overrides.size.map_or(String::new(), |(w, h)| format!(", size {w}x{h}")),
+        overrides.views.map_or(String::new(), |v| format!(", {v} views")),
         started.elapsed().as_secs_f64()
     );
     for d in &descriptors {
         let of: Vec<SceneScore> = scores.iter().filter(|s| s.descriptors == *d).cloned().collect();
-        text.push_str(&format!("\n## {}\n\n{}", d.name(), markdown(&of, args.worst)));
+        text.push_str(&format!("\n## {}\n\n{}", d.name(), markdown(&of, WORST_LISTED)));
     }
     if let Some(out) = &args.out {
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;

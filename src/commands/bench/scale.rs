@@ -24,6 +24,9 @@ are the synthetic ones subsampled evenly to G, or repeated with a small determin
 
 Example: splatseg bench scale --views 100 --size 1280x960 --gaussians 1000000 --dir /tmp/scale";
 
+/// Seed of the synthetic capture (one fixed scene, so runs compare).
+const SCENE_SEED: u64 = 0;
+
 /// Arguments of `bench scale`.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
@@ -36,9 +39,6 @@ pub struct Args {
     /// Gaussians in the PLY.
     #[arg(long, default_value_t = 1_000_000)]
     pub gaussians: usize,
-    /// Scene seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
     /// Most distinct views rendered; further views repeat them.
     #[arg(long, default_value_t = 100)]
     pub distinct_views: usize,
@@ -53,7 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("--views, --gaussians and --distinct-views must be at least 1");
     }
     let (w, h) = args.size;
-    let name = format!("scene-{}v-{w}x{h}-{}g-s{}", args.views, args.gaussians, args.seed);
+    let name = format!("scene-{}v-{w}x{h}-{}g-s{}", args.views, args.gaussians, SCENE_SEED);
     let scene = args.dir.join(&name);
     let started = Instant::now();
     let wanted = ready_marker(&args);
@@ -163,7 +163,7 @@ fn wait_with_peak(mut child: std::process::Child) -> anyhow::Result<(bool, Optio
 fn write_capture(args: &Args, dir: &Path) -> anyhow::Result<()> {
     let (w, h) = args.size;
     let distinct = args.views.min(args.distinct_views);
-    let mut config: SynthConfig = Family::Rooms.config(args.seed);
+    let mut config: SynthConfig = Family::Rooms.config(SCENE_SEED);
     config.sam = config.sam.scaled(w as f64 / config.width as f64);
     config.views = distinct;
     config.width = w;
@@ -205,7 +205,7 @@ fn ready_marker(args: &Args) -> String {
         "distinct_views": distinct,
         "size": [args.size.0, args.size.1],
         "gaussians": args.gaussians,
-        "seed": args.seed,
+        "seed": SCENE_SEED,
     })
     .to_string()
 }
