@@ -85,7 +85,7 @@ fn config_prints_the_papers_defaults_as_toml() {
     let text = String::from_utf8(out.stdout).expect("utf-8");
     assert!(text.contains("tau_merge = 0.85\n"), "{text}");
     assert!(text.contains("tau_depth = 0.15\n"), "{text}");
-    assert!(text.contains("[matching]") && text.contains("[lift]"), "{text}");
+    assert!(text.contains("[match]") && text.contains("[lift]") && text.contains("[final_maps]"), "{text}");
     assert!(text.contains("[train]") && text.contains("iterations = 100000\n"), "{text}");
     assert!(text.contains("lambda_semantic = 0.1\n") && text.contains("lambda_reg = 0.01\n"), "{text}");
     assert!(text.contains("identity_maps = true\n") && text.contains("readback = \"rendered\"\n"), "{text}");

@@ -65,7 +65,7 @@ fn view_on_a_port_in_use_fails_and_names_the_address() {
     assert!(err.contains("cannot listen") && err.contains(&port), "{err}");
 }
 
-/// The server of `splatseg view PATH --port 0 …`, stopped on drop.
+/// The server of `splatseg view PATH --listen 127.0.0.1:0 …`, stopped on drop.
 struct Served {
     child: Child,
     url: String,

@@ -79,7 +79,7 @@ impl ContributionVisitor for DepthBand<'_> {
 }
 
 /// Surface depth per pixel of a projected view: `[height, width]` metric z (+∞ where
-/// transmittance never drops below `surface_transmittance`).
+/// transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
 pub fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
     let (width, height) = (view.width, view.height);
     let band_rows = splatseg_render::bin::TILE_SIZE;
@@ -100,7 +100,7 @@ pub fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
 }
 
 /// The surface depth of one view from the Gaussians' own footprints: `[height, width]` metric z
-/// (+∞ where transmittance never drops below `surface_transmittance`).
+/// (+∞ where transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
 pub fn view_surface_depth(
     gaussians: &PreparedGaussians,
     camera: &Camera,

@@ -370,7 +370,7 @@ mod tests {
 
     #[test]
     fn old_keys_get_an_error_naming_the_new_key_or_the_constant() {
-        let err = |text: &str| parse(text).expect_err(text).to_string();
+        let err = |text: &str| parse(text).expect_err(text).report();
         let e = err("[lift]\nfinal_maps = \"snapped\"\n");
         assert!(e.contains("[lift] final_maps") && e.contains("[final_maps] kind"), "{e}");
         let e = err("[lift]\ntau_seam = 0.8\n");
