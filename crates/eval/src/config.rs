@@ -37,8 +37,8 @@ pub struct EvalConfig {
     /// Treatment of ground-truth pixels with value 0.
     pub unlabelled_gt: UnlabelledGt,
     /// Scope of the predicted ids. Not a file key: `run`'s ids are global, and `splatseg eval`
-    /// sets it per prediction set (`--view-local`).
-    #[serde(skip)]
+    /// sets it per prediction set (`--view-local`). Still written (metrics.json reports it).
+    #[serde(skip_deserializing)]
     pub pred_id_scope: IdScope,
 }
 

@@ -226,7 +226,7 @@ impl PipelineConfig {
             ("lift".to_string(), to_value(&lift)?),
             ("objects".to_string(), to_value(&objects)?),
             ("final_maps".to_string(), to_value(&final_maps)?),
-            ("eval".to_string(), to_value(&self.eval)?),
+            ("eval".to_string(), eval_table(&self.eval)?),
             ("train".to_string(), to_value(&self.train)?),
         ]);
         let mut out = String::from(
@@ -253,6 +253,15 @@ impl PipelineConfig {
 fn to_value(table: &impl Serialize) -> crate::Result<toml::Value> {
     toml::Value::try_from(table)
         .map_err(|e| crate::error::PipelineError::Invalid(format!("cannot serialise the settings: {e}")))
+}
+
+/// The `[eval]` table: the settings without `pred_id_scope` (not a file key).
+fn eval_table(eval: &EvalConfig) -> crate::Result<toml::Value> {
+    let mut value = to_value(eval)?;
+    if let Some(table) = value.as_table_mut() {
+        table.remove("pred_id_scope");
+    }
+    Ok(value)
 }
 
 /// A value as TOML text; settings are single precision, so `0.85`, not `0.8500000238418579`.
@@ -325,7 +334,7 @@ mod tests {
             ("lift", toml::Value::try_from(&lift).expect("toml")),
             ("objects", toml::Value::try_from(&objects).expect("toml")),
             ("final_maps", toml::Value::try_from(&final_maps).expect("toml")),
-            ("eval", toml::Value::try_from(&d.eval).expect("toml")),
+            ("eval", eval_table(&d.eval).expect("toml")),
             ("train", toml::Value::try_from(&d.train).expect("toml")),
             ("train.densify", toml::Value::try_from(&d.train.densify).expect("toml")),
             ("train.joint", toml::Value::try_from(&d.train.joint).expect("toml")),
