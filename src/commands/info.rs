@@ -405,7 +405,6 @@ mod tests {
             gaussians: None,
             masks: None,
             resolution: 1,
-            split: "train".into(),
             json: false,
         }
     }
