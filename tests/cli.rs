@@ -85,7 +85,7 @@ fn config_prints_the_papers_defaults_as_toml() {
     let text = String::from_utf8(out.stdout).expect("utf-8");
     assert!(text.contains("tau_merge = 0.85\n"), "{text}");
     assert!(text.contains("tau_depth = 0.15\n"), "{text}");
-    assert!(text.contains("[matching]") && text.contains("[lift]"), "{text}");
+    assert!(text.contains("[match]") && text.contains("[lift]") && text.contains("[final_maps]"), "{text}");
     assert!(text.contains("[train]") && text.contains("iterations = 100000\n"), "{text}");
     assert!(text.contains("lambda_semantic = 0.1\n") && text.contains("lambda_reg = 0.01\n"), "{text}");
     assert!(text.contains("identity_maps = true\n") && text.contains("readback = \"rendered\"\n"), "{text}");
@@ -135,6 +135,8 @@ fn train_runs_end_to_end_and_scores_held_out_views() {
         splatseg(&["synth", "--out", scene.to_str().expect("utf-8"), "--views", "9", "--size", "64x48"]);
     assert!(out.status.success(), "synth failed: {}", stderr(&out));
     let ply = scene.join("gaussians.ply");
+    let config = tmp.path().join("save.toml");
+    std::fs::write(&config, "[train]\nsave_iterations = [10, 30, 7000]\n").expect("config");
     let out = splatseg(&[
         "train",
         scene.to_str().expect("utf-8"),
@@ -144,8 +146,8 @@ fn train_runs_end_to_end_and_scores_held_out_views() {
         out_dir.to_str().expect("utf-8"),
         "--iterations",
         "30",
-        "--save-iterations",
-        "10,30,7000",
+        "--config",
+        config.to_str().expect("utf-8"),
     ]);
     assert!(out.status.success(), "train failed: {}", stderr(&out));
     // 3DGS's checkpoint layout, for iterations before the last only

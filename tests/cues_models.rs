@@ -28,12 +28,6 @@ fn model_args(f: &Path) -> Vec<String> {
         &f.join("depth_anything_tiny").display().to_string(),
         "--sam",
         &f.join("sam_tiny.pth").display().to_string(),
-        "--dinov2-size",
-        "112",
-        "--depth-size",
-        "112",
-        "--points-per-side",
-        "8",
     ]
     .iter()
     .map(|s| s.to_string())
@@ -50,7 +44,7 @@ fn cues_on_lego_writes_every_cue_and_caches() {
     let out = tempfile::tempdir().unwrap();
     let out_dir = out.path().display().to_string();
     let mut args: Vec<String> =
-        ["cues", &lego.display().to_string(), "--out", &out_dir, "--resolution", "8", "--max-views", "2"]
+        ["cues", &lego.display().to_string(), "--out", &out_dir, "--resolution", "8", "--shard", "0/50"]
             .iter()
             .map(|s| s.to_string())
             .collect();
@@ -58,13 +52,13 @@ fn cues_on_lego_writes_every_cue_and_caches() {
     let argv: Vec<&str> = args.iter().map(String::as_str).collect();
     let first = splatseg(&argv);
     assert!(first.contains("8 computed, 0 cached"), "{first}");
-    // 800×800 at resolution 8 → 100×100; DINOv2 at long side 112 → 8×8 patches of the tiny 32-d model
+    // 800×800 at resolution 8 → 100×100; DINOv2 at long side 518 → 37×37 patches of the tiny 32-d model
     let features = splatseg_scene::npy::read_npy(&out.path().join("features/r_0.npy")).unwrap();
-    assert_eq!(features.shape, vec![8, 8, 32]);
+    assert_eq!(features.shape, vec![37, 37, 32]);
     let norms: Vec<f32> =
         features.data.chunks(32).map(|v| v.iter().map(|x| x * x).sum::<f32>().sqrt()).collect();
     assert!(norms.iter().all(|n| (n - 1.0).abs() < 1e-4), "features are L2-normalised");
-    let depth = splatseg_scene::npy::read_npy(&out.path().join("depth/r_1.npy")).unwrap();
+    let depth = splatseg_scene::npy::read_npy(&out.path().join("depth/r_50.npy")).unwrap();
     assert_eq!(depth.shape, vec![100, 100]);
     let log = splatseg_scene::npy::read_npy(&out.path().join("log/r_0.npy")).unwrap();
     assert_eq!(log.shape, vec![100, 100]);
@@ -94,7 +88,7 @@ fn cues_on_lego_writes_every_cue_and_caches() {
         &merged_s,
     ]);
     assert!(said.contains("merged 2 views"), "{said}");
-    for stem in ["r_0", "r_1"] {
+    for stem in ["r_0", "r_50"] {
         let labels =
             splatseg_scene::labels::read_label_png(&merged.join(format!("masks/{stem}.png"))).unwrap();
         assert_eq!((labels.width, labels.height), (100, 100));

@@ -166,6 +166,8 @@ fn run_cues_and_train_survive_sigkill_and_resume_to_identical_outputs() {
     synth(&scene);
     let s = |p: &Path| p.to_str().expect("utf-8").to_string();
     let scene_str = s(&scene);
+    let save_config = tmp.path().join("save.toml");
+    std::fs::write(&save_config, "[train]\nsave_iterations = [20, 40]\n").expect("config");
     let reports = [
         harness(
             "run",
@@ -187,9 +189,10 @@ fn run_cues_and_train_survive_sigkill_and_resume_to_identical_outputs() {
             tmp.path(),
             |out| {
                 let ply = s(&scene.join("gaussians.ply"));
+                let config = s(&save_config);
                 let args = ["train", &scene_str, "--gaussians", &ply, "--out", &s(out), "--iterations", "40"];
                 let mut args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
-                args.extend(["--save-iterations".into(), "20,40".into()]);
+                args.extend(["--config".into(), config]);
                 args
             },
             0x5eed_0003,

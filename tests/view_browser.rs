@@ -44,7 +44,7 @@ impl Drop for Served {
 
 fn serve(run: &Path, exports: &Path) -> Served {
     let mut child = Command::new(env!("CARGO_BIN_EXE_splatseg"))
-        .args(["view", utf8(run), "--port", "0", "--out", utf8(exports)])
+        .args(["view", utf8(run), "--listen", "127.0.0.1:0", "--out", utf8(exports)])
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()

@@ -30,7 +30,7 @@ fn view_of_a_folder_without_a_ply_fails_and_says_what_it_expected() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let empty = tmp.path().join("empty_run_folder");
     std::fs::create_dir_all(&empty).expect("mkdir");
-    let out = splatseg(&["view", utf8(&empty), "--port", "0"]);
+    let out = splatseg(&["view", utf8(&empty), "--listen", "127.0.0.1:0"]);
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("no 3DGS PLY") && err.contains("empty_run_folder"), "{err}");
@@ -44,7 +44,7 @@ fn view_of_a_ply_without_positions_fails_and_names_the_file() {
     let mut bytes = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float f_dc_0\nproperty float opacity\nend_header\n".to_vec();
     bytes.extend_from_slice(&[0u8; 8]);
     std::fs::write(&ply, bytes).expect("write");
-    let out = splatseg(&["view", utf8(&ply), "--port", "0"]);
+    let out = splatseg(&["view", utf8(&ply), "--listen", "127.0.0.1:0"]);
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("no_positions.ply") && err.contains("'x' is missing"), "{err}");
@@ -58,13 +58,14 @@ fn view_on_a_port_in_use_fails_and_names_the_address() {
     tiny_scene(&scene);
     let taken = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let port = taken.local_addr().expect("addr").port().to_string();
-    let out = splatseg(&["view", utf8(&scene.join("gaussians.ply")), "--port", &port]);
+    let out =
+        splatseg(&["view", utf8(&scene.join("gaussians.ply")), "--listen", &format!("127.0.0.1:{port}")]);
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("cannot listen") && err.contains(&port), "{err}");
 }
 
-/// The server of `splatseg view PATH --port 0 …`, stopped on drop.
+/// The server of `splatseg view PATH --listen 127.0.0.1:0 …`, stopped on drop.
 struct Served {
     child: Child,
     url: String,
@@ -81,7 +82,7 @@ fn serve(args: &[&str]) -> Served {
     let mut child = Command::new(env!("CARGO_BIN_EXE_splatseg"))
         .arg("view")
         .args(args)
-        .args(["--port", "0"])
+        .args(["--listen", "127.0.0.1:0"])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()

@@ -30,34 +30,10 @@ pub struct Args {
     /// Segment Anything checkpoint (`sam_vit_{b,l,h}_*.pth`).
     #[arg(long)]
     pub sam: Option<PathBuf>,
-    /// Long side (px) of the image DINOv2 sees, rounded to multiples of 14.
-    #[arg(long, default_value_t = 518)]
-    pub dinov2_size: usize,
-    /// Short side (px) of the image Depth Anything sees, rounded to multiples of 14.
-    #[arg(long, default_value_t = 518)]
-    pub depth_size: usize,
-    /// SAM prompt grid points per side.
-    #[arg(long, default_value_t = 32)]
-    pub points_per_side: usize,
-    /// SAM crop layers (0 = whole image only).
-    #[arg(long, default_value_t = 0)]
-    pub crop_layers: usize,
-    /// SAM: holes and islands smaller than this many pixels are removed (0 = off).
-    #[arg(long, default_value_t = 0)]
-    pub min_region_area: usize,
-    /// Skip the LoG edge maps.
-    #[arg(long)]
-    pub no_log: bool,
     /// Image down-scaling factor (as 3DGS `--resolution`).
     #[arg(long, default_value_t = 1)]
     pub resolution: u32,
-    /// Blender split to read.
-    #[arg(long, default_value = "train")]
-    pub split: String,
-    /// Only the first N views.
-    #[arg(long)]
-    pub max_views: Option<usize>,
-    /// Shard `K/N` (0 ≤ K < N): only the views `v` with `v mod N = K` (after --max-views). Shards
+    /// Shard `K/N` (0 ≤ K < N): only the views `v` with `v mod N = K`. Shards
     /// may run at once on the same --out (a Slurm job array, a Kubernetes indexed Job); together
     /// they write exactly what one unsharded run writes.
     #[arg(long)]
@@ -72,15 +48,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         dinov2: args.dinov2,
         depth_model: args.depth_model,
         sam: args.sam,
-        dinov2_size: args.dinov2_size,
-        depth_size: args.depth_size,
-        points_per_side: args.points_per_side,
-        crop_layers: args.crop_layers,
-        min_region_area: args.min_region_area,
-        log: !args.no_log,
+        // The reference implementations' input sizes (518 px: 37 patches of 14) and SAM's
+        // automatic mask generator defaults (32 points per side, no crops, no clean-up).
+        dinov2_size: 518,
+        depth_size: 518,
+        points_per_side: 32,
+        crop_layers: 0,
+        min_region_area: 0,
+        log: true,
         resolution: args.resolution,
-        split: args.split,
-        max_views: args.max_views,
+        split: "train".into(), // Blender: the train split, as `run`
+        max_views: None,
         shard: args.shard,
         show_progress: !super::logging::quiet(),
     };

@@ -19,12 +19,6 @@ pub struct Args {
     /// Seed of the synthetic scene.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Number of views.
-    #[arg(long, default_value_t = 12)]
-    pub views: usize,
-    /// Image size as WIDTHxHEIGHT.
-    #[arg(long, default_value = "320x240", value_parser = super::parse_size)]
-    pub size: (u32, u32),
     /// Iterations of the train stage after the pipeline (0 = skip): the first 100 photometric only,
     /// the rest the joint optimisation of object features seeded by the lifted ids.
     #[arg(long, default_value_t = 300)]
@@ -41,8 +35,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let request = DemoRequest {
         out: args.out,
         seed: args.seed,
-        views: args.views,
-        size: args.size,
+        views: 12, // 12 views of 320×240: the demo's scene (`synth` + `run` for others)
+        size: (320, 240),
         train_iterations: args.train_iterations,
         identity_study: args.identity_study,
         options: super::run_options(),

@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use splatseg_eval::{evaluate_named_sets, EvalConfig, IdScope, NamedSets, UnlabelledGt};
+use splatseg_eval::{evaluate_named_sets, EvalConfig, IdScope, NamedSets};
 use splatseg_scene::atomic::write_bytes_atomic;
 use std::path::PathBuf;
 
@@ -42,26 +42,25 @@ pub struct Args {
     /// `PLY` (attached to the last --pred set) or `NAME=PLY` (attached to that set).
     #[arg(long, requires = "gt_gaussian_ids", value_name = "[NAME=]PLY")]
     pub pred_ply: Option<String>,
-    /// Also write all metrics as JSON to this file.
+    /// Also write the report to this file: all metrics as JSON (`.json`) or the Markdown tables
+    /// (`.md`). Repeat for both.
     #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Also write the Markdown tables to this file.
-    #[arg(long, value_name = "FILE")]
-    pub markdown: Option<PathBuf>,
-    /// Radius of the boundary band's disk, in pixels.
-    #[arg(long, default_value_t = 5, value_name = "PX")]
-    pub band_radius: u32,
-    /// Treat ground-truth 0 as "don't care" (left out of every union) instead of background.
+    pub write: Vec<PathBuf>,
+    /// TOML settings: the `[eval]` table of `splatseg config`'s output (`band_radius_px`, the
+    /// boundary band's radius, default 5 px; `unlabelled_gt = "ignore"` to leave ground-truth 0
+    /// out of every union instead of counting it as background).
     #[arg(long)]
-    pub ignore_unlabelled: bool,
+    pub config: Option<PathBuf>,
 }
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cfg = EvalConfig {
-        band_radius_px: args.band_radius,
-        unlabelled_gt: if args.ignore_unlabelled { UnlabelledGt::Ignore } else { UnlabelledGt::Background },
         pred_id_scope: IdScope::Global,
+        ..match &args.config {
+            Some(path) => splatseg_pipeline::PipelineConfig::from_file(path)?.eval,
+            None => EvalConfig::default(),
+        }
     };
     let sets = NamedSets {
         gt: args.gt.clone(),
@@ -77,12 +76,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             tracing::warn!("{}: {w}", set.name);
         }
     }
-    if let Some(path) = &args.json {
-        let json = serde_json::to_string_pretty(&report).context("cannot serialise the metrics")?;
-        write_bytes_atomic(path, json.as_bytes())?;
-    }
-    if let Some(path) = &args.markdown {
-        write_bytes_atomic(path, markdown.as_bytes())?;
+    for path in &args.write {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("json") => {
+                let json = serde_json::to_string_pretty(&report).context("cannot serialise the metrics")?;
+                write_bytes_atomic(path, json.as_bytes())?;
+            }
+            Some("md") => write_bytes_atomic(path, markdown.as_bytes())?,
+            _ => anyhow::bail!("--write takes a `.json` or `.md` file: {}", path.display()),
+        }
     }
     print!(
         "{}",

@@ -41,9 +41,6 @@ pub struct Args {
     /// `images_<f>/` is used when present.
     #[arg(long, default_value_t = 1)]
     pub resolution: u32,
-    /// Blender split to read (`train`, `val`, `test`).
-    #[arg(long, default_value = "train")]
-    pub split: String,
     /// Print the report as JSON on stdout (warnings included) instead of text.
     #[arg(long)]
     pub json: bool,
@@ -57,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gaussians: args.gaussians,
         masks: args.masks,
         resolution: args.resolution,
-        split: args.split,
+        split: "train".into(), // Blender: the train split, as `run`
         strict: super::run_options().strict,
     };
     let report = inspect(&request)?;

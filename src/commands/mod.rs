@@ -68,7 +68,7 @@ pub enum Command {
     Ablate(ablate::Args),
     /// Measure quality over many synthetic scenes of the stress suite (`bench quality`).
     Bench(bench::Args),
-    /// Print the default settings (the paper's values) as a TOML file for `run --config`.
+    /// Print the default settings, each with its meaning and source, as a TOML file for `run --config`.
     Config(config::Args),
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
     Cues(cues::Args),

@@ -6,20 +6,12 @@ use splatseg_edit::io::{require_labels, write_edited_ply};
 use splatseg_edit::{palette_colour, recolor, ExtraFields, UnlabelledStyle};
 use std::path::PathBuf;
 
-/// How to colour Gaussians without an object.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum Unlabelled {
-    /// Flat dark grey.
-    Grey,
-    /// Their own colours.
-    Keep,
-}
-
 /// Paint each object in its palette colour (the colours of the label-map overlays), to see a
 /// segmentation in any 3DGS viewer.
 ///
 /// Sets each labelled Gaussian's base colour (`f_dc`) to its object's colour and zeroes its
-/// view-dependent part (`f_rest`); positions, shapes and opacities are unchanged. The output
+/// view-dependent part (`f_rest`), and Gaussians without an object flat dark grey; positions,
+/// shapes and opacities are unchanged. The output
 /// has the standard INRIA 3DGS layout unless --keep-extras is given.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
@@ -28,9 +20,6 @@ pub struct Args {
     /// Output PLY.
     #[arg(long)]
     pub out: PathBuf,
-    /// Colour of Gaussians without an object.
-    #[arg(long, value_enum, default_value = "grey")]
-    pub unlabelled: Unlabelled,
     /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).
     #[arg(long)]
     pub keep_extras: bool,
@@ -42,10 +31,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         splatseg_pipeline::ply_input::read_finite(&args.ply, super::run_options().strict)?,
         &args.ply,
     )?;
-    let style = match args.unlabelled {
-        Unlabelled::Grey => UnlabelledStyle::Grey,
-        Unlabelled::Keep => UnlabelledStyle::Keep,
-    };
+    let style = UnlabelledStyle::Grey;
     let painted = recolor(&g, |id| palette_colour(id, style)).map_err(|e| e.with_path(&args.ply))?;
     let extras = if args.keep_extras { ExtraFields::Keep } else { ExtraFields::Strip };
     write_edited_ply(&args.out, painted, extras)

@@ -55,7 +55,8 @@ pub struct Args {
     /// (adds `gaussian_ids.npy` for the 3D label accuracy).
     #[arg(long)]
     pub gt: Option<PathBuf>,
-    /// TOML settings with optional tables [regions], [merge], [matching], [lift], [eval].
+    /// TOML settings (`splatseg config` prints them): tables [merge], [match], [lift], [objects],
+    /// [final_maps], [eval], each optional.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Output folder.

@@ -34,9 +34,6 @@ pub struct Args {
     /// --views and --size override the family's.
     #[arg(long, value_parser = parse_family, conflicts_with = "config")]
     pub family: Option<Family>,
-    /// Channels of the simulated DINOv2-like features (DINOv2 ViT-S: 384).
-    #[arg(long)]
-    pub feature_dim: Option<usize>,
     /// Number of views on the camera arc.
     #[arg(long)]
     pub views: Option<usize>,
@@ -60,9 +57,6 @@ fn config_from(args: &Args) -> anyhow::Result<SynthConfig> {
     };
     if let Some(seed) = args.seed {
         config.seed = seed;
-    }
-    if let Some(dim) = args.feature_dim {
-        config.feature_dim = dim;
     }
     if let Some(views) = args.views {
         config.views = views;

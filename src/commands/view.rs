@@ -25,13 +25,10 @@ pub struct Args {
     /// Scene folder with the cameras (COLMAP or transforms.json), if not found automatically.
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Port (0 = any free port).
-    #[arg(long, default_value_t = 8080)]
-    pub port: u16,
-    /// Address to listen on. Anything but 127.0.0.1 / localhost exposes the scene and its export
-    /// endpoint to other machines.
-    #[arg(long, default_value = "127.0.0.1")]
-    pub host: String,
+    /// Address and port to listen on, `HOST:PORT` (port 0 = any free port). Any host but
+    /// 127.0.0.1 / localhost exposes the scene and its export endpoint to other machines.
+    #[arg(long, default_value = "127.0.0.1:8080", value_parser = parse_listen, value_name = "HOST:PORT")]
+    pub listen: (String, u16),
     /// Folder for exported PLYs (default: PATH's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -47,10 +44,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for warning in &source.warnings {
         tracing::warn!("{warning}");
     }
-    if !matches!(args.host.as_str(), "127.0.0.1" | "localhost" | "::1") {
+    let (host, port) = &args.listen;
+    if !matches!(host.as_str(), "127.0.0.1" | "localhost" | "::1") {
         tracing::warn!(
             "listening on {}: other machines on the network can see this scene and write exports into {}",
-            args.host,
+            host,
             source.export_dir.display()
         );
     }
@@ -61,7 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         source.scene.as_ref().map_or(0, |s| s.views.len()),
         source.ply_path.display()
     );
-    let server = ViewServer::start(Site::new(source), &args.host, args.port)?;
+    let server = ViewServer::start(Site::new(source), host, *port)?;
     println!("splatseg view: {summary}");
     println!("open {}", server.url());
     std::io::stdout().flush().context("writing to stdout")?;
@@ -72,4 +70,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     server.wait();
     Ok(())
+}
+
+/// Parses `HOST:PORT` (an IPv6 host in brackets: `[::1]:8080`).
+fn parse_listen(text: &str) -> Result<(String, u16), String> {
+    let (host, port) = text.rsplit_once(':').ok_or_else(|| format!("expected HOST:PORT, got `{text}`"))?;
+    let port = port.parse::<u16>().map_err(|_| format!("`{port}` is not a port number (0–65535)"))?;
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    if host.is_empty() {
+        return Err(format!("expected HOST:PORT, got `{text}`"));
+    }
+    Ok((host.to_string(), port))
 }

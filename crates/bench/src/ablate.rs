@@ -121,7 +121,7 @@ pub fn ablate(args: &AblateRequest) -> crate::Result<String> {
         synth.seed, synth.views, synth.width, synth.height
     )?;
 
-    let profiles = [Profile::Literal, Profile::ReleasedCode]
+    let profiles = [Profile::Literal]
         .into_iter()
         .map(|p| (format!("{p:?}"), MergeConfig::for_profile(p)))
         .chain([("Paper (default)".to_string(), base.clone())])
@@ -161,7 +161,8 @@ pub fn ablate(args: &AblateRequest) -> crate::Result<String> {
     ];
     writeln!(out, "### Depth gates\n\n{}", table(&rows_for(&views, gates)?))?;
     let pair = keep_apart_decisions(&views, &base)?;
-    let adjacent: Vec<_> = pair.iter().filter(|d| d.decision.terms.contact >= base.tau_contact).collect();
+    let adjacent: Vec<_> =
+        pair.iter().filter(|d| d.decision.terms.contact >= splatseg_merge::TAU_CONTACT).collect();
     let range = |f: &dyn Fn(&splatseg_merge::ScoreTerms) -> Option<f32>| {
         let v: Vec<f32> = adjacent.iter().filter_map(|d| f(&d.decision.terms)).collect();
         let lo = v.iter().cloned().fold(f32::INFINITY, f32::min);

@@ -28,15 +28,17 @@ pub enum IdScope {
     PerView,
 }
 
-/// Metric settings.
+/// Metric settings (the `[eval]` table of the `--config` TOML).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct EvalConfig {
     /// Radius ε of the disk of the boundary band `(M ⊕ ε) \ (M ⊖ ε)`, in pixels (paper: 5).
     pub band_radius_px: u32,
     /// Treatment of ground-truth pixels with value 0.
     pub unlabelled_gt: UnlabelledGt,
-    /// Scope of the predicted ids.
+    /// Scope of the predicted ids. Not a file key: `run`'s ids are global, and `splatseg eval`
+    /// sets it per prediction set (`--view-local`). Still written (metrics.json reports it).
+    #[serde(skip_deserializing)]
     pub pred_id_scope: IdScope,
 }
 

@@ -14,6 +14,9 @@ use splatseg_render::project::ViewIndependent;
 use splatseg_render::{ProjectedView, RasterSettings, RenderCamera};
 use splatseg_scene::{Camera, Gaussians, Pose};
 
+/// Gaussians closer to the camera than this (scene units) are skipped: 3DGS's `znear` (0.01).
+pub const NEAR_PLANE: f32 = 0.01;
+
 /// Per-Gaussian quantities every view needs, in world space.
 #[derive(Clone, Debug, Default)]
 pub struct PreparedGaussians {
@@ -123,7 +126,7 @@ pub fn raster_settings() -> RasterSettings {
 }
 
 /// The Gaussians projected and binned for one view (`[N]` splats in Gaussian order, culled ones
-/// with zero radii): the renderer's projection with `config.near` as the near plane, each
+/// with zero radii): the renderer's projection with [`NEAR_PLANE`] as the near plane, each
 /// centre moved by the camera's lens distortion when it has one.
 pub fn project_view(
     gaussians: &PreparedGaussians,
@@ -154,10 +157,10 @@ fn project_splats(
     gaussians: &PreparedGaussians,
     camera: &Camera,
     world_from_cam: &Pose,
-    config: &LiftConfig,
+    _config: &LiftConfig,
 ) -> Vec<Splat2d> {
     let mut render_camera = RenderCamera::from_scene(camera, world_from_cam);
-    render_camera.near = config.near;
+    render_camera.near = NEAR_PLANE;
     let mut splats = splatseg_render::project::project_prepared(
         &gaussians.geometry,
         &gaussians.projection,

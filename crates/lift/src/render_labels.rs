@@ -6,7 +6,7 @@
 //! vote label: object ids, and 0 for Gaussians that belong to no object; the light left after
 //! the last splat (`T_final`, the background) also counts for 0. Unreliable Gaussians (filtered
 //! by τ_var, id −1 in the PLY) vote for their majority id with their weight scaled by
-//! `unreliable_render_weight`: reliable neighbours decide where they are present, and where
+//! [`UNRELIABLE_RENDER_WEIGHT`]: reliable neighbours decide where they are present, and where
 //! only unreliable Gaussians cover a pixel the majority still fills it instead of leaving a
 //! hole. Gaussians seen in too few views abstain (occlude, no vote).
 //! The pixel takes the label with the largest summed weight. Up to [`PIXEL_SLOTS`] labels are
@@ -25,6 +25,11 @@ use crate::project::{project_view, project_view_binned, raster_settings, Prepare
 use splatseg_render::bin::TileBins;
 use splatseg_render::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 use splatseg_scene::{Camera, Plane, Pose};
+
+/// Vote factor of unreliable Gaussians (reliable ones: 1): low enough that reliable neighbours
+/// decide where they are present, non-zero so a pixel only unreliable Gaussians cover is filled
+/// by their majority instead of left a hole.
+const UNRELIABLE_RENDER_WEIGHT: f32 = 0.25;
 
 /// Labels tracked per pixel.
 pub const PIXEL_SLOTS: usize = 4;
@@ -50,14 +55,14 @@ impl RenderVotes {
 }
 
 /// The votes of the lifted Gaussians (see the module docs).
-pub fn render_votes(lifted: &Lifted, config: &LiftConfig) -> RenderVotes {
+pub fn render_votes(lifted: &Lifted, _config: &LiftConfig) -> RenderVotes {
     let (labels, weights) = lifted
         .status
         .iter()
         .zip(&lifted.majority_ids)
         .map(|(s, &majority)| match s {
             GaussianStatus::Labelled | GaussianStatus::NoObject => (majority, 1.0),
-            GaussianStatus::Unreliable => (majority, config.unreliable_render_weight),
+            GaussianStatus::Unreliable => (majority, UNRELIABLE_RENDER_WEIGHT),
             GaussianStatus::TooFewViews | GaussianStatus::Unseen => (ABSTAIN, 0.0),
         })
         .unzip();

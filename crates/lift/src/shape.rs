@@ -10,6 +10,21 @@ use crate::voxels::{self_and_forward_neighbours, voxel_of};
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap};
 
+/// Two planes (or lines) continue one surface when their normals (axes) are within this many
+/// degrees: the normals of one flat surface's Gaussians scatter a few degrees; a box on a floor
+/// meets it at 90°.
+pub(crate) const SEAM_MAX_ANGLE_DEG: f32 = 10.0;
+
+/// An object is a plane when at least this share of its flat Gaussians' normals lie within
+/// [`SEAM_MAX_ANGLE_DEG`] of its normal; a seam is smooth when this share of its measured
+/// contact voxel pairs is.
+pub(crate) const SEAM_SMOOTH_SHARE: f32 = 0.9;
+
+/// Two touching objects whose Gaussians both spread along one line at least this many times more
+/// than across it are pieces of one thin structure (a post SAM cut where the background behind
+/// it changes) and join at `tau_seam`; 0 would switch the rule off.
+pub(crate) const THIN_MIN_ELONGATION: f32 = 5.0;
+
 fn voxel_key(v: [i64; 3]) -> u64 {
     let m = |x: i64| (x as u64) & 0x1f_ffff;
     (m(v[0]) << 42) | (m(v[1]) << 21) | m(v[2])
@@ -34,7 +49,7 @@ pub(crate) struct Contact {
     /// Of those, the pairs where both sides have a surface normal (flat Gaussians).
     pub measured: u32,
     /// Of the measured pairs, those where the two surfaces continue each other: normals within
-    /// `seam_max_angle_deg` and each side's mean point within half a voxel of the other's plane.
+    /// `SEAM_MAX_ANGLE_DEG` and each side's mean point within half a voxel of the other's plane.
     pub smooth: u32,
     /// Pairs where both sides have an outward normal ([`Facing`]).
     pub oriented: u32,
@@ -121,12 +136,12 @@ pub(crate) struct ObjectLine {
 }
 
 impl ObjectLine {
-    /// Both thin (spread along ≥ `thin_min_elongation` × across), parallel (axes within
-    /// `seam_max_angle_deg`) and on one line (each centre within `THIN_LINE_TOLERANCE` × the
+    /// Both thin (spread along ≥ `THIN_MIN_ELONGATION` × across), parallel (axes within
+    /// `SEAM_MAX_ANGLE_DEG`) and on one line (each centre within `THIN_LINE_TOLERANCE` × the
     /// larger cross spread of the other's line): two pieces of one post.
-    pub(crate) fn continues(&self, other: &ObjectLine, config: &LiftConfig) -> bool {
-        let thin = |l: &ObjectLine| l.along >= config.thin_min_elongation * l.across;
-        let parallel = self.axis.dot(other.axis).abs() >= config.seam_max_angle_deg.to_radians().cos();
+    pub(crate) fn continues(&self, other: &ObjectLine, _config: &LiftConfig) -> bool {
+        let thin = |l: &ObjectLine| l.along >= THIN_MIN_ELONGATION * l.across;
+        let parallel = self.axis.dot(other.axis).abs() >= SEAM_MAX_ANGLE_DEG.to_radians().cos();
         let tolerance = THIN_LINE_TOLERANCE * self.across.max(other.across);
         let off_line = |l: &ObjectLine, p: Vec3| {
             let d = p - l.centre;
@@ -192,7 +207,7 @@ pub(crate) fn contacts(
     ids: &[i32],
     voxel: f32,
     facing: Option<&Facing>,
-    config: &LiftConfig,
+    _config: &LiftConfig,
 ) -> BTreeMap<(u32, u32), Contact> {
     let mut cells: HashMap<u64, ([i64; 3], Vec<VoxelPart>)> = HashMap::new();
     for (i, &id) in ids.iter().enumerate() {
@@ -231,7 +246,7 @@ pub(crate) fn contacts(
             part.outward += 1;
         }
     }
-    let cos_max_angle = config.seam_max_angle_deg.to_radians().cos();
+    let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
     let smooth = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
         let ((pa, na), (pb, nb)) = (a.surface(), b.surface());
         let (na, nb) = (na?, nb?);

@@ -1,13 +1,14 @@
-//! Snapping rendered-back ids onto a view's merged regions: every merged region takes the
-//! global id that the label map rendered from the Gaussians gives most of its pixels, so the
-//! final map has the merged masks' boundaries (sharp, from the image) and the 3D consensus ids
-//! (the same in every view).
+//! Snapping rendered-back ids onto a view's regions: by default SAM's masks resolved into
+//! regions before merging (`[final_maps] kind = "snapped-raw"`), or the merged regions
+//! (`"snapped"`). Every region takes the global id that the label map rendered from the Gaussians
+//! gives most of its pixels, so the final map has the regions' boundaries (sharp, from the
+//! image) and the 3D consensus ids (the same in every view).
 //!
-//! Per region (local id `r ≥ 1` of the merged map): count the rendered ids over its pixels,
+//! Per region (local id `r ≥ 1` of the region map): count the rendered ids over its pixels,
 //! ignoring 0. The id with most pixels wins; ties go to the smaller id, so the result does not
 //! depend on pixel order. When the winner covers fewer pixels than the region's 0-rendered
 //! pixels (the Gaussians mostly say "no object" there), or no pixel has an id, the region keeps
-//! its rendered labels pixel by pixel. Pixels outside every region (merged 0) keep their
+//! its rendered labels pixel by pixel. Pixels outside every region (0) keep their
 //! rendered label too, so nothing the Gaussians label is lost.
 //!
 //! A region over two objects keeps the rendered labels, except a thin band of another id along
@@ -84,7 +85,7 @@ pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapR
     snap_view(regions, rendered, rule).labels
 }
 
-/// Snaps one view. `regions`: `[H, W]` merged regions of the view, 0 = none, any local ids;
+/// Snaps one view. `regions`: `[H, W]` regions of the view (SAM's or merged), 0 = none, any local ids;
 /// `rendered`: `[H, W]` global ids rendered back from the Gaussians, 0 = none. See the module
 /// docs and [`SnapRule`]. Panics if the two sizes differ.
 pub fn snap_view(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -> Snapped {

@@ -5,7 +5,7 @@
 //! most views, matching and voting give both objects' Gaussians one id, and nothing downstream
 //! can separate them again. In 3D they are plainly two things: their Gaussians form clusters with
 //! empty space between them. Rule: an object's labelled Gaussians are grouped into clusters that
-//! are connected through occupied voxels (26-neighbourhood; voxel edge = `split_voxel_factor` ×
+//! are connected through occupied voxels (26-neighbourhood; voxel edge = `SPLIT_VOXEL_FACTOR` ×
 //! the median Gaussian standard deviation, each Gaussian occupying the voxels within its largest
 //! standard deviation, at most two voxels either way). The largest cluster keeps the id; every
 //! other cluster of at least `min_split_gaussians` Gaussians becomes an object of its own; smaller
@@ -21,9 +21,14 @@
 use crate::config::LiftConfig;
 use crate::lifting::Lifted;
 use crate::project::PreparedGaussians;
+use crate::shape::{SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE};
 use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
+
+/// Voxel edge of the split's connectivity, in median Gaussian standard deviations: 3 σ keeps
+/// one surface's Gaussians connected across their own spacing.
+const SPLIT_VOXEL_FACTOR: f32 = 3.0;
 
 /// Voxels a Gaussian may reach on each side of the one holding its mean.
 const MAX_REACH_VOXELS: i64 = 2;
@@ -47,7 +52,7 @@ pub fn split_disconnected_objects(
     reserved: u32,
     config: &LiftConfig,
 ) -> SplitStats {
-    let voxel = config.split_voxel_factor * crate::shape::typical_sigma(gaussians);
+    let voxel = SPLIT_VOXEL_FACTOR * crate::shape::typical_sigma(gaussians);
     if !config.split_disconnected || voxel <= 0.0 || !voxel.is_finite() {
         return SplitStats::default();
     }
@@ -146,13 +151,12 @@ struct PlaneLayers {
 const OFF_PLANE_VOXELS: f32 = 2.0;
 
 impl PlaneLayers {
-    fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32, config: &LiftConfig) -> Self {
-        let normals: HashMap<u32, glam::Vec3> =
-            crate::shape::planarity(gaussians, ids, config.seam_max_angle_deg)
-                .into_iter()
-                .filter(|&(_, (n, share))| share >= config.seam_smooth_share && n != glam::Vec3::ZERO)
-                .map(|(id, (n, _))| (id, n))
-                .collect();
+    fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32, _config: &LiftConfig) -> Self {
+        let normals: HashMap<u32, glam::Vec3> = crate::shape::planarity(gaussians, ids, SEAM_MAX_ANGLE_DEG)
+            .into_iter()
+            .filter(|&(_, (n, share))| share >= SEAM_SMOOTH_SHARE && n != glam::Vec3::ZERO)
+            .map(|(id, (n, _))| (id, n))
+            .collect();
         let mut offsets: HashMap<u32, Vec<f32>> = HashMap::new();
         for (i, &id) in ids.iter().enumerate() {
             if let Some(n) = (id > 0).then(|| normals.get(&(id as u32))).flatten() {

@@ -4,16 +4,16 @@
 //! pieces (a wall cut where the depth gate stops merging, a floor cut by SAM's lines, a two-tone
 //! box split at its colour edge) stays in pieces after matching — consistently in every view. In
 //! 3D the pieces are visible as what they are: labelled Gaussians of two objects that *touch*
-//! (their Gaussians share a voxel neighbourhood along a seam; voxel edge = `contact_voxel_factor`
-//! × the median Gaussian standard deviation, at least `min_contact_voxels` pairs of
+//! (their Gaussians share a voxel neighbourhood along a seam; voxel edge = `CONTACT_VOXEL_FACTOR`
+//! × the median Gaussian standard deviation, at least `MIN_CONTACT_VOXELS` pairs of
 //! 26-neighbouring voxels holding one of each). Touching objects `P`, `Q` become one when either
 //! - **they look alike:** `cos(f_P, f_Q) ≥ tau_touching` and the views agree: among the views
 //!   that see at least `MIN_SEEN` Gaussians of each, a share of at least `min_together_share`
 //!   has one merged mask holding ≥ 20 % of the Gaussians of each it sees; or
 //! - **one surface continues across the seam:** both objects are planes (at least
-//!   `seam_smooth_share` of their flat Gaussians' normals within `seam_max_angle_deg` of their
-//!   dominant normal) with parallel normals, at least `seam_smooth_share` of the contact voxel
-//!   pairs are smooth (the normals of the two sides within `seam_max_angle_deg`, and each side's
+//!   `SEAM_SMOOTH_SHARE` of their flat Gaussians' normals within `SEAM_MAX_ANGLE_DEG` of their
+//!   dominant normal) with parallel normals, at least `SEAM_SMOOTH_SHARE` of the contact voxel
+//!   pairs are smooth (the normals of the two sides within `SEAM_MAX_ANGLE_DEG`, and each side's
 //!   mean point within half a voxel of the other side's plane), and `cos(f_P, f_Q) ≥ tau_seam`.
 //!   The pieces of a textured floor or wall have identity features that agree only loosely (cos
 //!   0.82–0.95 on the stress suite), too loosely for the first rule; a box standing on the floor
@@ -21,14 +21,14 @@
 //!   nearest normals agree, and an object whose label spilled onto the floor around its foot is
 //!   not a plane, so none of these joins; or
 //! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_part`, the views agree (at least
-//!   `part_min_together_share` of the views seeing both have one merged mask over both), and
+//!   `PART_MIN_TOGETHER_SHARE` of the views seeing both have one merged mask over both), and
 //!   they meet at convex edges: of the contact voxel pairs whose two sides have outward normals
 //!   ([`Facing`]), at most `part_max_concave_share` are concave and at least
 //!   `part_min_convex_share` convex (two boxes side by side meet flush). Different objects that
 //!   touch meet at concave edges (a box beside a box, a box on a box: 23–47 % of the pairs on the
 //!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none); or
 //! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
-//!   at least `thin_min_elongation` times more than across it), parallel and on one line, at
+//!   at least `THIN_MIN_ELONGATION` times more than across it), parallel and on one line, at
 //!   least one contact voxel pair, and `cos(f_P, f_Q) ≥ tau_seam`: a post that SAM cut where the
 //!   background behind it changes (wall above, floor below).
 //!
@@ -40,11 +40,25 @@ use crate::config::LiftConfig;
 use crate::facing::Facing;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
-use crate::shape::{contacts, object_lines, planarity, typical_sigma};
+use crate::shape::{
+    contacts, object_lines, planarity, typical_sigma, SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE,
+    THIN_MIN_ELONGATION,
+};
 use crate::visibility::ViewVisibility;
 use crate::voxels::DisjointSets;
 use splatseg_scene::Plane;
 use std::collections::HashMap;
+
+/// Voxel edge of the contact test, in median Gaussian standard deviations: 3 σ reaches across
+/// the gap between two surfaces' footprints without bridging separate objects.
+const CONTACT_VOXEL_FACTOR: f32 = 3.0;
+
+/// Neighbouring voxel pairs (one Gaussian of each object) two objects must share to touch: fewer
+/// are stray Gaussians, not a seam.
+const MIN_CONTACT_VOXELS: u32 = 8;
+
+/// A part join needs the two objects in one merged mask in at least half the views seeing both.
+const PART_MIN_TOGETHER_SHARE: f32 = 0.5;
 
 /// A view counts for a pair only when it sees at least this many Gaussians of each object.
 pub const MIN_SEEN: u32 = 10;
@@ -138,7 +152,7 @@ pub fn join_touching_counted(
     if features.dim == 0 || (config.tau_touching > 1.0 && config.tau_seam > 1.0) {
         return 0;
     }
-    let voxel = config.contact_voxel_factor * typical_sigma(gaussians);
+    let voxel = CONTACT_VOXEL_FACTOR * typical_sigma(gaussians);
     if voxel <= 0.0 || !voxel.is_finite() {
         return 0;
     }
@@ -147,20 +161,13 @@ pub fn join_touching_counted(
     // side by side (each the same as alone).
     let ids = &lifted.object_ids;
     let ((planes, lines), contacts) = rayon::join(
-        || {
-            rayon::join(
-                || planarity(gaussians, ids, config.seam_max_angle_deg),
-                || object_lines(gaussians, ids),
-            )
-        },
+        || rayon::join(|| planarity(gaussians, ids, SEAM_MAX_ANGLE_DEG), || object_lines(gaussians, ids)),
         || contacts(gaussians, ids, voxel, facing, config),
     );
-    let cos_max_angle = config.seam_max_angle_deg.to_radians().cos();
+    let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
     let coplanar = |a: u32, b: u32| match (planes.get(&a), planes.get(&b)) {
         (Some(&(na, pa)), Some(&(nb, pb))) => {
-            pa >= config.seam_smooth_share
-                && pb >= config.seam_smooth_share
-                && na.dot(nb).abs() >= cos_max_angle
+            pa >= SEAM_SMOOTH_SHARE && pb >= SEAM_SMOOTH_SHARE && na.dot(nb).abs() >= cos_max_angle
         }
         _ => false,
     };
@@ -172,17 +179,17 @@ pub fn join_touching_counted(
         .filter_map(|((a, b), c)| {
             let cos = cos_of(a, b);
             let thin = cos >= config.tau_seam
-                && config.thin_min_elongation > 0.0
+                && THIN_MIN_ELONGATION > 0.0
                 && matches!((lines.get(&a), lines.get(&b)), (Some(p), Some(q)) if p.continues(q, config));
             if thin {
                 tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
             }
-            if c.voxel_pairs < config.min_contact_voxels {
+            if c.voxel_pairs < MIN_CONTACT_VOXELS {
                 return thin.then_some((cos, a, b));
             }
-            let seam = c.measured >= config.min_contact_voxels
+            let seam = c.measured >= MIN_CONTACT_VOXELS
                 && coplanar(a, b)
-                && c.smooth as f32 >= config.seam_smooth_share * c.measured as f32
+                && c.smooth as f32 >= SEAM_SMOOTH_SHARE * c.measured as f32
                 && cos >= config.tau_seam;
             let alike = cos >= config.tau_touching && {
                 let share = together_share(counts, a, b);
@@ -194,7 +201,7 @@ pub fn join_touching_counted(
             };
             let parts = !alike
                 && cos >= config.tau_part
-                && c.oriented >= config.min_contact_voxels
+                && c.oriented >= MIN_CONTACT_VOXELS
                 && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
                 && c.convex as f32 >= config.part_min_convex_share * c.oriented as f32
                 && {
@@ -206,7 +213,7 @@ pub fn join_touching_counted(
                         c.convex,
                         c.oriented
                     );
-                    share >= config.part_min_together_share
+                    share >= PART_MIN_TOGETHER_SHARE
                 };
             let alike = alike || parts || thin;
             if seam {

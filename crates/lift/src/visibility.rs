@@ -2,15 +2,15 @@
 //! Gaussians (not the centres alone), on the renderer's own projection and compositor.
 //!
 //! The surface depth `D` of a pixel is the depth of the Gaussian at which the front-to-back
-//! transmittance first drops below `surface_transmittance` (0.5: the median depth), or +∞ where
+//! transmittance first drops below [`SURFACE_TRANSMITTANCE`] (0.5: the median depth), or +∞ where
 //! it never does. A Gaussian is visible when its centre projects inside the image and
-//! `z ≤ D · (1 + depth_rel_tol) + depth_sigma_tol · σ_ray` at its centre pixel (σ_ray: its own
+//! `z ≤ D · (1 + DEPTH_REL_TOL) + DEPTH_SIGMA_TOL · σ_ray` at its centre pixel (σ_ray: its own
 //! extent along the ray, so a large Gaussian whose centre sits slightly behind the surface it
 //! forms still counts). Callers may pass their own depth maps instead (e.g. from a renderer).
 //!
 //! Each visible Gaussian gets a fusion weight `w = frontal · f / z` (f: mean focal length in
 //! pixels, so `f / z` is pixels per scene unit — near views weigh more) with
-//! `frontal = max(min_frontal, (1 − ρ) + ρ·|n̂ · r̂|)`, ρ the Gaussian's flatness and n̂ its
+//! `frontal = max(MIN_FRONTAL, (1 − ρ) + ρ·|n̂ · r̂|)`, ρ the Gaussian's flatness and n̂ its
 //! normal (flat Gaussians seen face-on weigh most; round ones ignore the angle).
 //!
 //! One projection serves both the surface depth and the test ([`view_depth_and_visibility`]).
@@ -18,6 +18,21 @@
 use crate::config::LiftConfig;
 use crate::project::{project_view, raster_settings, PreparedGaussians};
 use splatseg_render::bin::TileBins;
+
+/// The surface depth of a pixel is where front-to-back transmittance first drops below this:
+/// 0.5 is the median depth of the composited footprints (the depth 3DGS renderers report).
+pub const SURFACE_TRANSMITTANCE: f32 = 0.5;
+
+/// Relative slack of the depth test (3 % of the surface depth): the surface depth is a median
+/// over blended footprints, so a Gaussian that forms the surface can sit slightly behind it.
+const DEPTH_REL_TOL: f32 = 0.03;
+
+/// Slack of the depth test in the Gaussian's own standard deviations along the ray (1 σ): a
+/// large Gaussian whose centre sits behind the surface it forms still counts.
+const DEPTH_SIGMA_TOL: f32 = 1.0;
+
+/// Floor of the frontal factor of the fusion weight, so grazing views still count a little.
+const MIN_FRONTAL: f32 = 0.05;
 use splatseg_render::{visit_contributions, Contribution, ContributionVisitor, ProjectedView};
 use splatseg_scene::{Camera, Plane, Pose};
 
@@ -64,8 +79,8 @@ impl ContributionVisitor for DepthBand<'_> {
 }
 
 /// Surface depth per pixel of a projected view: `[height, width]` metric z (+∞ where
-/// transmittance never drops below `surface_transmittance`).
-pub fn surface_depth(view: &ProjectedView, config: &LiftConfig) -> Plane<f32> {
+/// transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
+pub fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
     let (width, height) = (view.width, view.height);
     let band_rows = splatseg_render::bin::TILE_SIZE;
     let bands = visit_contributions(view, &raster_settings(), |b| {
@@ -73,7 +88,7 @@ pub fn surface_depth(view: &ProjectedView, config: &LiftConfig) -> Plane<f32> {
         DepthBand {
             view,
             first: b * band_rows * width,
-            stop: config.surface_transmittance,
+            stop: SURFACE_TRANSMITTANCE,
             depth: vec![f32::INFINITY; rows * width],
         }
     });
@@ -85,7 +100,7 @@ pub fn surface_depth(view: &ProjectedView, config: &LiftConfig) -> Plane<f32> {
 }
 
 /// The surface depth of one view from the Gaussians' own footprints: `[height, width]` metric z
-/// (+∞ where transmittance never drops below `surface_transmittance`).
+/// (+∞ where transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
 pub fn view_surface_depth(
     gaussians: &PreparedGaussians,
     camera: &Camera,
@@ -103,7 +118,7 @@ pub fn visible_gaussians(
     camera: &Camera,
     world_from_cam: &Pose,
     depth: &Plane<f32>,
-    config: &LiftConfig,
+    _config: &LiftConfig,
 ) -> ViewVisibility {
     let (width, height) = (view.width, view.height);
     let focal = 0.5 * (camera.fx + camera.fy) as f32;
@@ -123,11 +138,11 @@ pub fn visible_gaussians(
         let surface = if d.is_finite() && d > 0.0 { d } else { f32::INFINITY };
         let ray = (gaussians.mean(i) - centre).normalize_or_zero();
         let sigma_ray = gaussians.sigma_along(i, ray);
-        if s.depth > surface * (1.0 + config.depth_rel_tol) + config.depth_sigma_tol * sigma_ray {
+        if s.depth > surface * (1.0 + DEPTH_REL_TOL) + DEPTH_SIGMA_TOL * sigma_ray {
             continue;
         }
         let rho = gaussians.flatness[i];
-        let frontal = ((1.0 - rho) + rho * gaussians.normals[i].dot(ray).abs()).max(config.min_frontal);
+        let frontal = ((1.0 - rho) + rho * gaussians.normals[i].dot(ray).abs()).max(MIN_FRONTAL);
         out.gaussians.push(i as u32);
         out.pixels.push(p as u32);
         out.weights.push(frontal * focal / s.depth);

@@ -47,7 +47,7 @@ pub fn containers_of_mask(
         }
         let support = counts.covisible[b];
         if best != u32::MAX
-            && support >= config.min_support.max(1)
+            && support >= crate::config::MIN_SUPPORT
             && shared as f32 >= config.tau_overlap * support as f32
         {
             *slot = best;
@@ -95,7 +95,7 @@ pub fn fragment_pairs_of_view(
     let mut pairs = Vec::new();
     for ((i, k), (together, apart)) in counts {
         let seen = together + apart;
-        if together >= config.min_fragment_views
+        if together >= crate::config::MIN_FRAGMENT_VIEWS
             && together as f32 >= config.fragment_majority * seen as f32
             && similar(i as usize, k as usize)
         {

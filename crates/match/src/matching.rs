@@ -311,12 +311,12 @@ impl Scoring<'_> {
                 let (lo, hi) = if i < j { (i as u32, j as u32) } else { (j as u32, i as u32) };
                 let support =
                     rows.as_ref().map_or(0, |_| scratch.counts.covisible[b].min(scratch.view_counts[j]));
-                if rows.is_some() && support >= config.min_support.max(1) {
+                if rows.is_some() && support >= crate::config::MIN_SUPPORT {
                     let overlap = scratch.counts.shared[j] as f32 / support as f32;
                     if overlap >= config.tau_overlap && (dim == 0 || cos >= config.tau_match_with_3d) {
                         edges.push(RankedEdge(Edge { tier: 0, score: overlap + cos, i: lo, j: hi }));
                         found.edges_3d += usize::from(j > i);
-                    } else if overlap < config.tau_reject {
+                    } else if overlap < crate::config::TAU_REJECT {
                         cannot.push(RankedCannot { cos, pair: (lo, hi) });
                         found.cannot_links += usize::from(j > i);
                     }

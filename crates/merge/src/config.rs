@@ -1,14 +1,17 @@
-//! [`MergeConfig`]: every number of the merge stage, read from TOML; defaults are the paper's.
+//! [`MergeConfig`]: the numbers of Multi-Cue-Guided Mask Merging (paper §4.2), read from the
+//! `[merge]` table of the `--config` TOML. The score's weights and thresholds default to the
+//! paper's (§5 "Hyperparameters"); the three gates not in the paper (`relative_depth_gate`,
+//! `max_depth_boundary`, `max_concave_crease_deg`) to values measured on the stress suite; the
+//! adjacency numbers the paper leaves out are the released code's, as constants ([`TAU_GAP_PX`],
+//! [`TAU_CONTACT`], [`DILATION_STEPS`]).
 //!
-//! A TOML (or JSON) table may name a `profile` (`paper`, `literal`, `released-code`); the
-//! profile's preset is the starting point and any other key overrides it. This holds for every
-//! way a `MergeConfig` is deserialised (e.g. as the `[merge]` table of a pipeline config), not
-//! only for [`MergeConfig::from_toml_str`]:
+//! A table may name a `profile` (`paper`, `literal`); the profile's preset is the starting point
+//! and any other key overrides it. This holds for every way a `MergeConfig` is deserialised
+//! (e.g. as the `[merge]` table of a pipeline config), not only for [`MergeConfig::from_toml_str`]:
 //!
 //! ```toml
 //! profile = "paper"
 //! tau_merge = 0.9
-//! boundary_statistic = { quantile = 0.9 }
 //! ```
 
 use crate::error::MergeError;
@@ -19,14 +22,14 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "kebab-case")]
 pub enum Profile {
     /// The self-consistent reading (default): S normalised by `w_sem + w_depth`, boundary terms
-    /// on the band where the two regions meet.
+    /// (their median) on the band where the two regions meet, `Δd` at the contact, and the
+    /// three gates not in the paper.
     #[default]
     Paper,
-    /// The formula exactly as printed: un-normalised, maxima over `∂m_i ∪ ∂m_j`. It can never
-    /// exceed `w_sem + w_depth = 0.7 < τ_merge`, so it merges nothing.
+    /// The formula exactly as printed: un-normalised, maxima over `∂m_i ∪ ∂m_j`, `Δd` between the
+    /// region means, none of the added gates. It can never exceed `w_sem + w_depth = 0.7 <
+    /// τ_merge`, so it merges nothing.
     Literal,
-    /// The authors' released code: means on the band, `exp(−Δd/0.1)`, hard rejects, `S > 0`.
-    ReleasedCode,
 }
 
 /// The statistic of LoG and `∇D` over the shared boundary band (paper profile).
@@ -55,35 +58,35 @@ pub enum DepthGapAt {
     RegionMeans,
 }
 
-/// The released code's extra rules (used by [`Profile::ReleasedCode`] only).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ReleasedCodeParams {
-    /// Reject pairs whose descriptor cosine is below this.
-    pub min_cos: f32,
-    /// Reject pairs whose mean LoG on the boundary is above this.
-    pub max_mean_edge: f32,
-    /// Depth affinity `exp(−Δd / depth_decay)`.
-    pub depth_decay: f32,
-}
+/// Adjacency: the regions' bounding boxes must be within this many pixels (the released code's
+/// 4; the paper gives no value).
+pub const TAU_GAP_PX: u32 = 4;
 
-impl Default for ReleasedCodeParams {
-    fn default() -> Self {
-        ReleasedCodeParams { min_cos: 0.65, max_mean_edge: 0.275, depth_decay: 0.1 }
-    }
-}
+/// Adjacency: the contact ratio `|dil(A) ∩ dil(B)| / min(|A|, |B|)` must reach this (the
+/// released code's 0.01; the paper gives no value).
+pub const TAU_CONTACT: f32 = 0.01;
 
-/// All parameters of Multi-Cue-Guided Mask Merging. Defaults are the paper's values (§5
-/// "Hyperparameters"); the three values the paper leaves out (`tau_gap_px`, `tau_contact`,
-/// `dilation_steps`) are the released code's.
+/// Adjacency: 3×3 dilations of each region (the released code's 2, a 5×5 window).
+pub const DILATION_STEPS: u32 = 2;
+
+/// At most this many merges per view (the paper's 1000; no view of ours comes near it).
+pub const MAX_MERGES: usize = 1000;
+
+/// Default of [`MergeConfig::max_concave_crease_deg`].
+pub const CONCAVE_CREASE_DEG: f32 = 45.0;
+
+/// All parameters of Multi-Cue-Guided Mask Merging. The `[merge]` keys are the fields up to
+/// `max_concave_crease_deg`; `boundary_statistic` and `depth_gap_at` follow the profile (code
+/// such as `splatseg ablate` may set them).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(from = "MergeConfigTable")]
 pub struct MergeConfig {
-    /// Score variant.
+    /// Score variant: `paper` or `literal` (default `paper`).
     pub profile: Profile,
-    /// Merge when the score exceeds this (paper: 0.85).
+    /// Merge when the score exceeds this; unitless, score ≤ 1 (paper: 0.85).
     pub tau_merge: f32,
-    /// Hard gate on the mean normalised depths: `|d̄_i − d̄_j| < tau_depth` (paper: 0.15).
+    /// Hard gate on the normalised depth gap `Δd < tau_depth`; depth normalised to [0, 1] per
+    /// image (paper: 0.15).
     pub tau_depth: f32,
     /// Weight of the descriptor cosine (paper: 0.5).
     pub w_sem: f32,
@@ -93,103 +96,75 @@ pub struct MergeConfig {
     pub w_dbound: f32,
     /// Weight of the LoG penalty on the boundary (paper: 0.2).
     pub w_edge: f32,
-    /// `σ_d²` of the depth affinity `exp(−Δd²/(2σ_d²))` (paper: 0.05).
+    /// `σ_d²` of the depth affinity `exp(−Δd²/(2σ_d²))`, in normalised depth squared (paper: 0.05).
     pub sigma_d_sq: f32,
-    /// Bounding boxes must be within this many pixels (released code: 4).
-    pub tau_gap_px: u32,
-    /// Contact ratio `|dil(A) ∩ dil(B)| / min(|A|, |B|)` must reach this (released code: 0.01).
-    pub tau_contact: f32,
-    /// Number of 3×3 dilations for adjacency (released code: 2, i.e. a 5×5 window).
-    pub dilation_steps: u32,
-    /// At most this many merges per view (paper: 1000).
-    pub max_merges: usize,
-    /// Statistic of the boundary terms (paper profile; literal always uses max, released-code
-    /// always mean).
-    pub boundary_statistic: BoundaryStatistic,
-    /// Relative metric-depth gate on the shared boundary, used when metric depth is available:
-    /// reject if `|z_i − z_j| / min(z_i, z_j)` exceeds this (`z` = median metric depth of each
-    /// side of the boundary band). `None` disables it.
+    /// With metric depth: reject if `|z_i − z_j| / min(z_i, z_j)` on the shared boundary exceeds
+    /// this (a ratio; `z` = median metric depth of each side). Omitted = off. Ours: 0.1.
     pub relative_depth_gate: Option<f32>,
-    /// Depth-step gate on the contact: reject when the boundary statistic of `∇D` on the
-    /// shared band exceeds this (`None` disables it). With `Δd` measured at the contact, this
-    /// is what keeps a box from merging into the floor it stands on or the white box from the
-    /// white cylinder: depth maps (monocular or rendered) smooth a depth step over a few pixels,
-    /// so both sides' medians next to it come closer than the step, but `∇D` on the contact
-    /// stays high (`∇D` is min–max normalised per image). Measured on the stress suite's tuning
-    /// seeds 0–2 (18 scenes, depth rendered from the Gaussians): merges of two different
-    /// instances have median `∇D` 0.10 on their contact (p75 0.20), merges within one instance
-    /// p95 0.07; mean mIoU 0.844 with 0.08, 0.838 with 0.12, 0.783 without the gate. On the
-    /// default synthetic scene (ground-truth metric depth for the relative gate) 0.08 costs
-    /// per-view mIoU (0.923) where 0.12 does not (0.956; 0.964 without): 0.12 holds on both.
-    /// Not in the paper.
+    /// Reject when the boundary statistic of `∇D` (normalised per image, 0–1) on the shared band
+    /// exceeds this: a box on the floor it stands on. Omitted = off. Ours: 0.12 (tuning seeds
+    /// 0–2: mean mIoU 0.844 at 0.08, 0.838 at 0.12, 0.783 off; 0.08 costs the default synthetic
+    /// scene 0.03, 0.12 does not).
     pub max_depth_boundary: Option<f32>,
-    /// Concave-crease gate: reject a pair whose two sides meet at a concave crease sharper than
-    /// this many degrees (the angle between the surface normals on each side of the contact,
-    /// from metric depth; see [`crate::score`]). A box standing on the floor, stacked boxes and
-    /// two walls at a corner meet at concave creases; the faces of one convex object at convex
-    /// ones; the parts of one multi-tone surface at none. Needs metric depth and the view's
-    /// intrinsics (`None` or 180 disables it). Not in the paper. Measured on the stress suite's
-    /// tuning seeds 0–2 (18 scenes of 24 views, final maps snapped onto the SAM regions): mean
-    /// mIoU 0.877 without the gate, 0.881 at 45°, 0.885 at 30° (p10 0.805 / 0.815 / 0.828; the
-    /// merged regions' oracle ceiling 0.870 / 0.882 / 0.883); on the CI's reduced suite (seeds
-    /// 0–1, 12 views) 0.886 / 0.885 / 0.879 (minimum 0.788 / 0.786 / 0.743): 45° holds on both.
+    /// With metric depth and intrinsics: reject a pair meeting at a concave crease sharper than
+    /// this, in degrees between the two sides' normals (a box on the floor, two walls at a
+    /// corner). Omitted or 180 = off. Ours: 45 (tuning seeds 0–2 mean mIoU 0.877 off, 0.881 at
+    /// 45°, 0.885 at 30°; the CI's reduced suite 0.886 / 0.885 / 0.879: 45° holds on both).
     pub max_concave_crease_deg: Option<f32>,
-    /// Where `Δd` is measured: `contact` (default) or `region-means` (as printed; the
-    /// `literal` and `released-code` profiles).
+    /// Statistic of the boundary terms (paper profile; literal always uses the max on the
+    /// outlines). Follows the profile: the median.
+    pub boundary_statistic: BoundaryStatistic,
+    /// Where `Δd` is measured. Follows the profile: `contact` (paper), `region-means` (literal).
     pub depth_gap_at: DepthGapAt,
-    /// Released-code profile rules.
-    pub released: ReleasedCodeParams,
 }
 
-/// A [`MergeConfig`] as written in a file: every key optional; missing keys come from the
-/// named profile's preset.
-#[derive(Deserialize)]
+/// A [`MergeConfig`] as written in a file (the `[merge]` table): every key optional; missing
+/// keys come from the named profile's preset.
+#[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct MergeConfigTable {
+pub struct MergeConfigTable {
     #[serde(default)]
     profile: Option<Profile>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     tau_merge: Option<f32>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     tau_depth: Option<f32>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     w_sem: Option<f32>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     w_depth: Option<f32>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     w_dbound: Option<f32>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     w_edge: Option<f32>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     sigma_d_sq: Option<f32>,
-    #[serde(default)]
-    tau_gap_px: Option<u32>,
-    #[serde(default)]
-    tau_contact: Option<f32>,
-    #[serde(default)]
-    dilation_steps: Option<u32>,
-    #[serde(default)]
-    max_merges: Option<usize>,
-    #[serde(default)]
-    boundary_statistic: Option<BoundaryStatistic>,
-    #[serde(default, with = "double_option")]
+    #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
     relative_depth_gate: Option<Option<f32>>,
-    #[serde(default)]
-    depth_gap_at: Option<DepthGapAt>,
-    #[serde(default, with = "double_option")]
+    #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
     max_depth_boundary: Option<Option<f32>>,
-    #[serde(default, with = "double_option")]
+    #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
     max_concave_crease_deg: Option<Option<f32>>,
-    #[serde(default)]
-    released: Option<ReleasedCodeParams>,
 }
 
 /// Distinguishes a missing key (`None`) from an explicit value.
 mod double_option {
-    use serde::{Deserialize, Deserializer};
+    use serde::{Deserialize, Deserializer, Serializer};
 
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Option<f32>>, D::Error> {
         Option::<f32>::deserialize(d).map(Some)
+    }
+
+    pub fn serialize<S: Serializer>(value: &Option<Option<f32>>, s: S) -> Result<S::Ok, S::Error> {
+        match value {
+            Some(Some(v)) => s.serialize_f32(*v),
+            _ => s.serialize_none(),
+        }
+    }
+
+    /// Missing or off (TOML has no null: an off gate is written by leaving the key out).
+    pub fn is_unset_or_off(value: &Option<Option<f32>>) -> bool {
+        !matches!(value, Some(Some(_)))
     }
 }
 
@@ -204,23 +179,13 @@ impl From<MergeConfigTable> for MergeConfig {
             w_dbound: t.w_dbound.unwrap_or(p.w_dbound),
             w_edge: t.w_edge.unwrap_or(p.w_edge),
             sigma_d_sq: t.sigma_d_sq.unwrap_or(p.sigma_d_sq),
-            tau_gap_px: t.tau_gap_px.unwrap_or(p.tau_gap_px),
-            tau_contact: t.tau_contact.unwrap_or(p.tau_contact),
-            dilation_steps: t.dilation_steps.unwrap_or(p.dilation_steps),
-            max_merges: t.max_merges.unwrap_or(p.max_merges),
-            boundary_statistic: t.boundary_statistic.unwrap_or(p.boundary_statistic),
             relative_depth_gate: t.relative_depth_gate.unwrap_or(p.relative_depth_gate),
-            depth_gap_at: t.depth_gap_at.unwrap_or(p.depth_gap_at),
             max_depth_boundary: t.max_depth_boundary.unwrap_or(p.max_depth_boundary),
             max_concave_crease_deg: t.max_concave_crease_deg.unwrap_or(p.max_concave_crease_deg),
-            released: t.released.unwrap_or(p.released),
-            profile: p.profile,
+            ..p
         }
     }
 }
-
-/// Default of [`MergeConfig::max_concave_crease_deg`].
-pub const CONCAVE_CREASE_DEG: f32 = 45.0;
 
 impl Default for MergeConfig {
     fn default() -> Self {
@@ -233,18 +198,42 @@ impl Default for MergeConfig {
             w_dbound: 0.1,
             w_edge: 0.2,
             sigma_d_sq: 0.05,
-            tau_gap_px: 4,
-            tau_contact: 0.01,
-            dilation_steps: 2,
-            max_merges: 1000,
-            boundary_statistic: BoundaryStatistic::Quantile(0.5),
             relative_depth_gate: Some(0.1),
-            depth_gap_at: DepthGapAt::Contact,
             max_depth_boundary: Some(0.12),
             max_concave_crease_deg: Some(CONCAVE_CREASE_DEG),
-            released: ReleasedCodeParams::default(),
+            boundary_statistic: BoundaryStatistic::Quantile(0.5),
+            depth_gap_at: DepthGapAt::Contact,
         }
     }
+}
+
+/// `[merge]` keys of earlier versions and what became of them (the file reader names them in
+/// its error).
+pub const RETIRED_KEYS: &[(&str, &str)] = &[
+    ("tau_gap_px", "is now the constant splatseg_merge::TAU_GAP_PX (4 px, the released code's)"),
+    ("tau_contact", "is now the constant splatseg_merge::TAU_CONTACT (0.01, the released code's)"),
+    ("dilation_steps", "is now the constant splatseg_merge::DILATION_STEPS (2, the released code's)"),
+    ("max_merges", "is now the constant splatseg_merge::MAX_MERGES (1000, the paper's)"),
+    ("boundary_statistic", "follows `profile` now (paper: the median; literal: the max)"),
+    ("depth_gap_at", "follows `profile` now (paper: contact; literal: region-means)"),
+    ("released", "was removed with the `released-code` profile"),
+];
+
+/// The error for a `profile = "released-code"` in a file.
+pub const RELEASED_CODE_REMOVED: &str = "profile \"released-code\" was removed: it was not the authors' released \
+     merger (it lacked their score's 0.75 / 0.25 offsets, gated depth at 0.15 where theirs uses 0.20 and merged a \
+     painted partition where they merge overlapping mask unions); use profile = \"paper\" (the default) or \
+     \"literal\"";
+
+/// The message for a retired `[merge]` key or profile in a TOML table, if it holds one.
+pub fn retired_merge_setting(table: &toml::Table) -> Option<String> {
+    if table.get("profile").and_then(|p| p.as_str()) == Some("released-code") {
+        return Some(format!("[merge] {RELEASED_CODE_REMOVED}"));
+    }
+    RETIRED_KEYS
+        .iter()
+        .find(|(key, _)| table.contains_key(*key))
+        .map(|(key, what)| format!("[merge] {key} {what}; remove it from the file"))
 }
 
 impl MergeConfig {
@@ -261,22 +250,34 @@ impl MergeConfig {
                 max_concave_crease_deg: None,
                 ..paper
             },
-            Profile::ReleasedCode => MergeConfig {
-                profile,
-                tau_merge: 0.0,
-                boundary_statistic: BoundaryStatistic::Mean,
-                relative_depth_gate: None,
-                depth_gap_at: DepthGapAt::RegionMeans,
-                max_depth_boundary: None,
-                max_concave_crease_deg: None,
-                ..paper
-            },
+        }
+    }
+
+    /// The `[merge]` table of a file holding these settings (every key written; a gate that is
+    /// off is left out, as TOML has no null).
+    pub fn table(&self) -> MergeConfigTable {
+        MergeConfigTable {
+            profile: Some(self.profile),
+            tau_merge: Some(self.tau_merge),
+            tau_depth: Some(self.tau_depth),
+            w_sem: Some(self.w_sem),
+            w_depth: Some(self.w_depth),
+            w_dbound: Some(self.w_dbound),
+            w_edge: Some(self.w_edge),
+            sigma_d_sq: Some(self.sigma_d_sq),
+            relative_depth_gate: Some(self.relative_depth_gate),
+            max_depth_boundary: Some(self.max_depth_boundary),
+            max_concave_crease_deg: Some(self.max_concave_crease_deg),
         }
     }
 
     /// Reads a TOML config: the named `profile`'s preset (default `paper`), overridden by the
     /// file's other keys.
     pub fn from_toml_str(text: &str) -> Result<Self, MergeError> {
+        let table: toml::Table = toml::from_str(text).map_err(|e| MergeError::Config(e.to_string()))?;
+        if let Some(message) = retired_merge_setting(&table) {
+            return Err(MergeError::Config(message));
+        }
         let config: MergeConfig = toml::from_str(text).map_err(|e| MergeError::Config(e.to_string()))?;
         config.validate()?;
         Ok(config)
@@ -291,7 +292,6 @@ impl MergeConfig {
             ("w_dbound", self.w_dbound),
             ("w_edge", self.w_edge),
             ("sigma_d_sq", self.sigma_d_sq),
-            ("tau_contact", self.tau_contact),
         ];
         for (name, v) in finite {
             if !v.is_finite() {
@@ -326,12 +326,6 @@ impl MergeConfig {
                 return Err(MergeError::Config(format!("boundary quantile {q} is outside [0, 1]")));
             }
         }
-        if self.dilation_steps == 0 || self.dilation_steps > 8 {
-            return Err(MergeError::Config(format!(
-                "dilation_steps = {} must be in 1..=8",
-                self.dilation_steps
-            )));
-        }
         if self.profile == Profile::Paper && self.w_sem + self.w_depth <= 0.0 {
             return Err(MergeError::Config(
                 "w_sem + w_depth must be positive (the paper profile divides by it)".to_string(),
@@ -353,29 +347,28 @@ mod tests {
             (0.85, 0.15, 0.5, 0.2, 0.1, 0.2)
         );
         assert_eq!(
-            (c.sigma_d_sq, c.tau_gap_px, c.tau_contact, c.dilation_steps, c.max_merges),
+            (c.sigma_d_sq, TAU_GAP_PX, TAU_CONTACT, DILATION_STEPS, MAX_MERGES),
             (0.05, 4, 0.01, 2, 1000)
         );
     }
 
     #[test]
     fn toml_starts_from_the_profile_preset_and_overrides() {
-        let c = MergeConfig::from_toml_str("profile = \"released-code\"\nw_edge = 0.3\n").unwrap();
-        assert_eq!(c.profile, Profile::ReleasedCode);
-        assert_eq!(c.tau_merge, 0.0);
+        let c = MergeConfig::from_toml_str("profile = \"literal\"\nw_edge = 0.3\n").unwrap();
+        assert_eq!(c.profile, Profile::Literal);
         assert_eq!(c.w_edge, 0.3);
-        assert_eq!(c.boundary_statistic, BoundaryStatistic::Mean);
-        let q = MergeConfig::from_toml_str("boundary_statistic = { quantile = 0.9 }").unwrap();
+        assert_eq!((c.depth_gap_at, c.max_depth_boundary), (DepthGapAt::RegionMeans, None));
         // Through any deserialiser, e.g. as a table of a bigger config.
         let json: MergeConfig =
             serde_json::from_str(r#"{"profile": "literal", "relative_depth_gate": 0.2}"#).unwrap();
         assert_eq!((json.profile, json.relative_depth_gate), (Profile::Literal, Some(0.2)));
         let json: MergeConfig = serde_json::from_str(r#"{"relative_depth_gate": null}"#).unwrap();
         assert_eq!(json.relative_depth_gate, None);
-        // Round trip.
-        let back: MergeConfig = toml::from_str(&toml::to_string(&MergeConfig::default()).unwrap()).unwrap();
-        assert_eq!(back, MergeConfig::default());
-        assert_eq!(q.boundary_statistic, BoundaryStatistic::Quantile(0.9));
+        // Round trip through the file's table, defaults and a literal profile with one gate set.
+        for config in [MergeConfig::default(), MergeConfig { max_depth_boundary: Some(0.2), ..c }] {
+            let text = toml::to_string(&config.table()).unwrap();
+            assert_eq!(MergeConfig::from_toml_str(&text).unwrap(), config, "{text}");
+        }
         assert_eq!(MergeConfig::from_toml_str("").unwrap(), MergeConfig::default());
     }
 
@@ -387,5 +380,17 @@ mod tests {
         assert!(e.contains("w_sem"), "{e}");
         let e = MergeConfig::from_toml_str("profile = \"nope\"").unwrap_err().to_string();
         assert!(e.contains("profile"), "{e}");
+    }
+
+    #[test]
+    fn retired_keys_and_the_released_code_profile_are_named_in_the_error() {
+        let e = MergeConfig::from_toml_str("profile = \"released-code\"").unwrap_err().to_string();
+        assert!(e.contains("released-code") && e.contains("removed") && e.contains("paper"), "{e}");
+        let e = MergeConfig::from_toml_str("tau_gap_px = 4").unwrap_err().to_string();
+        assert!(e.contains("tau_gap_px") && e.contains("TAU_GAP_PX"), "{e}");
+        let e = MergeConfig::from_toml_str("boundary_statistic = \"mean\"").unwrap_err().to_string();
+        assert!(e.contains("boundary_statistic") && e.contains("profile"), "{e}");
+        let e = MergeConfig::from_toml_str("[released]\nmin_cos = 0.6").unwrap_err().to_string();
+        assert!(e.contains("released"), "{e}");
     }
 }

@@ -16,7 +16,10 @@ mod merge;
 pub mod score;
 pub mod study;
 
-pub use config::{BoundaryStatistic, DepthGapAt, MergeConfig, Profile, ReleasedCodeParams};
+pub use config::{
+    retired_merge_setting, BoundaryStatistic, DepthGapAt, MergeConfig, MergeConfigTable, Profile,
+    DILATION_STEPS, MAX_MERGES, TAU_CONTACT, TAU_GAP_PX,
+};
 pub use cues::{build_view_inputs, CueRequest};
 pub use error::{MergeError, MergeResultOf};
 pub use merge::{merge_view, Decision, MergeLog, MergeResult, RegionSummary, ViewInputs};

@@ -268,7 +268,7 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
     check_inputs(inputs)?;
     let n = inputs.regions.count();
     let labels = &inputs.regions.labels;
-    let (built, junctions) = build_edges(labels, config.dilation_steps as usize);
+    let (built, junctions) = build_edges(labels, crate::config::DILATION_STEPS as usize);
     let normals = match (&inputs.points, config.max_concave_crease_deg) {
         (Some(points), Some(_)) => Some(band_normals(points, labels, &built)),
         _ => None,
@@ -342,7 +342,7 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
         score_edge(ei, &states, &mut parent, &versions, &edges, &mut heap, &mut log);
     }
 
-    while log.merges < config.max_merges {
+    while log.merges < crate::config::MAX_MERGES {
         let Some(c) = heap.pop() else { break };
         let (a, b) = (c.a as usize, c.b as usize);
         if states[a].is_none()

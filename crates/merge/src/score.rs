@@ -30,11 +30,12 @@
 //!   scores S = 0.78 with the max, 0.985 with the median; a real strong edge still blocks, 0.79).
 //!   On the synthetic scene (`splatseg ablate`, seed 0, 12 views, 47.8 SAM masks/view, raw
 //!   per-view mIoU 0.441): max 27.2 masks/view, mIoU 0.743; quantile 0.9 19.4 / 0.889;
-//!   quantile 0.75 16.5 / 0.931; **median 14.4 / 0.946**; mean 15.0 / 0.943. Configurable via
-//!   `boundary_statistic`.
+//!   quantile 0.75 16.5 / 0.931; **median 14.4 / 0.946**; mean 15.0 / 0.943. Code may set
+//!   `MergeConfig::boundary_statistic` (`splatseg ablate` does); files cannot.
 //!
 //! Measured with these choices (same scene): literal profile 46.2 masks/view (nothing merged),
-//! released-code profile 7.8 / 0.487 (over-merges), paper profile 14.4 / 0.946. Cue ablation:
+//! paper profile 14.4 / 0.946 (a released-code profile, removed as it was not the
+//! authors' merger, over-merged: 7.8 / 0.487). Cue ablation:
 //! semantic only 10.4 / 0.856 (white-on-white pair merged in 10 of 12 views), + LoG 14.9 /
 //! 0.904 (4/12), + depth 14.4 / 0.946 (1/12, the view where the simulated SAM itself produced a
 //! single mask over both objects). Sensitivity: aggressive (0.70, 0.30) 9.2 / 0.732, conservative
@@ -82,7 +83,7 @@
 //! [`Literal`]: crate::Profile::Literal
 //! [`Paper`]: crate::Profile::Paper
 
-use crate::config::{BoundaryStatistic, DepthGapAt, MergeConfig, Profile};
+use crate::config::{BoundaryStatistic, DepthGapAt, MergeConfig, Profile, TAU_CONTACT, TAU_GAP_PX};
 use serde::{Deserialize, Serialize};
 use splatseg_scene::Plane;
 
@@ -131,10 +132,6 @@ pub enum Outcome {
     ConcaveCrease,
     /// Relative metric-depth gap above `τ_rel`.
     RelativeDepthGate,
-    /// Released-code profile: cosine below its floor.
-    SemanticFloor,
-    /// Released-code profile: mean boundary LoG above its ceiling.
-    EdgeCeiling,
     /// `S ≤ τ_merge`.
     BelowThreshold,
 }
@@ -347,18 +344,13 @@ pub(crate) fn evaluate(
             a.outline_depth_grad_max.max(b.outline_depth_grad_max),
             a.outline_edge_max.max(b.outline_edge_max),
         ),
-        Profile::ReleasedCode => (
-            (-depth_gap / config.released.depth_decay).exp(),
-            band_statistic(maps.depth_gradient, boundary, BoundaryStatistic::Mean, &mut scratch.values),
-            band_statistic(maps.edges, boundary, BoundaryStatistic::Mean, &mut scratch.values),
-        ),
     };
     let raw = config.w_sem * cos + config.w_depth * depth_affinity
         - config.w_dbound * depth_boundary
         - config.w_edge * edge_boundary;
     let score = match config.profile {
         Profile::Paper => raw / (config.w_sem + config.w_depth),
-        Profile::Literal | Profile::ReleasedCode => raw,
+        Profile::Literal => raw,
     };
     let relative_depth_gap = match (config.relative_depth_gate, maps.metric_depth) {
         (Some(_), Some(z)) => scratch
@@ -382,7 +374,7 @@ pub(crate) fn evaluate(
         crease_deg,
         score,
     };
-    let outcome = if band.is_empty() || bbox_gap_px > config.tau_gap_px || contact < config.tau_contact {
+    let outcome = if band.is_empty() || bbox_gap_px > TAU_GAP_PX || contact < TAU_CONTACT {
         Outcome::NotAdjacent
     } else if depth_gap >= config.tau_depth {
         Outcome::DepthGate
@@ -392,10 +384,6 @@ pub(crate) fn evaluate(
         Outcome::ConcaveCrease
     } else if matches!((relative_depth_gap, config.relative_depth_gate), (Some(g), Some(t)) if g > t) {
         Outcome::RelativeDepthGate
-    } else if config.profile == Profile::ReleasedCode && cos < config.released.min_cos {
-        Outcome::SemanticFloor
-    } else if config.profile == Profile::ReleasedCode && edge_boundary > config.released.max_mean_edge {
-        Outcome::EdgeCeiling
     } else if score > config.tau_merge {
         Outcome::Accepted
     } else {

@@ -237,16 +237,6 @@ fn the_literal_formula_merges_nothing() {
 }
 
 #[test]
-fn the_released_code_profile_applies_its_hard_rejects() {
-    // cos(HALF_A, BACKGROUND) is low: rejected by the semantic floor, halves merged.
-    let grey = |x: usize, y: usize| if split_object(x, y) == 3 { 0.1 } else { 0.6 };
-    let v = view(split_object, &[HALF_A, HALF_B, BACKGROUND], grey, |_, _| 0.5);
-    let r = merge_view(&v, &MergeConfig::for_profile(Profile::ReleasedCode)).unwrap();
-    assert_eq!(r.regions.len(), 2);
-    assert!(r.log.decisions.iter().any(|d| d.outcome == Outcome::SemanticFloor));
-}
-
-#[test]
 fn the_relative_metric_gate_separates_what_normalised_depth_cannot() {
     // Normalised depths differ by only 0.1 (a room 2–8 m deep: 4.0 m vs 4.6 m), so the
     // normalised gate passes; metric z differs by 15 % at the contact, so the relative gate

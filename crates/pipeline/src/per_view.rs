@@ -20,9 +20,12 @@ use std::path::Path;
 
 /// The key of what rendered depth depends on (the PLY's contents and the surface settings), so
 /// lift-only changes keep the merge cache; empty without a PLY.
-pub fn ply_key(ply: Option<&Path>, lift: &LiftConfig) -> crate::Result<String> {
+pub fn ply_key(ply: Option<&Path>, _lift: &LiftConfig) -> crate::Result<String> {
     Ok(match ply {
-        Some(p) => KeyHasher::default().file(p)?.json(&(lift.surface_transmittance, lift.near)).finish(),
+        Some(p) => KeyHasher::default()
+            .file(p)?
+            .json(&(splatseg_lift::visibility::SURFACE_TRANSMITTANCE, splatseg_lift::project::NEAR_PLANE))
+            .finish(),
         None => String::new(),
     })
 }

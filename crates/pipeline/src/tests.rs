@@ -183,11 +183,11 @@ fn a_ply_with_too_few_gaussians_is_an_error() {
 fn final_maps_default_to_snapped_onto_sam_regions_and_others_can_be_chosen() {
     use splatseg_lift::FinalMaps;
     assert_eq!(PipelineConfig::default().lift.final_maps, FinalMaps::SnappedRaw);
-    let config: PipelineConfig = toml::from_str("[lift]\nfinal_maps = \"snapped\"\n").expect("parses");
+    let config: PipelineConfig = toml::from_str("[final_maps]\nkind = \"snapped\"\n").expect("parses");
     assert_eq!(config.lift.final_maps, FinalMaps::Snapped);
-    let config: PipelineConfig = toml::from_str("[lift]\nfinal_maps = \"rendered\"\n").expect("parses");
+    let config: PipelineConfig = toml::from_str("[final_maps]\nkind = \"rendered\"\n").expect("parses");
     assert_eq!(config.lift.final_maps, FinalMaps::Rendered);
-    assert!(toml::from_str::<PipelineConfig>("[lift]\nfinal_maps = \"sharp\"\n").is_err());
+    assert!(toml::from_str::<PipelineConfig>("[final_maps]\nkind = \"sharp\"\n").is_err());
 }
 
 /// The train stage after the pipeline (as the demo runs it, on a smaller scene): held-out PSNR rises,

@@ -251,7 +251,7 @@ fn load_label_map(dir: &Path, stem: &str, camera: &RenderCamera) -> crate::Resul
     let path = dir.join(format!("{stem}.png"));
     if !path.is_file() {
         bail!(
-            "no label map for view {stem} (the identity maps need every training view's final label map from              `splatseg run`; pass --label-maps DIR or --no-identity-maps): {}",
+            "no label map for view {stem} (the identity maps need every training view's final label map from              `splatseg run`; pass --label-maps DIR, or set [train.joint] identity_maps = false in --config): {}",
             path.display()
         );
     }

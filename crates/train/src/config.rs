@@ -1,11 +1,15 @@
 //! [`TrainConfig`]: the `[train]` section of the TOML config. Defaults are the paper's values
 //! (supplement, "Optimization Details"), and 3DGS's where the paper follows 3DGS without restating them.
+//!
+//! Fields marked "code only" are not read from files (`#[serde(skip)]`): their defaults are
+//! 3DGS's, which nobody running this method has reason to change from a config file; code
+//! (tests, studies) may still set them.
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{TrainError, TrainResult};
 
-/// Learning rates (Adam for every group).
+/// Learning rates (Adam for every group), 3DGS's; code only (not a file key).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LearningRates {
@@ -56,21 +60,27 @@ pub struct DensifyConfig {
     pub from: usize,
     /// Densification stops here (paper: 15k); the joint stage starts here.
     pub until: usize,
-    /// Every this many iterations (paper: 100).
+    /// Every this many iterations (paper: 100); code only.
+    #[serde(skip)]
     pub interval: usize,
     /// Mean view-space positional gradient (3DGS's NDC units) above which a Gaussian is densified (3DGS: 2e-4).
     pub grad_threshold: f64,
     /// A Gaussian whose largest scale is at most this fraction of the scene extent is cloned, larger
-    /// ones are split (3DGS: 0.01).
+    /// ones are split (3DGS: 0.01); code only.
+    #[serde(skip)]
     pub percent_dense: f64,
-    /// Gaussians with opacity below this are pruned (3DGS: 0.005).
+    /// Gaussians with opacity below this are pruned (3DGS: 0.005); code only.
+    #[serde(skip)]
     pub min_opacity: f64,
-    /// Every this many iterations all opacities are reset to `reset_opacity` (3DGS: 3000).
+    /// Every this many iterations all opacities are reset to `reset_opacity` (3DGS: 3000); code only.
+    #[serde(skip)]
     pub opacity_reset_interval: usize,
-    /// Opacity after a reset (3DGS: 0.01).
+    /// Opacity after a reset (3DGS: 0.01); code only.
+    #[serde(skip)]
     pub reset_opacity: f64,
     /// After the first opacity reset, prune Gaussians wider than this many pixels on screen (3DGS: 20)
-    /// or than 0.1 × the extent in the world.
+    /// or than 0.1 × the extent in the world; code only.
+    #[serde(skip)]
     pub max_screen_size_px: f64,
 }
 
@@ -115,7 +125,9 @@ pub struct JointConfig {
     pub enabled: bool,
     /// Object-feature width (paper: 16).
     pub feature_dim: usize,
-    /// Standard deviation of the initial features: the paper's `N(0, 0.01)` read as variance 0.01.
+    /// Standard deviation of the initial features: the paper's `N(0, 0.01)` read as variance
+    /// 0.01; code only.
+    #[serde(skip)]
     pub init_std: f64,
     /// λ_s (paper: 0.1).
     pub lambda_semantic: f64,
@@ -123,9 +135,13 @@ pub struct JointConfig {
     pub lambda_reg: f64,
     /// Neighbours of the 3D regulariser (paper: 5).
     pub knn: usize,
-    /// Neighbour lists are rebuilt every this many iterations (positions keep moving slowly).
+    /// Neighbour lists are rebuilt every this many iterations (positions keep moving slowly);
+    /// code only.
+    #[serde(skip)]
     pub knn_refresh_interval: usize,
-    /// A Gaussian takes the id of the nearest object code when their cosine exceeds this; otherwise −1.
+    /// A Gaussian takes the id of the nearest object code when their cosine exceeds this;
+    /// otherwise −1. Code only.
+    #[serde(skip)]
     pub assign_min_cosine: f64,
     /// Render the D-channel identity maps and supervise them in 2D against each training view's label
     /// map (the supplement's "16-channel identity feature maps for 3D-to-2D supervision"); needs the
@@ -163,7 +179,9 @@ pub struct TrainConfig {
     pub iterations: usize,
     /// Weight of the D-SSIM term in `L_render = (1 − λ)·L1 + λ·(1 − SSIM)` (3DGS: 0.2).
     pub lambda_dssim: f64,
-    /// The SH degree grows by one every this many iterations up to the model's degree (3DGS: 1000).
+    /// The SH degree grows by one every this many iterations up to the model's degree (3DGS:
+    /// 1000); code only.
+    #[serde(skip)]
     pub sh_degree_interval: usize,
     /// Seed of the view order and of the object-feature initialisation.
     pub seed: u64,
@@ -174,7 +192,8 @@ pub struct TrainConfig {
     /// Iterations after which the Gaussians are also saved (3DGS's `--save_iterations`: 7000, 30000);
     /// the final ones are always saved.
     pub save_iterations: Vec<usize>,
-    /// Learning rates.
+    /// Learning rates (3DGS's); code only.
+    #[serde(skip)]
     pub lr: LearningRates,
     /// Densification.
     pub densify: DensifyConfig,
@@ -272,5 +291,16 @@ mod tests {
         c.validate().unwrap();
         let bad = TrainConfig { lambda_dssim: 1.5, ..TrainConfig::default() };
         assert!(bad.validate().unwrap_err().to_string().contains("lambda_dssim"));
+    }
+
+    #[test]
+    fn code_only_fields_keep_their_defaults_when_a_file_is_read() {
+        let c: TrainConfig = toml::from_str("iterations = 10\n[densify]\nuntil = 5\n").unwrap();
+        assert_eq!(c.lr, LearningRates::default());
+        assert_eq!(c.sh_degree_interval, 1000);
+        assert_eq!(c.densify, DensifyConfig { until: 5, ..DensifyConfig::default() });
+        assert_eq!(c.joint, JointConfig::default());
+        assert_eq!(toml::from_str::<TrainConfig>("").unwrap(), TrainConfig::default());
+        assert!(toml::from_str::<TrainConfig>("sh_degree_interval = 5").is_err());
     }
 }

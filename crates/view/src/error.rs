@@ -30,7 +30,7 @@ pub enum ViewError {
         path: PathBuf,
     },
     /// The address could not be bound (e.g. the port is in use).
-    #[error("cannot listen on {addr}: {reason} (is another program using the port? try --port 0 for any free port)")]
+    #[error("cannot listen on {addr}: {reason} (is another program using the port? try --listen 127.0.0.1:0 for any free port)")]
     Bind {
         /// `host:port`.
         addr: String,

@@ -45,30 +45,20 @@ pub struct Args {
     /// sam_noise.
     #[arg(long = "family", value_parser = parse_family)]
     pub families: Vec<Family>,
-    /// Image size WIDTHxHEIGHT instead of the family's (SAM's pixel settings and the thin
-    /// posts scale with it).
-    #[arg(long, value_parser = crate::commands::parse_size)]
-    pub size: Option<(u32, u32)>,
-    /// Number of views instead of the family's.
-    #[arg(long)]
-    pub views: Option<usize>,
     /// Also run every scene without --features (the model-free descriptors) and report it too.
     #[arg(long)]
     pub no_features: bool,
-    /// Output folder: `quality.md`, `quality.json`, and with --keep the scenes and runs.
+    /// Output folder: `quality.md` and `quality.json`.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Keep every scene and run folder under OUT/scenes (they are deleted after scoring).
-    #[arg(long)]
-    pub keep: bool,
     /// A pipeline config (TOML, as for `splatseg run --config`) for every run instead of the
     /// defaults: to compare settings on the tuning seeds.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// How many of the worst scenes to list.
-    #[arg(long, default_value_t = 8)]
-    pub worst: usize,
 }
+
+/// How many of the worst scenes the report lists.
+const WORST_LISTED: usize = 8;
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -79,12 +69,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let request = QualityRequest {
         seeds: args.seeds,
         families: args.families,
-        overrides: SceneOverrides { size: args.size, views: args.views },
+        overrides: SceneOverrides { size: None, views: None }, // each family's own size and views
         no_features: args.no_features,
         out: args.out,
-        keep: args.keep,
+        keep: false,
         pipeline,
-        worst: args.worst,
+        worst: WORST_LISTED,
     };
     let text = quality(&request, &mut |line| eprintln!("{line}"))?;
     let _ = std::io::stdout().write_all(text.as_bytes());
