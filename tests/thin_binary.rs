@@ -3,10 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-/// Most lines `src/` may hold. Issue 26's target is 1,000; until the command-line options are
-/// reduced (its deliverable 3) the bar is what the thin binary measured, lowered as lines go and
-/// never raised.
-const MAX_SRC_LINES: usize = 1_700;
+/// Most lines `src/` may hold: what it holds now that its logic is in the crates and the options are
+/// cut (1,596; was 3,806), lowered as lines go and never raised. Issue 26's target is 1,000: what is
+/// left is clap argument structs and their help text, which would have to move into the library
+/// request structs (deriving clap's `Args` there) to go further.
+const MAX_SRC_LINES: usize = 1_600;
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("src/ is listable").flatten() {
