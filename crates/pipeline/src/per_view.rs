@@ -14,9 +14,7 @@ use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{
-    view_depth_visibility_and_bins, view_surface_depth, LiftConfig, PosedCamera, PreparedGaussians,
-};
+use splatseg_lift::{view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -170,10 +168,10 @@ impl PerView<'_> {
         // One projection of the Gaussians: the surface depth and the visibility test against it.
         let (depth, visibility, bins) = match self.prepared {
             Some(p) => {
-                let (depth, visibility, bins) = self.times.time("surface depth and visibility", || {
-                    view_depth_visibility_and_bins(p, c.camera, c.world_from_cam, self.lift)
+                let pass = self.times.time("surface depth and visibility", || {
+                    view_visibility(p, c.camera, c.world_from_cam, None, self.lift)
                 });
-                (Some(depth), Some(visibility), Some(bins))
+                (pass.surface_depth, Some(pass.visible), Some(pass.tile_lists))
             }
             None => (None, None, None),
         };
@@ -254,8 +252,9 @@ pub fn merge_shard(config: &RunConfig, shard: Shard) -> crate::Result<ShardSumma
         .par_iter()
         .map(|&v| -> crate::Result<bool> {
             let view = &scene.views[v];
-            let metric = prepared.as_ref().map(|p| {
-                finite_depth(&view_surface_depth(p, scene.camera(view), &view.world_from_cam, lift))
+            let metric = prepared.as_ref().and_then(|p| {
+                let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
+                pass.surface_depth.as_ref().map(finite_depth)
             });
             let merged = sources.merge(&ctx, v, metric).with_context(|| format!("shard {shard}"))?;
             bar.inc(1);
