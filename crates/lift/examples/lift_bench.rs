@@ -59,7 +59,7 @@ fn main() {
         let t = Instant::now();
         let ids: Vec<u32> = vis.pixels.iter().map(|&p| map.data[p as usize]).collect();
         votes.add_view(&vis.gaussians, &vis.weights, &ids).expect("a valid list");
-        observations += vis.len();
+        observations += vis.gaussians.len();
         t_vote += t.elapsed().as_secs_f64();
     }
     let t = Instant::now();

@@ -97,16 +97,6 @@ pub struct FusedFeatures {
 }
 
 impl FusedFeatures {
-    /// Number of Gaussians.
-    pub fn len(&self) -> usize {
-        self.terms.len() / SLOTS
-    }
-
-    /// True for no Gaussians.
-    pub fn is_empty(&self) -> bool {
-        self.terms.is_empty()
-    }
-
     /// Writes f_g of Gaussian `g` (`[dim]`) into `out`.
     pub fn row(&self, g: usize, out: &mut [f32]) {
         out.iter_mut().for_each(|x| *x = 0.0);

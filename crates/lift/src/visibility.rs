@@ -33,18 +33,6 @@ pub struct ViewVisibility {
     pub weights: Vec<f32>,
 }
 
-impl ViewVisibility {
-    /// Number of visible Gaussians.
-    pub fn len(&self) -> usize {
-        self.gaussians.len()
-    }
-
-    /// True when the view sees no Gaussian.
-    pub fn is_empty(&self) -> bool {
-        self.gaussians.is_empty()
-    }
-}
-
 /// Surface depth of one band of 16 rows: `[rows, width]`, the first pixel `first`.
 struct DepthBand<'a> {
     view: &'a ProjectedView,

@@ -164,7 +164,7 @@ fn lifting_recovers_objects_and_renders_consistent_maps() {
         };
     }
     let vis = visibility_of(&prepared, &cams, &config);
-    let total_visible: usize = vis.iter().map(|v| v.len()).sum();
+    let total_visible: usize = vis.iter().map(|v| v.gaussians.len()).sum();
     assert!(total_visible < 12 * means.len() * 3 / 4, "back faces are culled: {total_visible}");
     let lifted = lift_views(means.len(), &vis, &maps, features(), &config).unwrap();
     // Gaussians seen in 3+ views are outvoting view 0 (those seen by view 0 alone cannot).

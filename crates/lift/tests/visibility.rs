@@ -48,7 +48,7 @@ fn given_depth_map_is_used_and_behind_camera_is_invisible() {
     // A wall at depth 1 everywhere hides the Gaussian at z = 3.
     let wall = splatseg_scene::Plane::filled(32, 32, 1.0f32);
     let vis = view_visibility(&prepared, &cam, &Pose::IDENTITY, Some(&wall), &LiftConfig::default()).visible;
-    assert!(vis.is_empty());
+    assert!(vis.gaussians.is_empty());
     let vis = view_visibility(&prepared, &cam, &Pose::IDENTITY, None, &LiftConfig::default()).visible;
     assert_eq!(vis.gaussians, vec![0]);
 }
