@@ -1,12 +1,11 @@
-//! Criterion benchmark of lifting (visibility + vote/fusion) at a reduced size; the full-size
-//! run (1M Gaussians × 100 views at 1 MP) is `examples/lift_bench.rs`.
+//! Criterion benchmark of lifting (each view's visibility pass and votes, then fusion and the
+//! variance filter) at a reduced size; the full-size run (1M Gaussians × 100 views at 1 MP) is
+//! `examples/lift_bench.rs`.
 
 mod data;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splatseg_lift::{
-    lift_labels, visibility_all, LiftConfig, ObjectFeatures, PosedCamera, PreparedGaussians,
-};
+use splatseg_lift::{view_visibility, LiftConfig, ObjectFeatures, PreparedGaussians, VoteAccumulator};
 
 fn bench_lift(c: &mut Criterion) {
     let n = 100_000;
@@ -15,16 +14,19 @@ fn bench_lift(c: &mut Criterion) {
     let poses = data::poses(10);
     let maps = data::id_maps(&camera, &poses);
     let features = data::object_features();
-    let cams: Vec<PosedCamera> =
-        poses.iter().map(|p| PosedCamera { camera: &camera, world_from_cam: p }).collect();
     let config = LiftConfig::default();
     let mut group = c.benchmark_group("lift");
     group.sample_size(10);
     group.bench_function("100k_gaussians_10_views_500px", |b| {
         b.iter(|| {
             let prepared = PreparedGaussians::new(&g).expect("finite");
-            let vis = visibility_all(&prepared, &cams, None, &config).expect("sizes");
-            lift_labels(n, &vis, &maps, ObjectFeatures { dim: 8, values: &features }, &config).expect("maps")
+            let mut votes = VoteAccumulator::new(n);
+            for (pose, map) in poses.iter().zip(&maps) {
+                let vis = view_visibility(&prepared, &camera, pose, None, &config).visible;
+                let ids: Vec<u32> = vis.pixels.iter().map(|&p| map.data[p as usize]).collect();
+                votes.add_view(&vis.gaussians, &vis.weights, &ids).expect("a valid list");
+            }
+            votes.finish(ObjectFeatures { dim: 8, values: &features }, &config).expect("known ids")
         })
     });
     group.finish();

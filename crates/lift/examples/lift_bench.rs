@@ -9,9 +9,10 @@
 #[path = "../benches/data/mod.rs"]
 mod data;
 
+use rayon::prelude::*;
 use splatseg_lift::{
-    lift_labels, render_all, render_votes, visibility_all, LiftConfig, ObjectFeatures, PosedCamera,
-    PreparedGaussians,
+    render_label_map, render_votes, view_visibility, LiftConfig, ObjectFeatures, PreparedGaussians,
+    VoteAccumulator,
 };
 use std::time::Instant;
 
@@ -42,22 +43,28 @@ fn main() {
     let poses = data::poses(views);
     let maps = data::id_maps(&camera, &poses);
     let features = data::object_features();
-    let cams: Vec<PosedCamera> =
-        poses.iter().map(|p| PosedCamera { camera: &camera, world_from_cam: p }).collect();
     let config = LiftConfig::default();
     println!("inputs ready, peak RSS so far {:.0} MB", peak_rss_mb().unwrap_or(f64::NAN));
 
     let (t, cpu) = (Instant::now(), cpu_secs());
     let prepared = PreparedGaussians::new(&g).expect("finite Gaussians");
     let t_prepare = t.elapsed().as_secs_f64();
+    // Each view's visibility pass and votes, in view order (as the pipeline adds them).
+    let (mut t_vis, mut t_vote, mut observations) = (0.0, 0.0, 0usize);
+    let mut votes = VoteAccumulator::new(n);
+    for (pose, map) in poses.iter().zip(&maps) {
+        let t = Instant::now();
+        let vis = view_visibility(&prepared, &camera, pose, None, &config).visible;
+        t_vis += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let ids: Vec<u32> = vis.pixels.iter().map(|&p| map.data[p as usize]).collect();
+        votes.add_view(&vis.gaussians, &vis.weights, &ids).expect("a valid list");
+        observations += vis.gaussians.len();
+        t_vote += t.elapsed().as_secs_f64();
+    }
     let t = Instant::now();
-    let vis = visibility_all(&prepared, &cams, None, &config).expect("sizes match");
-    let t_vis = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let lifted = lift_labels(n, &vis, &maps, ObjectFeatures { dim: 8, values: &features }, &config)
-        .expect("valid maps");
-    let t_lift = t.elapsed().as_secs_f64();
-    let observations: usize = vis.iter().map(|v| v.len()).sum();
+    let lifted = votes.finish(ObjectFeatures { dim: 8, values: &features }, &config).expect("known ids");
+    let t_lift = t_vote + t.elapsed().as_secs_f64();
     println!(
         "lifting: prepare {t_prepare:.2} s + visibility {t_vis:.2} s + vote/fuse {t_lift:.2} s = {:.2} s",
         t_prepare + t_vis + t_lift
@@ -69,7 +76,11 @@ fn main() {
     println!("  {observations} (Gaussian, view) observations; {:?}", lifted.stats);
     println!("  peak RSS {:.0} MB", peak_rss_mb().unwrap_or(f64::NAN));
     let (t, cpu) = (Instant::now(), cpu_secs());
-    let back = render_all(&prepared, &render_votes(&lifted, &config), &cams, &config);
+    let votes = render_votes(&lifted, &config);
+    let back: Vec<_> = poses
+        .par_iter()
+        .map(|pose| render_label_map(&prepared, &votes, &camera, pose, &config, None).expect("no kept lists"))
+        .collect();
     println!(
         "render-back of {} label maps: {:.2} s ({:.2} CPU s)",
         back.len(),

@@ -6,15 +6,15 @@
 //! cargo run --release -p splatseg-lift --example scene_passes -- SCENE_DIR [VIEWS]
 //! ```
 //! Reads `SCENE_DIR/gaussians.ply` and the cameras, and, for the first VIEWS views (default 3),
-//! times the projection and binning, the surface depth, the visibility test and the label map
-//! rendered back (votes: the scene's `gt/gaussian_ids.npy` when present, else index / 997). Prints
+//! times the visibility pass (projection and binning, surface depth, visibility test) and the label
+//! map rendered back with the pass's tile lists, as `run` does (votes: the scene's
+//! `gt/gaussian_ids.npy` when present, else index / 997). Prints
 //! per pass the seconds per view and a checksum of the outputs, so two builds can be compared
 //! for equal results as well as speed. With `STATS=1` it also prints, per view, the visible
 //! splats, the (splat, tile) pairs and the blends per pixel (all, until T < 0.5, until T < 0.1).
 
 use splatseg_lift::{
-    label_map_of_view, project_view, surface_depth, visible_gaussians, LiftConfig, PreparedGaussians,
-    RenderVotes,
+    project_view, render_label_map, view_visibility, LiftConfig, PreparedGaussians, RenderVotes,
 };
 use splatseg_scene::load::LoadOptions;
 use std::path::PathBuf;
@@ -47,36 +47,37 @@ fn main() {
     };
     let votes = RenderVotes::uniform(labels);
     let config = LiftConfig::default();
-    let mut secs = [0f64; 4];
+    let mut secs = [0f64; 2];
     let mut sums = [0u64; 3];
     let views = views.min(scene.views.len());
     for view in &scene.views[..views] {
         let camera = scene.camera(view);
-        let t = Instant::now();
-        let projected = project_view(&prepared, camera, &view.world_from_cam, &config);
-        secs[0] += t.elapsed().as_secs_f64();
         if std::env::var_os("STATS").is_some() {
-            stats::report(&projected);
+            stats::report(&project_view(&prepared, camera, &view.world_from_cam, &config));
         }
         let t = Instant::now();
-        let depth = surface_depth(&projected, &config);
+        let pass = view_visibility(&prepared, camera, &view.world_from_cam, None, &config);
+        secs[0] += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let map =
+            render_label_map(&prepared, &votes, camera, &view.world_from_cam, &config, Some(pass.tile_lists))
+                .expect("the pass's own tile lists fit");
         secs[1] += t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let vis = visible_gaussians(&prepared, &projected, camera, &view.world_from_cam, &depth, &config);
-        secs[2] += t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let map = label_map_of_view(&projected, &votes);
-        secs[3] += t.elapsed().as_secs_f64();
+        let depth = pass.surface_depth.expect("the Gaussians' own surface depth");
+        let vis = pass.visible;
         sums[0] ^= checksum(depth.data.iter().map(|d| d.to_bits()));
         sums[1] ^= checksum(vis.gaussians.iter().copied().chain(vis.weights.iter().map(|w| w.to_bits())));
         sums[2] ^= checksum(map.data.iter().copied());
     }
     let per = |s: f64| s / views.max(1) as f64;
     println!("{n} Gaussians, {views} views, {} threads; seconds per view:", rayon::current_num_threads());
-    println!("  project + bin   {:.3}", per(secs[0]));
-    println!("  surface depth   {:.3}  checksum {:016x}", per(secs[1]), sums[0]);
-    println!("  visibility test {:.3}  checksum {:016x}", per(secs[2]), sums[1]);
-    println!("  render back     {:.3}  checksum {:016x}", per(secs[3]), sums[2]);
+    println!(
+        "  visibility pass {:.3}  checksums: depth {:016x}, visible {:016x}",
+        per(secs[0]),
+        sums[0],
+        sums[1]
+    );
+    println!("  render back     {:.3}  checksum {:016x}", per(secs[1]), sums[2]);
 }
 
 /// The per-view counts printed with `STATS=1`.

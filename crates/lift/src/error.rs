@@ -3,28 +3,6 @@
 /// What can go wrong lifting labels onto Gaussians.
 #[derive(Debug, thiserror::Error)]
 pub enum LiftError {
-    /// A per-view label map does not have the view's camera size.
-    #[error("view {view}: label map is {got_w}×{got_h}, but the camera is {want_w}×{want_h}")]
-    LabelMapSize {
-        /// View index.
-        view: usize,
-        /// Label map width.
-        got_w: usize,
-        /// Label map height.
-        got_h: usize,
-        /// Camera width.
-        want_w: usize,
-        /// Camera height.
-        want_h: usize,
-    },
-    /// A label map is smaller than the image its visibility was computed for.
-    #[error("view {view}: label map has only {pixels} pixels, smaller than the view's image")]
-    MapTooSmall {
-        /// View index.
-        view: usize,
-        /// Pixels in the map.
-        pixels: usize,
-    },
     /// Per-view inputs disagree in count.
     #[error("{what}: got {got} entries, expected {expected}")]
     Count {
@@ -61,6 +39,9 @@ pub enum LiftError {
         /// Objects with identity features.
         n_objects: usize,
     },
+    /// Writing the labelled PLY.
+    #[error(transparent)]
+    Scene(#[from] splatseg_scene::SceneError),
     /// Tile lists kept from an earlier pass that do not fit the view.
     #[error(transparent)]
     Render(#[from] splatseg_render::RenderError),

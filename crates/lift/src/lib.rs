@@ -2,30 +2,42 @@
 //! Gaussians (paper §4.3, "Feature Lifting", "3D Mask ID Assignment", "Variance-based
 //! Reliability Filtering").
 //!
+//! What `pipeline` calls: [`view_visibility`] once per view in its per-view pass, then
+//! [`LiftStage::run`] ([`final_maps`]) from the votes to the final label maps, reading each
+//! view's visible Gaussians back through its [`ViewStore`]; [`render_label_map`] renders ids
+//! back from any labelled Gaussians (also after training).
+//!
 //! - [`project`]: Gaussians prepared once, and projected per view by the renderer
 //!   (`splatseg_render::ProjectedView`; its compositor `visit_contributions` is the only one).
 //! - [`visibility`]: which Gaussians a view sees (depth test against the composited surface),
 //!   where their centre lands, and their fusion weight (frontal, near views weigh more).
+//! - [`final_maps`]: the stage after the per-view pass, step by step, streaming view by view.
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
-//! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
-//! - [`snap`]: rendered ids snapped onto a view's merged regions (optional final maps).
 //! - [`touching`]: objects that touch in 3D and look alike (or meet as parts of one object) become one.
+//! - [`split`]: objects whose Gaussians lie apart in 3D become several.
 //! - `shape`: the typical Gaussian size, planes, thin lines and contacts between objects in 3D.
 //! - [`facing`]: which way each Gaussian's surface faces (towards the cameras that see it).
-//! - [`numbering`]: final stable renumbering of the ids.
+//! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
+//! - [`snap`]: rendered ids snapped onto a view's regions (optional final maps).
+//! - [`refine`]: the final maps' boundary pixels refined by the image's colours.
+//! - [`run_lengths`]: label maps kept as runs until the steps that need every view.
+//! - [`numbering`]: specks dropped, final stable renumbering of the ids.
+//! - [`labelled_ply`]: the input PLY's rows written with their ids and fused features.
 //!
-//! Views are independent and run in parallel with rayon ([`visibility_all`],
-//! [`render_all`]); per-Gaussian work runs over Gaussian ranges in parallel with views in fixed
-//! order, so results do not depend on the thread count.
+//! Views are independent and run in parallel with rayon; per-Gaussian work runs over Gaussian
+//! ranges in parallel with views in fixed order, so results do not depend on the thread count.
 
 pub mod config;
 pub mod error;
 pub mod facing;
+pub mod final_maps;
+pub mod labelled_ply;
 pub mod lifting;
 pub mod numbering;
 pub mod project;
 pub mod refine;
 pub mod render_labels;
+pub mod run_lengths;
 mod shape;
 pub mod snap;
 pub mod split;
@@ -36,25 +48,20 @@ mod voxels;
 pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
 pub use facing::Facing;
-pub use lifting::{
-    lift_labels, FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator,
-};
-pub use numbering::{drop_small_objects, renumber};
+pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewStore, VisibleGaussians};
+pub use labelled_ply::{ids_of_every_row, write_labelled_ply};
+pub use lifting::{FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator};
+pub use numbering::{drop_specks_and_number, renumber};
 pub use project::{project_view, project_view_binned, raster_settings, PreparedGaussians};
 pub use refine::{refine_boundaries, RefineRule};
-pub use render_labels::{
-    label_map_of_view, render_label_map, render_label_map_binned, render_votes, RenderVotes,
-};
-pub use snap::{snap_to_regions, snap_view, SnapRule, Snapped};
+pub use render_labels::{render_label_map, render_votes, RenderVotes};
+pub use run_lengths::RunLengths;
+pub use snap::{snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};
-pub use touching::{join_touching_counted, join_touching_objects, ViewCounts};
-pub use visibility::{
-    surface_depth, view_depth_and_visibility, view_depth_visibility_and_bins, view_surface_depth,
-    view_visibility, visible_gaussians, ViewVisibility,
-};
+pub use touching::{join_touching_objects, ViewCounts};
+pub use visibility::{view_visibility, ViewVisibility, VisibilityPass};
 
-use rayon::prelude::*;
-use splatseg_scene::{Camera, Plane, Pose};
+use splatseg_scene::{Camera, Pose};
 
 /// One posed camera.
 #[derive(Clone, Copy, Debug)]
@@ -63,49 +70,4 @@ pub struct PosedCamera<'a> {
     pub camera: &'a Camera,
     /// Camera-to-world pose.
     pub world_from_cam: &'a Pose,
-}
-
-/// [`view_visibility`] for every view, in parallel. `depths`: optional per-view surface depth
-/// maps (`[n_views]`, each `[height, width]`), otherwise the Gaussians' own footprints are used.
-pub fn visibility_all(
-    gaussians: &PreparedGaussians,
-    cameras: &[PosedCamera],
-    depths: Option<&[Plane<f32>]>,
-    config: &LiftConfig,
-) -> LiftResult<Vec<ViewVisibility>> {
-    if let Some(d) = depths {
-        check_map_sizes(cameras, d)?;
-    }
-    Ok(cameras
-        .par_iter()
-        .enumerate()
-        .map(|(v, c)| view_visibility(gaussians, c.camera, c.world_from_cam, depths.map(|d| &d[v]), config))
-        .collect())
-}
-
-/// [`render_label_map`] for every view, in parallel.
-pub fn render_all(
-    gaussians: &PreparedGaussians,
-    votes: &RenderVotes,
-    cameras: &[PosedCamera],
-    config: &LiftConfig,
-) -> Vec<Plane<u32>> {
-    cameras
-        .par_iter()
-        .map(|c| render_label_map(gaussians, votes, c.camera, c.world_from_cam, config))
-        .collect()
-}
-
-/// Checks that every per-view map (`[n_views]`) has its camera's size.
-pub fn check_map_sizes<T>(cameras: &[PosedCamera], maps: &[Plane<T>]) -> LiftResult<()> {
-    if maps.len() != cameras.len() {
-        return Err(LiftError::Count { what: "per-view maps", got: maps.len(), expected: cameras.len() });
-    }
-    for (view, (c, m)) in cameras.iter().zip(maps).enumerate() {
-        let (want_w, want_h) = (c.camera.width as usize, c.camera.height as usize);
-        if m.width != want_w || m.height != want_h {
-            return Err(LiftError::LabelMapSize { view, got_w: m.width, got_h: m.height, want_w, want_h });
-        }
-    }
-    Ok(())
 }

@@ -1,4 +1,5 @@
-//! [`lift_labels`]: per-view global-id maps → one object id (and a fused feature) per Gaussian.
+//! [`VoteAccumulator`]: the views' global ids at the visible Gaussians' centres → one object id
+//! (and a fused feature) per Gaussian.
 //!
 //! For Gaussian `g` and every view `v` that sees it ([`crate::visibility`]), the id `k_v` of the
 //! mask its centre falls in is one vote (0 = the centre falls in no mask). Then
@@ -18,11 +19,8 @@
 
 use crate::config::LiftConfig;
 use crate::error::{LiftError, LiftResult};
-use crate::visibility::ViewVisibility;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use splatseg_scene::gaussians::FeatureBlock;
-use splatseg_scene::Plane;
 
 /// Vote slots per Gaussian.
 pub const SLOTS: usize = 8;
@@ -99,16 +97,6 @@ pub struct FusedFeatures {
 }
 
 impl FusedFeatures {
-    /// Number of Gaussians.
-    pub fn len(&self) -> usize {
-        self.terms.len() / SLOTS
-    }
-
-    /// True for no Gaussians.
-    pub fn is_empty(&self) -> bool {
-        self.terms.is_empty()
-    }
-
     /// Writes f_g of Gaussian `g` (`[dim]`) into `out`.
     pub fn row(&self, g: usize, out: &mut [f32]) {
         out.iter_mut().for_each(|x| *x = 0.0);
@@ -121,15 +109,6 @@ impl FusedFeatures {
                 *o += w * x;
             }
         }
-    }
-
-    /// The whole `[N, dim]` block (for small sets and tests).
-    pub fn to_block(&self) -> FeatureBlock {
-        let mut values = vec![0f32; self.len() * self.dim];
-        for (g, row) in values.chunks_mut(self.dim.max(1)).enumerate().take(self.len()) {
-            self.row(g, row);
-        }
-        FeatureBlock { dim: self.dim, values }
     }
 }
 
@@ -190,52 +169,6 @@ fn vote(slots: &mut [Slot; SLOTS], used: &mut usize, id: u32, weight: f32) {
     if slots[weakest].count <= 1 {
         slots[weakest] = Slot { id, count: 1, weight };
     }
-}
-
-/// Checks sizes and ids of the per-view global-id maps.
-fn validate(
-    visibility: &[ViewVisibility],
-    id_maps: &[Plane<u32>],
-    features: &ObjectFeatures,
-) -> LiftResult<()> {
-    if id_maps.len() != visibility.len() {
-        return Err(LiftError::Count { what: "label maps", got: id_maps.len(), expected: visibility.len() });
-    }
-    if features.dim > 0 {
-        for (view, map) in id_maps.iter().enumerate() {
-            if let Some(&id) = map.data.iter().find(|&&id| id as usize > features.n_objects()) {
-                return Err(LiftError::UnknownObject { view, id, n_objects: features.n_objects() });
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Lifts per-view global-id maps onto `n_gaussians` Gaussians (see the module docs).
-///
-/// `visibility: [n_views]` from [`crate::view_visibility`]; `id_maps: [n_views]`, each
-/// `[height, width]` of that view, value = global id (0 = none). The caller checks map sizes
-/// against the cameras ([`crate::check_map_sizes`]); pixel indices out of a map are an error.
-/// The same as feeding every view to a [`VoteAccumulator`] in order.
-pub fn lift_labels(
-    n_gaussians: usize,
-    visibility: &[ViewVisibility],
-    id_maps: &[Plane<u32>],
-    features: ObjectFeatures,
-    config: &LiftConfig,
-) -> LiftResult<Lifted> {
-    validate(visibility, id_maps, &features)?;
-    for (view, (vis, map)) in visibility.iter().zip(id_maps).enumerate() {
-        if vis.pixels.iter().any(|&p| p as usize >= map.data.len()) {
-            return Err(LiftError::MapTooSmall { view, pixels: map.data.len() });
-        }
-    }
-    let mut votes = VoteAccumulator::new(n_gaussians);
-    for (vis, map) in visibility.iter().zip(id_maps) {
-        let ids: Vec<u32> = vis.pixels.iter().map(|&p| map.data[p as usize]).collect();
-        votes.add_view(&vis.gaussians, &vis.weights, &ids)?;
-    }
-    votes.finish(features, config)
 }
 
 /// Gaussians per parallel work item of the vote accumulation and the decisions.

@@ -3,7 +3,9 @@
 //! Gaussians but show in no view follow, in their previous order. Ids that end with neither
 //! pixels nor Gaussians disappear, so the numbering has no gaps.
 
+use crate::run_lengths::RunLengths;
 use splatseg_scene::Plane;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Renumbers `maps` (`[n_views]` label maps, 0 = none) and `object_ids` (`[N]`, -1 = none) in
 /// place. Returns `old_of_new`: `[n_new + 1]`, entry 0 = 0, entry `k` = the old id of new id `k`.
@@ -46,27 +48,61 @@ pub fn renumber(maps: &mut [Plane<u32>], object_ids: &mut [i32]) -> Vec<u32> {
     old_of_new
 }
 
-/// Removes specks: ids whose pixels over all `maps` (`[n_views]` label maps) number fewer than
-/// `min_px` become 0 in the maps and -1 in `object_ids` (`[N]`). Returns how many ids went.
-pub fn drop_small_objects(maps: &mut [Plane<u32>], object_ids: &mut [i32], min_px: u64) -> usize {
-    let mut area: std::collections::BTreeMap<u32, u64> = std::collections::BTreeMap::new();
-    for map in maps.iter() {
-        for &id in map.data.iter().filter(|&&id| id > 0) {
-            *area.entry(id).or_insert(0) += 1;
+/// The speck filter and the numbering over the final maps kept as runs (`maps: [n_views]`):
+/// ids with fewer than `min_px` pixels over all maps become 0 (and −1 in `object_ids`, `[N]`),
+/// then ids are numbered by first appearance (view order, row-major) by [`renumber`] on each
+/// view's ids in order of first appearance. Returns `new_of_old`: the final id of every id of the
+/// maps (0 for the dropped specks).
+pub fn drop_specks_and_number(maps: &[RunLengths], object_ids: &mut [i32], min_px: u64) -> Vec<u32> {
+    let mut area: BTreeMap<u32, u64> = BTreeMap::new();
+    for map in maps {
+        for &(id, n) in map.runs.iter().filter(|(id, _)| *id > 0) {
+            *area.entry(id).or_insert(0) += n as u64;
         }
     }
-    let small: std::collections::BTreeSet<u32> =
-        area.into_iter().filter(|&(_, px)| px < min_px).map(|(id, _)| id).collect();
-    if small.is_empty() {
-        return 0;
-    }
-    for map in maps.iter_mut() {
-        for v in map.data.iter_mut().filter(|v| small.contains(v)) {
-            *v = 0;
-        }
-    }
+    let small: BTreeSet<u32> = area.iter().filter(|&(_, &px)| px < min_px).map(|(&id, _)| id).collect();
     for id in object_ids.iter_mut().filter(|id| **id > 0 && small.contains(&(**id as u32))) {
         *id = -1;
     }
-    small.len()
+    tracing::info!("dropped {} speck objects under {min_px} px", small.len());
+    let mut order: Vec<Plane<u32>> = maps
+        .iter()
+        .map(|m| {
+            let ids = m.first_appearance(|id| small.contains(&id));
+            Plane { width: ids.len(), height: 1, data: ids }
+        })
+        .collect();
+    let old_of_new = renumber(&mut order, object_ids);
+    let max_old =
+        area.keys().next_back().copied().unwrap_or(0).max(old_of_new.iter().copied().max().unwrap_or(0));
+    let mut new_of_old = vec![0u32; max_old as usize + 1];
+    for (new, &old) in old_of_new.iter().enumerate().skip(1) {
+        new_of_old[old as usize] = new as u32;
+    }
+    new_of_old
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Specks (fewer pixels than the floor over all views) go from the maps and the Gaussians,
+    /// the rest are numbered by first appearance, then the ids shown in no view.
+    #[test]
+    fn specks_go_and_ids_are_numbered_by_first_appearance_over_runs() {
+        let maps: Vec<Plane<u32>> = vec![
+            Plane { width: 4, height: 3, data: vec![0, 7, 7, 3, 3, 3, 9, 0, 5, 5, 5, 5] },
+            Plane { width: 3, height: 2, data: vec![9, 9, 2, 0, 11, 11] },
+            Plane { width: 2, height: 2, data: vec![0, 0, 0, 0] },
+        ];
+        let mut ids: Vec<i32> = vec![-1, 3, 7, 2, 11, 4, 9, 5, 12];
+        let runs: Vec<RunLengths> = maps.iter().map(RunLengths::encode).collect();
+        let new_of_old = drop_specks_and_number(&runs, &mut ids, 2);
+        // Id 2 has one pixel: a speck. 7, 3, 9, 5, 11 appear in that order; 4 and 12 show nowhere.
+        assert_eq!(ids, vec![-1, 2, 1, -1, 5, 6, 3, 4, 7]);
+        let numbered = |v: usize| runs[v].decode(|id| new_of_old.get(id as usize).copied().unwrap_or(0)).data;
+        assert_eq!(numbered(0), vec![0, 1, 1, 2, 2, 2, 3, 0, 4, 4, 4, 4]);
+        assert_eq!(numbered(1), vec![3, 3, 0, 0, 5, 5]);
+        assert_eq!(numbered(2), vec![0; 4]);
+    }
 }

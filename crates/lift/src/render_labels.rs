@@ -184,7 +184,7 @@ impl ContributionVisitor for LabelBand<'_> {
 
 /// The label map of a projected view (see the module docs): `[height, width]`, value = object
 /// id, 0 = none.
-pub fn label_map_of_view(view: &ProjectedView, votes: &RenderVotes) -> Plane<u32> {
+pub(crate) fn label_map_of_view(view: &ProjectedView, votes: &RenderVotes) -> Plane<u32> {
     let (width, height) = (view.width, view.height);
     let band_rows = splatseg_render::bin::TILE_SIZE;
     let factor = remaining_factor(votes);
@@ -207,29 +207,23 @@ pub fn label_map_of_view(view: &ProjectedView, votes: &RenderVotes) -> Plane<u32
 }
 
 /// Renders the label map of one view: `[height, width]`, value = object id, 0 = none.
-/// `votes` from [`render_votes`] (or [`RenderVotes::uniform`]).
+/// `votes` from [`render_votes`] (or [`RenderVotes::uniform`]). `tile_lists`: the view's lists
+/// from an earlier pass ([`crate::view_visibility`] of the same Gaussians, camera and config),
+/// to reuse instead of sorting the splats again (the same map), or `None`; lists that do not fit
+/// the view are an error.
 pub fn render_label_map(
     gaussians: &PreparedGaussians,
     votes: &RenderVotes,
     camera: &Camera,
     world_from_cam: &Pose,
     config: &LiftConfig,
-) -> Plane<u32> {
-    label_map_of_view(&project_view(gaussians, camera, world_from_cam, config), votes)
-}
-
-/// [`render_label_map`] with the view's tile lists from an earlier pass
-/// ([`crate::view_depth_visibility_and_bins`] of the same Gaussians, camera and config): the
-/// same map without sorting the splats again. Lists that do not fit the view are an error.
-pub fn render_label_map_binned(
-    gaussians: &PreparedGaussians,
-    votes: &RenderVotes,
-    camera: &Camera,
-    world_from_cam: &Pose,
-    config: &LiftConfig,
-    bins: TileBins,
+    tile_lists: Option<TileBins>,
 ) -> LiftResult<Plane<u32>> {
-    Ok(label_map_of_view(&project_view_binned(gaussians, camera, world_from_cam, config, bins)?, votes))
+    let view = match tile_lists {
+        Some(bins) => project_view_binned(gaussians, camera, world_from_cam, config, bins)?,
+        None => project_view(gaussians, camera, world_from_cam, config),
+    };
+    Ok(label_map_of_view(&view, votes))
 }
 
 #[cfg(test)]
@@ -315,17 +309,16 @@ mod tests {
         let camera = Camera::pinhole(1, 90, 70, 70.0, 70.0, 45.0, 35.0);
         let config = LiftConfig::default();
         let votes = RenderVotes::uniform((0..2000u32).map(|i| i % 7).collect());
-        let (_, _, bins) =
-            crate::view_depth_visibility_and_bins(&prepared, &camera, &Pose::IDENTITY, &config);
-        let fresh = render_label_map(&prepared, &votes, &camera, &Pose::IDENTITY, &config);
-        let kept =
-            render_label_map_binned(&prepared, &votes, &camera, &Pose::IDENTITY, &config, bins.clone())
-                .expect("the lists fit");
+        let bins = crate::view_visibility(&prepared, &camera, &Pose::IDENTITY, None, &config).tile_lists;
+        let fresh =
+            render_label_map(&prepared, &votes, &camera, &Pose::IDENTITY, &config, None).expect("renders");
+        let kept = render_label_map(&prepared, &votes, &camera, &Pose::IDENTITY, &config, Some(bins.clone()))
+            .expect("the lists fit");
         assert_eq!(kept.data, fresh.data);
         let labels: std::collections::BTreeSet<u32> = fresh.data.iter().copied().collect();
         assert!(labels.len() >= 5, "{labels:?}");
         let other = Camera::pinhole(1, 120, 70, 70.0, 70.0, 60.0, 35.0);
-        assert!(render_label_map_binned(&prepared, &votes, &other, &Pose::IDENTITY, &config, bins).is_err());
+        assert!(render_label_map(&prepared, &votes, &other, &Pose::IDENTITY, &config, Some(bins)).is_err());
     }
 
     /// The one-label shortcut decides exactly as the general rule does on such slots, over

@@ -80,11 +80,6 @@ enum Split {
     Contained,
 }
 
-/// The snapped label map (see [`snap_view`]).
-pub fn snap_to_regions(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -> Plane<u32> {
-    snap_view(regions, rendered, rule).labels
-}
-
 /// Snaps one view. `regions`: `[H, W]` regions of the view (SAM's or merged), 0 = none, any local ids;
 /// `rendered`: `[H, W]` global ids rendered back from the Gaussians, 0 = none. See the module
 /// docs and [`SnapRule`]. Panics if the two sizes differ.
@@ -296,6 +291,11 @@ mod tests {
         SnapRule { split_share, bleed_px, ..SnapRule::SNAP_ALL }
     }
 
+    /// The labels of [`snap_view`].
+    fn snapped_labels(regions: &Plane<u32>, rendered: &Plane<u32>, rule: &SnapRule) -> Plane<u32> {
+        snap_view(regions, rendered, rule).labels
+    }
+
     fn plane(width: usize, rows: &[&[u32]]) -> Plane<u32> {
         Plane::from_vec(width, rows.len(), rows.concat()).expect("rectangular")
     }
@@ -312,7 +312,7 @@ mod tests {
         // Region 1 = left three columns, region 2 = right column, row 2 outside every region.
         let regions = plane(4, &[&[1, 1, 1, 2], &[1, 1, 1, 2], &[0, 0, 0, 0]]);
         let rendered = plane(4, &[&[7, 7, 3, 3], &[7, 0, 7, 9], &[5, 0, 5, 5]]);
-        let snapped = snap_to_regions(&regions, &rendered, &SnapRule::SNAP_ALL);
+        let snapped = snapped_labels(&regions, &rendered, &SnapRule::SNAP_ALL);
         // Region 1: 7 ×4, 3 ×1, 0 ×1 → all 7. Region 2: 3 and 9 tie → 3 (smaller id).
         // Outside: rendered labels kept.
         assert_eq!(snapped, plane(4, &[&[7, 7, 7, 3], &[7, 7, 7, 3], &[5, 0, 5, 5]]));
@@ -322,7 +322,7 @@ mod tests {
     fn ties_go_to_the_smaller_id_whatever_the_pixel_order() {
         let regions = plane(4, &[&[4, 4, 4, 4]]);
         for rendered in [plane(4, &[&[8, 8, 2, 2]]), plane(4, &[&[2, 8, 2, 8]]), plane(4, &[&[2, 2, 8, 8]])] {
-            assert_eq!(snap_to_regions(&regions, &rendered, &SnapRule::SNAP_ALL), plane(4, &[&[2, 2, 2, 2]]));
+            assert_eq!(snapped_labels(&regions, &rendered, &SnapRule::SNAP_ALL), plane(4, &[&[2, 2, 2, 2]]));
         }
     }
 
@@ -331,7 +331,7 @@ mod tests {
         let regions = plane(5, &[&[1, 1, 1, 1, 1], &[2, 2, 2, 2, 2]]);
         let rendered = plane(5, &[&[0, 0, 0, 6, 6], &[0, 0, 0, 0, 0]]);
         // Region 1: 0 ×3 beats 6 ×2; region 2: no id at all.
-        assert_eq!(snap_to_regions(&regions, &rendered, &SnapRule::SNAP_ALL), rendered);
+        assert_eq!(snapped_labels(&regions, &rendered, &SnapRule::SNAP_ALL), rendered);
     }
 
     #[test]
@@ -341,11 +341,8 @@ mod tests {
         let rendered = plane(6, &[&[7, 7, 7, 0, 4, 4]]);
         // 4 has 2 of 5 labelled pixels (0.4): at split share 0.25 the region is split, its
         // 0 pixel takes the majority id; at 0.5 it is snapped whole.
-        assert_eq!(
-            snap_to_regions(&regions, &rendered, &shares(0.25, 0.0)),
-            plane(6, &[&[7, 7, 7, 7, 4, 4]])
-        );
-        assert_eq!(snap_to_regions(&regions, &rendered, &shares(0.5, 0.0)), plane(6, &[&[7, 7, 7, 7, 7, 7]]));
+        assert_eq!(snapped_labels(&regions, &rendered, &shares(0.25, 0.0)), plane(6, &[&[7, 7, 7, 7, 4, 4]]));
+        assert_eq!(snapped_labels(&regions, &rendered, &shares(0.5, 0.0)), plane(6, &[&[7, 7, 7, 7, 7, 7]]));
     }
 
     #[test]
@@ -358,10 +355,10 @@ mod tests {
         let regions = plane(8, &[&[1, 1, 1, 1, 1, 1, 2, 2], &[1, 1, 1, 1, 1, 1, 2, 2]]);
         let rendered = plane(8, &[&[7, 7, 7, 4, 4, 9, 9, 9], &[7, 7, 4, 4, 5, 9, 9, 9]]);
         let given_back = plane(8, &[&[7, 7, 7, 4, 4, 4, 9, 9], &[7, 7, 4, 4, 5, 5, 9, 9]]);
-        assert_eq!(snap_to_regions(&regions, &rendered, &shares(0.25, 2.0)), given_back);
+        assert_eq!(snapped_labels(&regions, &rendered, &shares(0.25, 2.0)), given_back);
         // Without giving back, the band keeps the post's id.
         let kept = plane(8, &[&[7, 7, 7, 4, 4, 9, 9, 9], &[7, 7, 4, 4, 5, 9, 9, 9]]);
-        assert_eq!(snap_to_regions(&regions, &rendered, &shares(0.25, 0.0)), kept);
+        assert_eq!(snapped_labels(&regions, &rendered, &shares(0.25, 0.0)), kept);
     }
 
     #[test]
@@ -370,7 +367,7 @@ mod tests {
         // bleeding band of 2, so it is an object of region 1 too.
         let regions = plane(8, &[&[1, 1, 1, 1, 1, 1, 2, 2], &[1, 1, 1, 1, 1, 1, 2, 2]]);
         let rendered = plane(8, &[&[7, 7, 7, 9, 9, 9, 9, 9], &[7, 7, 7, 9, 9, 9, 9, 9]]);
-        let snapped = snap_to_regions(&regions, &rendered, &shares(0.25, 2.0));
+        let snapped = snapped_labels(&regions, &rendered, &shares(0.25, 2.0));
         assert_eq!(snapped, plane(8, &[&[7, 7, 7, 9, 9, 9, 9, 9], &[7, 7, 7, 9, 9, 9, 9, 9]]));
     }
 
@@ -398,10 +395,10 @@ mod tests {
         assert_eq!(snapped.region_winners, vec![3, 7]);
         // The share rule alone gives the post to the box.
         let swallowed: &[u32] = &[7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 3, 3];
-        assert_eq!(snap_to_regions(&regions, &rendered, &shares(0.25, 0.0)), plane(12, &[swallowed; 2]));
+        assert_eq!(snapped_labels(&regions, &rendered, &shares(0.25, 0.0)), plane(12, &[swallowed; 2]));
         // Four pixels of the post are its minimum: with five it is a fragment, snapped away.
         let rule = SnapRule { contained_min_px: 5, ..rule };
-        assert_eq!(snap_to_regions(&regions, &rendered, &rule), plane(12, &[swallowed; 2]));
+        assert_eq!(snapped_labels(&regions, &rendered, &rule), plane(12, &[swallowed; 2]));
     }
 
     #[test]
@@ -419,6 +416,6 @@ mod tests {
             ..shares(0.25, 0.0)
         };
         let snapped: &[u32] = &[7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 3, 3, 3, 3];
-        assert_eq!(snap_to_regions(&regions, &rendered, &rule), plane(14, &[snapped; 2]));
+        assert_eq!(snapped_labels(&regions, &rendered, &rule), plane(14, &[snapped; 2]));
     }
 }

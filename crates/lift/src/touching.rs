@@ -44,9 +44,7 @@ use crate::shape::{
     contacts, object_lines, planarity, typical_sigma, SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE,
     THIN_MIN_ELONGATION,
 };
-use crate::visibility::ViewVisibility;
 use crate::voxels::DisjointSets;
-use splatseg_scene::Plane;
 use std::collections::HashMap;
 
 /// Voxel edge of the contact test, in median Gaussian standard deviations: 3 σ reaches across
@@ -92,12 +90,6 @@ impl ViewCounts {
     }
 }
 
-fn view_counts(vis: &ViewVisibility, masks: &Plane<u32>, ids: &[i32]) -> ViewCounts {
-    let labels: Vec<u32> =
-        vis.pixels.iter().map(|&p| masks.data.get(p as usize).copied().unwrap_or(0)).collect();
-    ViewCounts::new(&vis.gaussians, &labels, ids)
-}
-
 /// Share of the views seeing both `a` and `b` in which one mask holds a good part of each.
 fn together_share(views: &[ViewCounts], a: u32, b: u32) -> f32 {
     let (mut both, mut together) = (0u32, 0u32);
@@ -122,26 +114,11 @@ fn together_share(views: &[ViewCounts], a: u32, b: u32) -> f32 {
 }
 
 /// Joins touching look-alike objects in `lifted` (object and majority ids), see the module
-/// docs. `views`: per view, its visibility and its merged (view-local) mask map `[H, W]`.
-/// Returns the number of joins.
+/// docs. `counts`: per view its [`ViewCounts`] (`[n_views]`, made from the ids of `lifted`
+/// before the join, one view at a time by a caller streaming the views); `facing`: the
+/// Gaussians' [`Facing`] (`None`: no part join, which needs outward normals). Returns the number
+/// of joins.
 pub fn join_touching_objects(
-    gaussians: &PreparedGaussians,
-    lifted: &mut Lifted,
-    features: ObjectFeatures,
-    views: &[(&ViewVisibility, &Plane<u32>)],
-    config: &LiftConfig,
-) -> usize {
-    if features.dim == 0 || (config.tau_touching > 1.0 && config.tau_seam > 1.0) {
-        return 0;
-    }
-    let counts: Vec<ViewCounts> = views.iter().map(|(v, m)| view_counts(v, m, &lifted.object_ids)).collect();
-    join_touching_counted(gaussians, lifted, features, &counts, None, config)
-}
-
-/// [`join_touching_objects`] with each view's counts made by the caller ([`ViewCounts::new`],
-/// `[n_views]`, from the ids of `lifted` before the join), for callers that stream the views,
-/// and the Gaussians' [`Facing`] (`None`: no part join, which needs outward normals).
-pub fn join_touching_counted(
     gaussians: &PreparedGaussians,
     lifted: &mut Lifted,
     features: ObjectFeatures,

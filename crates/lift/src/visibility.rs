@@ -13,7 +13,8 @@
 //! `frontal = max(MIN_FRONTAL, (1 − ρ) + ρ·|n̂ · r̂|)`, ρ the Gaussian's flatness and n̂ its
 //! normal (flat Gaussians seen face-on weigh most; round ones ignore the angle).
 //!
-//! One projection serves both the surface depth and the test ([`view_depth_and_visibility`]).
+//! One projection serves both the surface depth and the test ([`view_visibility`], which also
+//! hands back the view's tile lists for rendering the labels back).
 
 use crate::config::LiftConfig;
 use crate::project::{project_view, raster_settings, PreparedGaussians};
@@ -47,18 +48,6 @@ pub struct ViewVisibility {
     pub weights: Vec<f32>,
 }
 
-impl ViewVisibility {
-    /// Number of visible Gaussians.
-    pub fn len(&self) -> usize {
-        self.gaussians.len()
-    }
-
-    /// True when the view sees no Gaussian.
-    pub fn is_empty(&self) -> bool {
-        self.gaussians.is_empty()
-    }
-}
-
 /// Surface depth of one band of 16 rows: `[rows, width]`, the first pixel `first`.
 struct DepthBand<'a> {
     view: &'a ProjectedView,
@@ -80,7 +69,7 @@ impl ContributionVisitor for DepthBand<'_> {
 
 /// Surface depth per pixel of a projected view: `[height, width]` metric z (+∞ where
 /// transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
-pub fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
+pub(crate) fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
     let (width, height) = (view.width, view.height);
     let band_rows = splatseg_render::bin::TILE_SIZE;
     let bands = visit_contributions(view, &raster_settings(), |b| {
@@ -99,20 +88,9 @@ pub fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
     Plane { width, height, data }
 }
 
-/// The surface depth of one view from the Gaussians' own footprints: `[height, width]` metric z
-/// (+∞ where transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
-pub fn view_surface_depth(
-    gaussians: &PreparedGaussians,
-    camera: &Camera,
-    world_from_cam: &Pose,
-    config: &LiftConfig,
-) -> Plane<f32> {
-    surface_depth(&project_view(gaussians, camera, world_from_cam, config), config)
-}
-
 /// The visibility test of a projected view against `depth` (`[height, width]` metric z,
 /// 0 / non-finite = no surface).
-pub fn visible_gaussians(
+pub(crate) fn visible_gaussians(
     gaussians: &PreparedGaussians,
     view: &ProjectedView,
     camera: &Camera,
@@ -150,49 +128,39 @@ pub fn visible_gaussians(
     out
 }
 
-/// Visibility of all Gaussians in one view, with the surface depth from their own footprints
-/// (`depth: None`) or from a given map (`[height, width]` metric z, 0 / non-finite = none).
+/// What one visibility pass over a view gives.
+#[derive(Clone, Debug)]
+pub struct VisibilityPass {
+    /// `[height, width]` surface depth from the Gaussians' own footprints, metric z (+∞ where
+    /// transmittance never drops below `surface_transmittance`); `None` when a depth map was given.
+    pub surface_depth: Option<Plane<f32>>,
+    /// The Gaussians the view sees, tested against that depth (or the given one).
+    pub visible: ViewVisibility,
+    /// The view's tile lists, which a later pass over the same view may reuse instead of sorting
+    /// the splats again ([`crate::render_label_map`]).
+    pub tile_lists: TileBins,
+}
+
+/// The visibility of every Gaussian in one view, from one projection: the depth test against
+/// the surface depth of the Gaussians' own footprints (`depth: None`, the depth is returned too)
+/// or against a given map (`[height, width]` metric z, 0 / non-finite = no surface).
 pub fn view_visibility(
     gaussians: &PreparedGaussians,
     camera: &Camera,
     world_from_cam: &Pose,
     depth: Option<&Plane<f32>>,
     config: &LiftConfig,
-) -> ViewVisibility {
+) -> VisibilityPass {
     let view = project_view(gaussians, camera, world_from_cam, config);
-    let own_depth;
-    let depth = match depth {
-        Some(d) => d,
+    let test =
+        |depth: &Plane<f32>| visible_gaussians(gaussians, &view, camera, world_from_cam, depth, config);
+    let (surface_depth, visible) = match depth {
+        Some(given) => (None, test(given)),
         None => {
-            own_depth = surface_depth(&view, config);
-            &own_depth
+            let own = surface_depth(&view, config);
+            let visible = test(&own);
+            (Some(own), visible)
         }
     };
-    visible_gaussians(gaussians, &view, camera, world_from_cam, depth, config)
-}
-
-/// The surface depth of one view (`[height, width]`, as [`view_surface_depth`]) and the
-/// visibility test against it, from one projection.
-pub fn view_depth_and_visibility(
-    gaussians: &PreparedGaussians,
-    camera: &Camera,
-    world_from_cam: &Pose,
-    config: &LiftConfig,
-) -> (Plane<f32>, ViewVisibility) {
-    let (depth, visibility, _) = view_depth_visibility_and_bins(gaussians, camera, world_from_cam, config);
-    (depth, visibility)
-}
-
-/// [`view_depth_and_visibility`], and the view's tile lists, which a later pass over the same
-/// view may reuse instead of sorting the splats again ([`crate::render_label_map_binned`]).
-pub fn view_depth_visibility_and_bins(
-    gaussians: &PreparedGaussians,
-    camera: &Camera,
-    world_from_cam: &Pose,
-    config: &LiftConfig,
-) -> (Plane<f32>, ViewVisibility, TileBins) {
-    let view = project_view(gaussians, camera, world_from_cam, config);
-    let depth = surface_depth(&view, config);
-    let visibility = visible_gaussians(gaussians, &view, camera, world_from_cam, &depth, config);
-    (depth, visibility, view.bins)
+    VisibilityPass { surface_depth, visible, tile_lists: view.bins }
 }

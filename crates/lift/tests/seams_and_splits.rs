@@ -4,8 +4,8 @@
 mod common;
 use common::{gaussians, lifted};
 use splatseg_lift::{
-    join_touching_counted, join_touching_objects, split_disconnected_objects, Facing, LiftConfig, Lifted,
-    ObjectFeatures, PreparedGaussians, ViewCounts,
+    join_touching_objects, split_disconnected_objects, Facing, LiftConfig, Lifted, ObjectFeatures,
+    PreparedGaussians, ViewCounts,
 };
 
 /// Objects 1 and 2 with cos 0.85: alike enough for a seam (τ_seam 0.8), not for the
@@ -41,10 +41,15 @@ fn flat(means: &[[f32; 3]], normals: &[[f32; 3]]) -> PreparedGaussians {
     PreparedGaussians::new(&g).expect("finite Gaussians")
 }
 
+/// The join with no view counts (so no rule that asks the views decides) and every Gaussian
+/// facing a camera above and in front of the scene.
 fn join(prepared: &PreparedGaussians, ids: Vec<i32>) -> (usize, Lifted) {
     let mut l = lifted(ids);
     let features = ObjectFeatures { dim: 2, values: &FEATURES };
-    let joins = join_touching_objects(prepared, &mut l, features, &[], &LiftConfig::default());
+    let all: Vec<u32> = (0..prepared.len() as u32).collect();
+    let mut facing = Facing::new(prepared.len());
+    facing.add_view(prepared, &all, glam::Vec3::new(0.3, 1.5, -1.5));
+    let joins = join_touching_objects(prepared, &mut l, features, &[], Some(&facing), &LiftConfig::default());
     (joins, l)
 }
 
@@ -223,7 +228,7 @@ fn join_parts_with(
     let mut l = lifted(ids);
     let features = ObjectFeatures { dim: 2, values: &PART_FEATURES };
     let facing = with_facing.then_some(&facing);
-    join_touching_counted(prepared, &mut l, features, &counts, facing, config)
+    join_touching_objects(prepared, &mut l, features, &counts, facing, config)
 }
 
 #[test]

@@ -2,7 +2,9 @@
 
 mod common;
 use common::{gaussians, lifted};
-use splatseg_lift::{join_touching_objects, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians};
+use splatseg_lift::{
+    join_touching_objects, Facing, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians, ViewCounts,
+};
 
 /// A 20 × 20 grid of Gaussians (spacing 0.02) at x offset `x0` and depth `z`.
 fn patch(x0: f32, z: f32) -> Vec<[f32; 3]> {
@@ -12,14 +14,25 @@ fn patch(x0: f32, z: f32) -> Vec<[f32; 3]> {
 /// Objects 1, 2, 3: object 1 and 2 alike (cos 0.98), 3 different (cos 0.3 with 1).
 const FEATURES: [f32; 6] = [1.0, 0.0, 0.98, 0.198_99, 0.3, 0.953_94];
 
+/// Every Gaussian facing one camera in front of the patches.
+fn facing_camera(prepared: &PreparedGaussians) -> Facing {
+    let all: Vec<u32> = (0..prepared.len() as u32).collect();
+    let mut facing = Facing::new(prepared.len());
+    facing.add_view(prepared, &all, glam::Vec3::new(0.4, 0.2, 0.0));
+    facing
+}
+
+/// The join with no view counts (so no rule that asks the views decides).
 fn run(means: Vec<[f32; 3]>, ids: Vec<i32>) -> (usize, Lifted) {
     let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
     let mut l = lifted(ids);
+    let features = ObjectFeatures { dim: 2, values: &FEATURES };
     let joins = join_touching_objects(
         &prepared,
         &mut l,
-        ObjectFeatures { dim: 2, values: &FEATURES },
+        features,
         &[],
+        Some(&facing_camera(&prepared)),
         &LiftConfig::default(),
     );
     (joins, l)
@@ -63,23 +76,20 @@ fn views_that_keep_the_pieces_apart_block_the_join() {
     means.extend(patch(0.4, 2.0));
     let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
     let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
-    let vis = splatseg_lift::ViewVisibility {
-        gaussians: (0..800).collect(),
-        pixels: (0..800).collect(),
-        weights: vec![1.0; 800],
-    };
-    let apart =
-        splatseg_scene::Plane::from_vec(800, 1, (0..800).map(|p| if p < 400 { 1 } else { 2 }).collect())
-            .unwrap();
-    let together = splatseg_scene::Plane::filled(800, 1, 1u32);
+    // Every view sees all 800 Gaussians, one per pixel: a view's merged mask at each is its pixel's.
+    let all: Vec<u32> = (0..800).collect();
+    let apart: Vec<u32> = (0..800).map(|p| if p < 400 { 1 } else { 2 }).collect();
+    let together = vec![1u32; 800];
+    let counts = |masks: &[u32]| ViewCounts::new(&all, masks, &ids);
     let config = LiftConfig { min_together_share: 0.5, ..LiftConfig::default() };
     let features = ObjectFeatures { dim: 2, values: &FEATURES };
+    let facing = facing_camera(&prepared);
     // One view of three unites them: share 1/3 < 0.5, no join.
-    let views = [(&vis, &apart), (&vis, &apart), (&vis, &together)];
+    let views = [counts(&apart), counts(&apart), counts(&together)];
     let mut l = lifted(ids.clone());
-    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, &config), 0);
+    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), &config), 0);
     // Two of three: share 2/3, joined.
-    let views = [(&vis, &apart), (&vis, &together), (&vis, &together)];
-    let mut l = lifted(ids);
-    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, &config), 1);
+    let views = [counts(&apart), counts(&together), counts(&together)];
+    let mut l = lifted(ids.clone());
+    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), &config), 1);
 }

@@ -1,7 +1,11 @@
 //! Loading and checking what `run` reads: the scene, the SAM mask folder, the Gaussians and the
 //! optional ground truth. Every inconsistency is an error naming the file or folder.
 
+use crate::cache::KeyHasher;
 use crate::error::{bail, Context};
+use crate::RunConfig;
+use splatseg_lift::PreparedGaussians;
+use splatseg_scene::load::LoadOptions;
 use splatseg_scene::ply::PlyRows;
 use splatseg_scene::{Gaussians, Scene};
 use std::borrow::Cow;
@@ -127,4 +131,90 @@ pub fn ground_truth(
         None
     };
     Ok(GroundTruth { maps_dir, gaussian_ids })
+}
+
+/// What `run` reads before any stage: the scene (every camera checked against its image), which
+/// views have masks, the input PLY's rows and the ground truth.
+pub struct RunInputs {
+    /// The scene.
+    pub scene: Scene,
+    /// `[n_views]` whether the view has SAM masks.
+    pub has_masks: Vec<bool>,
+    /// The PLY, when there is one.
+    pub ply_path: Option<PathBuf>,
+    /// Every row of the PLY (`gaussians.ply` keeps them all; the stages work on the finite ones).
+    pub ply_rows: Option<PlyRows>,
+    /// The ground truth, when given.
+    pub gt: Option<GroundTruth>,
+}
+
+impl RunInputs {
+    /// Reads the inputs `config` names.
+    pub fn load(config: &RunConfig, load: &LoadOptions) -> crate::Result<Self> {
+        let scene = splatseg_scene::load_scene(&config.scene, load)?;
+        for w in &scene.warnings {
+            tracing::warn!("{w}");
+        }
+        // Every camera against its image on disk, before anything of a camera's size is allocated.
+        splatseg_scene::load::check_image_sizes(&scene, load)?;
+        let has_masks = views_with_masks(&scene, &config.masks)?;
+        let ply_path = gaussians_path(&config.scene, config.gaussians.as_deref());
+        let ply_rows = match &ply_path {
+            Some(p) => {
+                tracing::info!("reading Gaussians from {}", p.display());
+                Some(read_gaussians(p, config.options.strict)?)
+            }
+            None => None,
+        };
+        if ply_rows.is_none() && config.depth.is_none() {
+            bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
+        }
+        let gt = match &config.gt {
+            Some(dir) => {
+                Some(ground_truth(dir, ply_rows.as_ref().map(|r| r.gaussians.len()), ply_path.as_deref())?)
+            }
+            None => None,
+        };
+        Ok(RunInputs { scene, has_masks, ply_path, ply_rows, gt })
+    }
+
+    /// The key of every input file and every setting of `config`.
+    pub fn key(&self, config: &RunConfig) -> crate::Result<String> {
+        let mut key = KeyHasher::default();
+        key.text("run-v1").json(&config.pipeline).text(&format!("{:?}", config.depth_kind));
+        for (view, &masked) in self.scene.views.iter().zip(&self.has_masks) {
+            key.text(&view.stem).file(&view.image_path)?;
+            if masked {
+                key.folder_entry(&config.masks, &view.stem)?;
+            }
+            for dir in [&config.features, &config.depth].into_iter().flatten() {
+                key.folder_entry(dir, &view.stem)?;
+            }
+        }
+        if let Some(p) = &self.ply_path {
+            key.file(p)?;
+        }
+        if let Some(dir) = &config.gt {
+            key.file(&dir.join("gaussian_ids.npy"))?;
+            for view in &self.scene.views {
+                key.file(&dir.join("instance").join(format!("{}.png", view.stem)))?;
+                key.file(&dir.join(format!("{}.png", view.stem)))?;
+            }
+        }
+        let key = key.finish();
+        tracing::debug!("inputs and settings key {key}");
+        Ok(key)
+    }
+
+    /// The finite Gaussians prepared for every view, when there is a PLY.
+    pub fn prepared_gaussians(&self) -> crate::Result<Option<PreparedGaussians>> {
+        Ok(self.ply_rows.as_ref().map(|r| PreparedGaussians::new(&finite_gaussians(r))).transpose()?)
+    }
+
+    /// Whether the output files a cached run must still find are in `out`.
+    pub fn outputs_present(&self, out: &Path) -> bool {
+        ["report.md", "metrics.json"].iter().all(|f| out.join(f).is_file())
+            && (self.ply_path.is_none() || out.join("gaussians.ply").is_file())
+            && self.scene.views.iter().all(|v| out.join("masks").join(format!("{}.png", v.stem)).is_file())
+    }
 }

@@ -12,7 +12,7 @@ use crate::shard::{write_manifest, Shard, ShardManifest};
 use crate::{inputs, lock, RunConfig};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use splatseg_lift::{view_surface_depth, PreparedGaussians};
+use splatseg_lift::{view_visibility, PreparedGaussians};
 use splatseg_merge::{MergeConfig, RegionSummary};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Scene, View};
@@ -81,8 +81,9 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
         .par_iter()
         .map(|&v| -> crate::Result<(bool, usize, usize)> {
             let view = &scene.views[v];
-            let metric = prepared.as_ref().map(|p| {
-                finite_depth(&view_surface_depth(p, scene.camera(view), &view.world_from_cam, lift))
+            let metric = prepared.as_ref().and_then(|p| {
+                let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
+                pass.surface_depth.as_ref().map(finite_depth)
             });
             let merged = match request.shard {
                 Some(shard) => sources.merge(&ctx, v, metric).with_context(|| format!("shard {shard}"))?,

@@ -13,7 +13,7 @@ use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{view_depth_visibility_and_bins, LiftConfig, PosedCamera, PreparedGaussians};
+use splatseg_lift::{view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -171,10 +171,10 @@ impl PerView<'_> {
         // One projection of the Gaussians: the surface depth and the visibility test against it.
         let (depth, visibility, bins) = match self.prepared {
             Some(p) => {
-                let (depth, visibility, bins) = self.times.time("surface depth and visibility", || {
-                    view_depth_visibility_and_bins(p, c.camera, c.world_from_cam, self.lift)
+                let pass = self.times.time("surface depth and visibility", || {
+                    view_visibility(p, c.camera, c.world_from_cam, None, self.lift)
                 });
-                (Some(depth), Some(visibility), Some(bins))
+                (pass.surface_depth, Some(pass.visible), Some(pass.tile_lists))
             }
             None => (None, None, None),
         };

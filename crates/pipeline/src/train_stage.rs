@@ -297,7 +297,7 @@ fn write_object_maps(
     }
     views.names.par_iter().zip(&views.posed).zip(&views.images).try_for_each(
         |((name, (camera, pose)), image)| {
-            let map = render_label_map(&prepared, &votes, camera, pose, &config);
+            let map = render_label_map(&prepared, &votes, camera, pose, &config, None)?;
             write_label_png(&out.join("masks").join(format!("{name}.png")), &map)?;
             if overlays {
                 write_png_rgb(&out.join("overlays").join(format!("{name}.png")), &overlay(image, &map, 0.5))?;

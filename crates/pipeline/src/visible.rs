@@ -15,7 +15,7 @@
 //! views finish in and whichever shard merged them.
 
 use crate::error::{bail, Context};
-use splatseg_lift::ViewVisibility;
+use splatseg_lift::{ViewVisibility, VisibleGaussians};
 use splatseg_match::ViewObservations;
 use splatseg_render::bin::TileBins;
 use std::path::{Path, PathBuf};
@@ -132,11 +132,8 @@ pub fn read_bins(path: &Path) -> crate::Result<TileBins> {
     Ok(TileBins { tiles_x: tiles_x as usize, tiles_y: tiles_y as usize, offsets, ids })
 }
 
-/// One view's spilled list: `(gaussians, weights, labels)`, `[n_visible]` each.
-pub type Spilled = (Vec<u32>, Vec<f32>, Vec<u32>);
-
 /// Reads back what [`write`] wrote.
-pub fn read(path: &Path) -> crate::Result<Spilled> {
+pub fn read(path: &Path) -> crate::Result<VisibleGaussians> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     if bytes.len() < 16 || &bytes[..8] != MAGIC {
         bail!("not a list of visible Gaussians (bad header): {}", path.display());
@@ -154,7 +151,7 @@ pub fn read(path: &Path) -> crate::Result<Spilled> {
     let gaussians = words(0).map(|c| u32::from_le_bytes(word(c))).collect();
     let weights = words(1).map(|c| f32::from_le_bytes(word(c))).collect();
     let labels = words(2).map(|c| u32::from_le_bytes(word(c))).collect();
-    Ok((gaussians, weights, labels))
+    Ok(VisibleGaussians { gaussians, weights, labels })
 }
 
 #[cfg(test)]
@@ -168,8 +165,11 @@ mod tests {
         let vis =
             ViewVisibility { gaussians: vec![2, 5, 9], pixels: vec![0, 1, 2], weights: vec![0.5, 1.25, 3.0] };
         write(&path, &vis, &[1, 0, 4]).expect("writes");
-        let (g, w, l) = read(&path).expect("reads");
-        assert_eq!((g, w, l), (vec![2, 5, 9], vec![0.5, 1.25, 3.0], vec![1, 0, 4]));
+        let back = read(&path).expect("reads");
+        assert_eq!(
+            (back.gaussians, back.weights, back.labels),
+            (vec![2, 5, 9], vec![0.5, 1.25, 3.0], vec![1, 0, 4])
+        );
         let bytes = std::fs::read(&path).expect("bytes");
         // The layout, byte for byte: magic, count, then the three arrays' little-endian words.
         let mut layout = MAGIC.to_vec();

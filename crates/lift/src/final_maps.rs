@@ -1,0 +1,347 @@
+//! The lift stage from the votes to the final label maps, streaming view by view
+//! ([`LiftStage::run`]): the steps of paper §4.3 and the ones after it, in order,
+//!
+//! 1. votes, fusion and variance filter ([`VoteAccumulator`]), with each Gaussian's [`Facing`];
+//! 2. touching objects joined ([`join_touching_objects`], from per-view [`ViewCounts`]);
+//! 3. objects split where their Gaussians lie apart in 3D ([`split_disconnected_objects`]);
+//! 4. every view's labels rendered back ([`render_label_map`]), snapped onto its regions
+//!    ([`snap_view`], with `final_maps = "snapped"` / `"snapped-raw"`) and refined by its
+//!    colours ([`refine_boundaries`]);
+//! 5. ids kept only by snapping's containment rule and owning no region anywhere given back
+//!    ([`give_unowned_ids_back`]);
+//! 6. specks dropped and ids numbered by first appearance ([`drop_specks_and_number`]).
+//!
+//! Nothing here holds every view's visible Gaussians or an `[H, W]` map per view: the caller's
+//! [`ViewStore`] hands over one view's visible Gaussians, tile lists, regions and image at a time
+//! (in view order where order matters), and the maps wait for the all-view steps as runs
+//! ([`RunLengths`]).
+
+use crate::config::{FinalMaps, LiftConfig};
+use crate::error::LiftError;
+use crate::facing::Facing;
+use crate::lifting::{Lifted, ObjectFeatures, VoteAccumulator};
+use crate::numbering::drop_specks_and_number;
+use crate::project::PreparedGaussians;
+use crate::refine::refine_boundaries;
+use crate::render_labels::{render_label_map, render_votes, RenderVotes};
+use crate::run_lengths::RunLengths;
+use crate::snap::snap_view;
+use crate::split::split_disconnected_objects;
+use crate::touching::{join_touching_objects, ViewCounts};
+use crate::PosedCamera;
+use rayon::prelude::*;
+use splatseg_render::bin::TileBins;
+use splatseg_scene::Plane;
+use std::collections::BTreeSet;
+
+/// The Gaussians one view sees, as the per-view pass found them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VisibleGaussians {
+    /// `[n_visible]` Gaussian indices, strictly increasing.
+    pub gaussians: Vec<u32>,
+    /// `[n_visible]` fusion weights.
+    pub weights: Vec<f32>,
+    /// `[n_visible]` merged (view-local) label at each one's centre pixel, 0 = none.
+    pub labels: Vec<u32>,
+}
+
+/// What the stage reads back one view at a time, from wherever the caller keeps it (the
+/// pipeline: its per-view cache on disk). Lift's own errors convert into the caller's.
+pub trait ViewStore: Sync {
+    /// The caller's error type.
+    type Error: From<LiftError> + Send;
+
+    /// The visible Gaussians of view `v` (a view with masks).
+    fn visible(&self, v: usize) -> Result<VisibleGaussians, Self::Error>;
+
+    /// The tile lists the per-view pass kept for view `v` (the same lists as sorting the splats
+    /// again, so the same map), or `None`.
+    fn tile_lists(&self, v: usize) -> Result<Option<TileBins>, Self::Error>;
+
+    /// `[H, W]` regions of view `v` (with masks) to snap onto, any local ids, 0 = none.
+    fn snap_regions(&self, v: usize) -> Result<Plane<u32>, Self::Error>;
+
+    /// `[H, W, 3]` 8-bit row-major colours of view `v`'s image, for the boundary refinement.
+    fn image_rgb(&self, v: usize) -> Result<Vec<u8>, Self::Error>;
+
+    /// The error of view `v`'s kept tile lists not fitting the view (default: lift's as it is).
+    fn unfit_tile_lists(&self, _v: usize, error: LiftError) -> Self::Error {
+        error.into()
+    }
+
+    /// Runs `f` as the named part of the stage (for the caller's profile; default: just runs it).
+    fn time<T>(&self, _part: &'static str, f: impl FnOnce() -> T) -> T {
+        f()
+    }
+
+    /// Called once per view rendered back (for a progress bar).
+    fn view_rendered(&self) {}
+}
+
+/// What matching gave the lift stage.
+#[derive(Clone, Debug)]
+pub struct MatchedViews<'a> {
+    /// `[n_views]`: for a view with masks, the global object id of each merged label (index =
+    /// label, 0 → 0); `None` for a view without masks (it is rendered, not voted or snapped).
+    pub global_of_label: Vec<Option<&'a [u32]>>,
+    /// Identity features of the global objects.
+    pub objects: ObjectFeatures<'a>,
+}
+
+/// The lift stage's inputs that do not come view by view.
+pub struct LiftStage<'a> {
+    /// The Gaussians.
+    pub gaussians: &'a PreparedGaussians,
+    /// `[n_views]` cameras.
+    pub cams: &'a [PosedCamera<'a>],
+    /// What matching decided.
+    pub matched: MatchedViews<'a>,
+    /// Lift settings.
+    pub config: &'a LiftConfig,
+}
+
+/// What the stage produced.
+pub struct LiftOutput {
+    /// Per-Gaussian results (ids in the final numbering).
+    pub lifted: Lifted,
+    /// `[n_views]` final label maps as runs, *before* the final numbering.
+    pub maps: Vec<RunLengths>,
+    /// `new_of_old[id]`: final id of an id of `maps` (0 for the dropped specks).
+    pub new_of_old: Vec<u32>,
+}
+
+impl LiftOutput {
+    /// `[H, W]` final label map of view `v`, 0 = none.
+    pub fn final_map(&self, v: usize) -> Plane<u32> {
+        self.maps[v].decode(|id| self.new_of_old.get(id as usize).copied().unwrap_or(0))
+    }
+}
+
+/// How many views' visible Gaussians the votes read at once (each ≈ 12 bytes per visible
+/// Gaussian; a bounded batch).
+const VIEWS_READ_AT_ONCE: usize = 4;
+
+impl LiftStage<'_> {
+    /// The whole stage (module docs): the Gaussians labelled and every view's final map.
+    pub fn run<S: ViewStore>(&self, store: &S) -> Result<LiftOutput, S::Error> {
+        let (mut lifted, facing) = store.time("votes, fusion, variance filter", || self.vote(store))?;
+        let joins = store.time("touching objects", || self.join_touching(&mut lifted, &facing, store))?;
+        tracing::info!("joined {joins} pairs of touching objects");
+        let split = store.time("split objects apart in 3D", || {
+            let objects = &self.matched.objects;
+            let reserved = objects.values.len().checked_div(objects.dim).unwrap_or(0) as u32;
+            split_disconnected_objects(self.gaussians, &mut lifted, reserved, self.config)
+        });
+        tracing::info!(
+            "split {} objects into {} more, whose Gaussians lie apart in 3D",
+            split.objects_split,
+            split.parents.len()
+        );
+        let votes = render_votes(&lifted, self.config);
+        let snapped: Vec<SnappedRuns> = (0..self.cams.len())
+            .into_par_iter()
+            .map(|v| {
+                let map = self.view_map(v, &votes, store);
+                store.view_rendered();
+                map
+            })
+            .collect::<Result<_, S::Error>>()?;
+        let maps = give_unowned_ids_back(snapped);
+        let mean_view_px =
+            maps.iter().map(|m| (m.width * m.height) as u64).sum::<u64>() / maps.len().max(1) as u64;
+        let min_px = self.config.min_object_px_for(mean_view_px);
+        let new_of_old = drop_specks_and_number(&maps, &mut lifted.object_ids, min_px);
+        Ok(LiftOutput { lifted, maps, new_of_old })
+    }
+
+    /// The views with masks, in view order, with their label → global id tables.
+    fn voting_views(&self) -> Vec<(usize, &[u32])> {
+        self.matched.global_of_label.iter().enumerate().filter_map(|(v, t)| t.map(|t| (v, t))).collect()
+    }
+
+    /// Step 1: every view's votes and facing, in view order (a few views read at once, the next
+    /// few while these are added; the same as one view at a time).
+    fn vote<S: ViewStore>(&self, store: &S) -> Result<(Lifted, Facing), S::Error> {
+        let n = self.gaussians.len();
+        let (mut votes, mut facing) = (VoteAccumulator::new(n), Facing::new(n));
+        let views = self.voting_views();
+        let read = |chunk: &[(usize, &[u32])]| -> Vec<Result<VisibleGaussians, S::Error>> {
+            chunk.par_iter().map(|&(v, _)| store.visible(v)).collect()
+        };
+        let chunks: Vec<_> = views.chunks(VIEWS_READ_AT_ONCE).collect();
+        let mut this_read = chunks.first().map(|c| read(c)).unwrap_or_default();
+        for (k, chunk) in chunks.iter().enumerate() {
+            let mut add = |lists: Vec<Result<VisibleGaussians, S::Error>>| -> Result<(), S::Error> {
+                for (&(v, table), list) in chunk.iter().zip(lists) {
+                    let list = list?;
+                    let ids: Vec<u32> =
+                        list.labels.iter().map(|&l| table.get(l as usize).copied().unwrap_or(0)).collect();
+                    let centre = self.cams[v].world_from_cam.centre().as_vec3();
+                    let (added, ()) = rayon::join(
+                        || votes.add_view(&list.gaussians, &list.weights, &ids),
+                        || facing.add_view(self.gaussians, &list.gaussians, centre),
+                    );
+                    added?;
+                }
+                Ok(())
+            };
+            let next = chunks.get(k + 1);
+            let (added, next_read) =
+                rayon::join(|| add(std::mem::take(&mut this_read)), || next.map(|c| read(c)));
+            added?;
+            this_read = next_read.unwrap_or_default();
+        }
+        Ok((votes.finish(self.matched.objects, self.config)?, facing))
+    }
+
+    /// Step 2: the views' counts (one view's visible Gaussians at a time), then the join.
+    fn join_touching<S: ViewStore>(
+        &self,
+        lifted: &mut Lifted,
+        facing: &Facing,
+        store: &S,
+    ) -> Result<usize, S::Error> {
+        let counts: Vec<ViewCounts> = self
+            .voting_views()
+            .par_iter()
+            .map(|&(v, _)| -> Result<ViewCounts, S::Error> {
+                let list = store.visible(v)?;
+                Ok(ViewCounts::new(&list.gaussians, &list.labels, &lifted.object_ids))
+            })
+            .collect::<Result<_, S::Error>>()?;
+        let objects = self.matched.objects;
+        Ok(join_touching_objects(self.gaussians, lifted, objects, &counts, Some(facing), self.config))
+    }
+
+    /// Step 4 for view `v`: rendered back, snapped (a view with masks) and refined.
+    fn view_map<S: ViewStore>(
+        &self,
+        v: usize,
+        votes: &RenderVotes,
+        store: &S,
+    ) -> Result<SnappedRuns, S::Error> {
+        let c = &self.cams[v];
+        let map = store.time("render back", || -> Result<Plane<u32>, S::Error> {
+            let bins = store.tile_lists(v)?;
+            let kept = bins.is_some();
+            render_label_map(self.gaussians, votes, c.camera, c.world_from_cam, self.config, bins)
+                .map_err(|e| if kept { store.unfit_tile_lists(v, e) } else { e.into() })
+        })?;
+        let with_masks = self.matched.global_of_label.get(v).is_some_and(|t| t.is_some());
+        Ok(match self.config.final_maps {
+            FinalMaps::Snapped | FinalMaps::SnappedRaw if with_masks => {
+                let regions = store.time("read the region maps back", || store.snap_regions(v))?;
+                let rule = self.config.snap_rule_for((map.width * map.height) as u64);
+                let mut s = store.time("snap", || snap_view(&regions, &map, &rule));
+                s.labels = self.refine(v, &s.labels, store)?;
+                let has_fallback = s.contained_fallback.data.iter().any(|&id| id != 0);
+                SnappedRuns {
+                    labels: RunLengths::encode(&s.labels),
+                    fallback: has_fallback.then(|| RunLengths::encode(&s.contained_fallback)),
+                    owned: Some(s.region_winners),
+                }
+            }
+            _ => SnappedRuns {
+                labels: RunLengths::encode(&self.refine(v, &map, store)?),
+                fallback: None,
+                owned: None,
+            },
+        })
+    }
+
+    /// `labels` (`[H, W]`) of view `v` refined by the view's colours (unchanged when the rule
+    /// for its size does nothing: the image is then not read).
+    fn refine<S: ViewStore>(&self, v: usize, labels: &Plane<u32>, store: &S) -> Result<Plane<u32>, S::Error> {
+        let rule = self.config.refine_rule_for((labels.width * labels.height) as u64);
+        if rule.window_px == 0 || rule.passes == 0 {
+            return Ok(labels.clone());
+        }
+        let rgb = store.time("read the image back", || store.image_rgb(v))?;
+        Ok(store.time("refine boundaries by colour", || refine_boundaries(labels, &rgb, &rule)))
+    }
+}
+
+/// One view's map after snapping, as runs, with what [`give_unowned_ids_back`] needs.
+struct SnappedRuns {
+    /// The final labels (before numbering).
+    labels: RunLengths,
+    /// [`crate::Snapped::contained_fallback`], when it has any pixel.
+    fallback: Option<RunLengths>,
+    /// Ids that win a region of the view; `None` for a view kept as rendered (all its ids count).
+    owned: Option<Vec<u32>>,
+}
+
+/// Step 5: ids kept in some views only by snapping's containment rule that win no region in
+/// any view are fragments of the objects around them (an object of their own would be SAM's
+/// mask in some view): their pixels take the region winners they fell back to. Returns the
+/// final maps.
+fn give_unowned_ids_back(snapped: Vec<SnappedRuns>) -> Vec<RunLengths> {
+    let mut owners: BTreeSet<u32> = BTreeSet::new();
+    for s in &snapped {
+        match &s.owned {
+            Some(ids) => owners.extend(ids),
+            None => owners.extend(s.labels.runs.iter().map(|&(id, _)| id)),
+        }
+    }
+    snapped
+        .into_iter()
+        .map(|s| match s.fallback {
+            None => s.labels,
+            Some(fallback) => {
+                let mut labels = s.labels.decode(|id| id);
+                let fallback = fallback.decode(|id| id);
+                let mut changed = false;
+                for (id, &back) in labels.data.iter_mut().zip(&fallback.data) {
+                    if back != 0 && !owners.contains(id) {
+                        *id = back;
+                        changed = true;
+                    }
+                }
+                if changed {
+                    RunLengths::encode(&labels)
+                } else {
+                    s.labels
+                }
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn runs(width: usize, data: Vec<u32>) -> RunLengths {
+        RunLengths::encode(&Plane { width, height: 1, data })
+    }
+
+    /// An id kept only by the containment rule gives its pixels back unless some view's region
+    /// is won by it (or a view kept as rendered shows it).
+    #[test]
+    fn contained_ids_that_own_no_region_anywhere_are_given_back() {
+        let snapped = |owned_elsewhere: Option<Vec<u32>>| {
+            vec![
+                SnappedRuns {
+                    labels: runs(4, vec![1, 1, 5, 5]),
+                    fallback: Some(runs(4, vec![0, 0, 1, 1])),
+                    owned: Some(vec![1]),
+                },
+                SnappedRuns { labels: runs(2, vec![2, 2]), fallback: None, owned: owned_elsewhere },
+            ]
+        };
+        let back = give_unowned_ids_back(snapped(Some(vec![2])));
+        assert_eq!(back[0].decode(|id| id).data, vec![1, 1, 1, 1]);
+        assert_eq!(back[1].decode(|id| id).data, vec![2, 2]);
+        let kept = give_unowned_ids_back(snapped(Some(vec![2, 5])));
+        assert_eq!(kept[0].decode(|id| id).data, vec![1, 1, 5, 5]);
+        let rendered = give_unowned_ids_back(vec![
+            SnappedRuns {
+                labels: runs(4, vec![1, 1, 5, 5]),
+                fallback: Some(runs(4, vec![0, 0, 1, 1])),
+                owned: Some(vec![1]),
+            },
+            SnappedRuns { labels: runs(2, vec![5, 0]), fallback: None, owned: None },
+        ]);
+        assert_eq!(rendered[0].decode(|id| id).data, vec![1, 1, 5, 5]);
+    }
+}

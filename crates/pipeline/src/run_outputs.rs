@@ -1,0 +1,160 @@
+//! `run`'s last stage: every view's final map written (`masks/`, `overlays/`) and scored against
+//! the ground truth one view at a time on each thread, while `gaussians.ply` is written beside.
+
+use crate::error::Context;
+use crate::eval_stage::{eval_views, evaluate, local_offsets, offset_map, view_counts};
+use crate::inputs::RunInputs;
+use crate::lift_stage::ViewResult;
+use crate::merge_stage::MergeContext;
+use crate::{outputs, progress, RunConfig};
+use indicatif::ParallelProgressIterator;
+use rayon::prelude::*;
+use splatseg_eval::{EvalReport, ViewCounts};
+use splatseg_lift::LiftOutput;
+use splatseg_match::Matching;
+use splatseg_scene::load::LoadOptions;
+use splatseg_scene::ply::PlyRows;
+use splatseg_scene::Plane;
+use std::collections::BTreeSet;
+
+/// What the stages before gave the outputs.
+pub struct StageResults<'a> {
+    /// `[n_views]` per-view results (`None`: no masks).
+    pub views: &'a [Option<ViewResult>],
+    /// The matching of the merged masks.
+    pub matching: &'a Matching,
+    /// The lift stage's output, with Gaussians.
+    pub lifted: Option<LiftOutput>,
+    /// The merge cache (raw and merged maps, read back per view).
+    pub ctx: &'a MergeContext<'a>,
+}
+
+/// What writing the outputs found.
+pub struct Written {
+    /// Distinct ids over the final maps.
+    pub final_objects: usize,
+    /// Metrics per stage, with ground truth.
+    pub report: Option<EvalReport>,
+    /// What lifting decided, with Gaussians.
+    pub lift_stats: Option<splatseg_lift::LiftStats>,
+}
+
+/// What writing one view's outputs gives back: its distinct final ids, and its counts for the
+/// scores (with ground truth).
+type ViewOutputs = (Vec<u32>, Option<Vec<ViewCounts>>);
+
+/// Writes every view's maps and `gaussians.ply` (with Gaussians), and scores the stages (with
+/// ground truth). `ply_rows`: the input PLY's rows (taken out of `inputs`), moved into the PLY.
+pub fn write_outputs(
+    config: &RunConfig,
+    inputs: &RunInputs,
+    ply_rows: Option<PlyRows>,
+    load: &LoadOptions,
+    mut results: StageResults,
+) -> crate::Result<Written> {
+    let (scene, views, ctx) = (&inputs.scene, results.views, results.ctx);
+    let pc = &config.pipeline;
+    let cached_map = |v: usize, kind: &str| ctx.cached_map(&scene.views[v].stem, kind);
+    let eval = inputs.gt.as_ref().map(|g| eval_views(scene, g)).transpose()?;
+    let raw_offsets =
+        local_offsets(&views.iter().map(|m| m.as_ref().map_or(0, |m| m.raw_max)).collect::<Vec<_>>());
+    let merged_offsets =
+        local_offsets(&views.iter().map(|m| m.as_ref().map_or(0, |m| m.merged_max)).collect::<Vec<_>>());
+    let lifted = &mut results.lifted;
+    let stage_names: &[&str] = if lifted.is_some() {
+        &["raw", "merged", "matched", "lifted"]
+    } else {
+        &["raw", "merged", "matched"]
+    };
+    // `[N]` ids of every input row (-1 for the non-finite rows that were skipped).
+    let row_ids = match (&ply_rows, &*lifted) {
+        (Some(rows), Some(l)) => Some(splatseg_lift::ids_of_every_row(rows, &l.lifted.object_ids)),
+        _ => None,
+    };
+    let fused = lifted.as_mut().and_then(|l| l.lifted.fused_features.take());
+    let lifted = &*lifted;
+    // `gaussians.ply` is written while the views' maps are (its writing is mostly the kernel
+    // copying bytes, on one thread).
+    let write_ply = || -> crate::Result<()> {
+        if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, lifted, &inputs.ply_path) {
+            let out_ply = config.out.join("gaussians.ply");
+            splatseg_lift::write_labelled_ply(&out_ply, rows, ids, fused)
+                .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
+        }
+        Ok(())
+    };
+    let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {
+        if views[v].is_none() {
+            return Ok(None);
+        }
+        let table = &results.matching.global_of_label[v];
+        Ok(Some(cached_map(v, "merged")?.map(|&l| table.get(l as usize).copied().unwrap_or(0))))
+    };
+    let bar = progress(scene.views.len(), "write label maps", config.options);
+    let write_maps = || -> crate::Result<Vec<ViewOutputs>> {
+        (0..scene.views.len())
+            .into_par_iter()
+            .progress_with(bar.clone())
+            .map(|v| -> crate::Result<ViewOutputs> {
+                let matched = matched_map(v)?;
+                let final_map = match lifted {
+                    Some(l) => l.final_map(v),
+                    None => matched.clone().unwrap_or_else(|| {
+                        let c = scene.camera(&scene.views[v]);
+                        Plane::filled(c.width as usize, c.height as usize, 0)
+                    }),
+                };
+                outputs::write_view_maps(&config.out, scene, load, v, &final_map)?;
+                let ids = distinct_ids(&final_map);
+                let counts = match &eval {
+                    Some(e) => {
+                        let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {
+                            Ok(match views[v] {
+                                Some(_) => Some(offset_map(&cached_map(v, kind)?, base)),
+                                None => None,
+                            })
+                        };
+                        let mut maps =
+                            vec![local("raw", raw_offsets[v])?, local("merged", merged_offsets[v])?, matched];
+                        if lifted.is_some() {
+                            maps.push(Some(final_map));
+                        }
+                        view_counts(scene, e, v, &maps, &pc.eval)?
+                    }
+                    None => None,
+                };
+                Ok((ids, counts))
+            })
+            .collect::<crate::Result<_>>()
+    };
+    let (per_view, ply_written) = rayon::join(write_maps, write_ply);
+    let per_view = per_view?;
+    ply_written?;
+    bar.finish_and_clear();
+    let final_ids: BTreeSet<u32> = per_view.iter().flat_map(|(ids, _)| ids.iter().copied()).collect();
+    let report = match &inputs.gt {
+        Some(gt) => {
+            let counts: Vec<Vec<ViewCounts>> = per_view.into_iter().filter_map(|(_, c)| c).collect();
+            Some(evaluate(stage_names, &counts, gt, row_ids.as_deref(), &pc.eval)?)
+        }
+        None => None,
+    };
+    let lift_stats = lifted.as_ref().map(|l| l.lifted.stats.clone());
+    Ok(Written { final_objects: final_ids.len(), report, lift_stats })
+}
+
+/// The distinct ids (> 0) of a map (kept for every view: a few, not a pixel's worth each); a
+/// pixel equal to the one before adds nothing new.
+fn distinct_ids(map: &Plane<u32>) -> Vec<u32> {
+    let mut distinct = BTreeSet::new();
+    let mut last = 0u32;
+    for &x in &map.data {
+        if x != last {
+            if x > 0 {
+                distinct.insert(x);
+            }
+            last = x;
+        }
+    }
+    distinct.into_iter().collect()
+}
