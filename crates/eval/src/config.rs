@@ -37,8 +37,9 @@ pub struct EvalConfig {
     /// Treatment of ground-truth pixels with value 0.
     pub unlabelled_gt: UnlabelledGt,
     /// Scope of the predicted ids. Not a file key: `run`'s ids are global, and `splatseg eval`
-    /// sets it per prediction set (`--view-local`). Still written (metrics.json reports it).
-    #[serde(skip_deserializing)]
+    /// sets it per prediction set (`--view-local`); a settings file naming it gets the pipeline
+    /// config's retired-key error. Written and read back with the metrics (metrics.json, the run
+    /// cache), so it stays a field that deserialises.
     pub pred_id_scope: IdScope,
 }
 
