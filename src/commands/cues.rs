@@ -42,25 +42,16 @@ pub struct Args {
 
 /// Runs the chosen models on every view.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // The library's defaults: the references' input sizes (518 px) and SAM's automatic mask
+    // generator settings (32 points per side, no crops, no clean-up), the train split.
     let request = CuesRequest {
-        scene: args.scene,
-        out: args.out.clone(),
         dinov2: args.dinov2,
         depth_model: args.depth_model,
         sam: args.sam,
-        // The reference implementations' input sizes (518 px: 37 patches of 14) and SAM's
-        // automatic mask generator defaults (32 points per side, no crops, no clean-up).
-        dinov2_size: 518,
-        depth_size: 518,
-        points_per_side: 32,
-        crop_layers: 0,
-        min_region_area: 0,
-        log: true,
         resolution: args.resolution,
-        split: "train".into(), // Blender: the train split, as `run`
-        max_views: None,
         shard: args.shard,
         show_progress: !super::logging::quiet(),
+        ..CuesRequest::defaults_for(args.scene, args.out.clone())
     };
     let done = compute_cues(&request)?;
     println!(

@@ -60,7 +60,9 @@ pub struct CuesRequest {
 }
 
 impl CuesRequest {
-    /// The command-line defaults for `scene` → `out`, with no model.
+    /// The defaults for `scene` → `out`, with no model: the references' input sizes (518 px: 37
+    /// patches of 14), SAM's automatic mask generator settings (32 points per side, no crops, no
+    /// clean-up), LoG edges, the train split, every view.
     pub fn defaults_for(scene: PathBuf, out: PathBuf) -> CuesRequest {
         CuesRequest {
             scene,
