@@ -9,8 +9,6 @@
 //! Each output is the sequential sum over `k` of fused multiply-adds: the same products as any other
 //! order, reassociated and rounded once per step.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-
 /// Largest row count this kernel takes.
 pub const MAX_ROWS: usize = 64;
 
@@ -158,12 +156,16 @@ pub fn skinny_rows(
     None
 }
 
-/// Set by [`disable_avx512_kernels`].
-static PORTABLE_ONLY: AtomicBool = AtomicBool::new(false);
+/// The environment variable that turns the AVX-512 kernels off: set (to anything but `0`), every
+/// product takes its `gemm` path, as on CPUs without AVX-512. Like NumPy's `NPY_DISABLE_CPU_FEATURES`
+/// or oneDNN's `ONEDNN_MAX_CPU_ISA`: to reproduce what other CPUs compute, and for the tests of those
+/// paths on an AVX-512 machine. Read from the environment on every check (no state is kept).
+pub const DISABLE_AVX512_ENV: &str = "SPLATSEG_DISABLE_AVX512";
 
-/// Whether the AVX-512 kernel can run here.
+/// Whether the AVX-512 kernel can run here (the CPU has AVX-512F and [`DISABLE_AVX512_ENV`] is not
+/// set).
 pub fn has_avx512() -> bool {
-    if PORTABLE_ONLY.load(Ordering::Relaxed) {
+    if std::env::var_os(DISABLE_AVX512_ENV).is_some_and(|v| v != "0") {
         return false;
     }
     #[cfg(target_arch = "x86_64")]
@@ -174,13 +176,6 @@ pub fn has_avx512() -> bool {
     {
         false
     }
-}
-
-/// From now on, in this process, [`has_avx512`] is false and every caller takes its `gemm` path: lets
-/// a test on an AVX-512 machine check the paths other CPUs take (in its own test binary: it is global).
-#[doc(hidden)]
-pub fn disable_avx512_kernels() {
-    PORTABLE_ONLY.store(true, Ordering::Relaxed);
 }
 
 #[cfg(target_arch = "x86_64")]

@@ -1,6 +1,7 @@
 //! The shared-work decoder's `gemm` paths — what CPUs without AVX-512 run — against the
 //! one-prompt-at-a-time decoder, on the random-weight SAM and MobileSAM fixtures, with the AVX-512
-//! kernels switched off for this test binary (on other CPUs they are off anyway). Logits and IoU
+//! kernels switched off by `SPLATSEG_DISABLE_AVX512` (on other CPUs they are off anyway): the test
+//! runs itself again as a child process with the variable set, so nothing in this process changes. Logits and IoU
 //! predictions within 1e-4 (relative to max(1, |value|)), as `sam_shared_decoder.rs` checks for the
 //! default path.
 
@@ -9,14 +10,28 @@ mod common;
 use common::{check_shared_decoder_over_tiles, fixture, random, worst_difference};
 use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
-use splatseg_models::skinny::{disable_avx512_kernels, has_avx512};
+use splatseg_models::skinny::{has_avx512, DISABLE_AVX512_ENV};
 use splatseg_models::weights::Weights;
 use splatseg_models::ModelKind;
 
+const TEST_NAME: &str = "gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder";
+
 #[test]
 fn gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder() {
-    disable_avx512_kernels();
-    assert!(!has_avx512());
+    if std::env::var_os(DISABLE_AVX512_ENV).is_none() {
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let output = std::process::Command::new(exe)
+            .args(["--exact", TEST_NAME, "--nocapture", "--test-threads", "1"])
+            .env(DISABLE_AVX512_ENV, "1")
+            .output()
+            .expect("run this test again with the AVX-512 kernels off");
+        let log =
+            format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        assert!(output.status.success(), "the run with {DISABLE_AVX512_ENV}=1 failed:\n{log}");
+        assert!(log.contains("1 passed"), "the child ran no test:\n{log}");
+        return;
+    }
+    assert!(!has_avx512(), "{DISABLE_AVX512_ENV} is set, yet the AVX-512 kernels are on");
     for checkpoint in ["sam_tiny.pth", "mobile_sam_tiny.pth"] {
         let weights = Weights::load(&fixture(checkpoint), ModelKind::Sam).unwrap();
         let decoder = MaskDecoder::new(&weights.sub("mask_decoder.")).unwrap();
