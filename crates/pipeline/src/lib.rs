@@ -47,6 +47,7 @@ pub mod shard;
 #[cfg(test)]
 mod tests;
 pub mod train_stage;
+mod view_data;
 mod visible;
 
 use cache::{read_json, write_json};
@@ -221,12 +222,13 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .map(|p| lift_stage::lift_views(p, &cams, &views, &matching, &ctx, config, &times))
         .transpose()?;
     profiler.parts(times.take());
-    remove_spills(&cache_dir)?;
+    remove_spills(&cache_dir.join("visible"))?;
 
     profiler.next("outputs and eval");
-    let results = run_outputs::StageResults { views: &views, matching: &matching, lifted, ctx: &ctx };
+    let results = run_outputs::StageResults { views: &views, matching: &matching, lifted };
     let ply_rows = inputs.ply_rows.take();
     let written = run_outputs::write_outputs(config, &inputs, ply_rows, &load, results)?;
+    remove_spills(&cache_dir.join("views"))?;
     let summary = summary(config, &inputs, prepared.as_ref(), regions, &matching, written);
     write_json(&config.out.join("metrics.json"), &summary)?;
     outputs::write_report(&config.out, &inputs.scene, &summary)?;
@@ -275,9 +277,9 @@ impl RegionCounts {
     }
 }
 
-/// Removes the visible Gaussians the per-view pass spilled (the lift stage has read them).
-fn remove_spills(cache_dir: &Path) -> crate::Result<()> {
-    let spill_dir = cache_dir.join("visible");
+/// Removes a folder the per-view pass spilled into once its last reader is done: `visible/` after
+/// the lift stage, `views/` after the outputs.
+fn remove_spills(spill_dir: &Path) -> crate::Result<()> {
     if spill_dir.is_dir() {
         std::fs::remove_dir_all(&spill_dir).with_context(|| format!("removing {}", spill_dir.display()))?;
     }

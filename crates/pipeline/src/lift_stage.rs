@@ -12,6 +12,7 @@
 use crate::error::{bail, PipelineError};
 use crate::merge_stage::MergeContext;
 use crate::profile::PartTimes;
+use crate::view_data::{self, ViewData};
 use crate::visible;
 use crate::RunConfig;
 use indicatif::ProgressBar;
@@ -42,6 +43,15 @@ pub struct ViewResult {
     pub observations: Option<ViewObservations>,
     /// With Gaussians: the file holding every visible Gaussian ([`crate::visible`]).
     pub spill: Option<PathBuf>,
+    /// The file holding the view's image and raw and merged maps ([`crate::view_data`]).
+    pub data: PathBuf,
+}
+
+impl ViewResult {
+    /// The view's image and raw and merged maps, as the per-view pass decoded them.
+    pub fn data(&self) -> crate::Result<ViewData> {
+        view_data::read_spill(&self.data)
+    }
 }
 
 /// Matches the merged masks of all views. Views without masks (`None`) take no part; with
@@ -101,10 +111,23 @@ pub fn lift_views(
     };
     let scene = ctx.scene;
     let snap_kind = lift.final_maps.snapped_onto().unwrap_or("merged");
-    let snap_map = |v: usize| ctx.cached_map(&scene.views[v].stem, snap_kind);
-    let image_rgb = |v: usize| -> crate::Result<Vec<u8>> {
-        Ok(splatseg_scene::images::load_image_rgb(scene, &scene.views[v], ctx.load_options)?.into_raw())
+    // A view with masks: its spill from the per-view pass (decoded there once); a view without
+    // them (rendered and refined, never snapped) has its image decoded here.
+    let spilled = |v: usize| views.get(v).and_then(|m| m.as_ref());
+    let snap_map = |v: usize| -> crate::Result<Plane<u32>> {
+        match spilled(v) {
+            Some(m) => m.data()?.into_map(snap_kind),
+            None => bail!("view {v} has no masks to snap onto"),
+        }
     };
+    let image_rgb =
+        |v: usize| -> crate::Result<Vec<u8>> {
+            match spilled(v) {
+                Some(m) => Ok(m.data()?.rgb),
+                None => Ok(splatseg_scene::images::load_image_rgb(scene, &scene.views[v], ctx.load_options)?
+                    .into_raw()),
+            }
+        };
     let store = SpilledViews {
         views,
         snap_map: &snap_map,

@@ -5,6 +5,7 @@
 use super::cache::{read_json, write_json, KeyHasher};
 use super::read_view_mask_inputs;
 use crate::error::Context;
+use crate::view_data::ViewImage;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions, RegionSource};
 use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, MergeLog, RegionSummary};
@@ -74,14 +75,6 @@ pub struct MergeContext<'a> {
     pub keep_log: bool,
 }
 
-impl MergeContext<'_> {
-    /// `[H, W]` map `kind` (`raw` or `merged`) of view `stem`, read back from the merge cache.
-    pub fn cached_map(&self, stem: &str, kind: &str) -> crate::Result<Plane<u32>> {
-        let path = self.cache_dir.join(format!("{stem}.{kind}.png"));
-        read_label_png(&path).with_context(|| format!("reading back the merge of view `{stem}`"))
-    }
-}
-
 /// The depth inputs of one view.
 pub struct ViewDepth<'a> {
     /// Depth for the merge cues.
@@ -146,15 +139,20 @@ pub fn merge_cached(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate
     Ok(read_cached(ctx, &view.stem, &key, size))
 }
 
-/// Merges one view (or reads it from the cache).
-pub fn merge_one(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::Result<MergedView> {
+/// Merges one view (or reads it from the cache); `image` is decoded only when the view is merged.
+pub fn merge_one(
+    ctx: &MergeContext,
+    view: &View,
+    depth: &ViewDepth,
+    image: &ViewImage,
+) -> crate::Result<MergedView> {
     let camera = ctx.scene.camera(view);
     let size = (camera.width as usize, camera.height as usize);
     let key = view_key(ctx, view, &depth.key)?;
     if let Some(hit) = read_cached(ctx, &view.stem, &key, size) {
         return Ok(hit);
     }
-    let image = splatseg_scene::images::load_image_rgb(ctx.scene, view, ctx.load_options)?;
+    let image = image.rgb()?;
     let rgb = Plane {
         width: size.0,
         height: size.1,

@@ -9,13 +9,14 @@ use crate::error::{bail, Context};
 use crate::merge_stage::{MergedView, ViewMergeLog};
 use crate::per_view::{finite_depth, ply_key, MergeSources};
 use crate::shard::{write_manifest, Shard, ShardManifest};
+use crate::view_data::ViewImage;
 use crate::{inputs, lock, RunConfig};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use splatseg_lift::{view_visibility, PreparedGaussians};
 use splatseg_merge::{MergeConfig, RegionSummary};
 use splatseg_scene::load::LoadOptions;
-use splatseg_scene::{Scene, View};
+use splatseg_scene::View;
 
 /// What to merge besides `run`'s inputs.
 #[derive(Clone, Debug, Default)]
@@ -85,16 +86,19 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
                 let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
                 pass.surface_depth.as_ref().map(finite_depth)
             });
+            let image = ViewImage::new(&scene, view, load);
             let merged = match request.shard {
-                Some(shard) => sources.merge(&ctx, v, metric).with_context(|| format!("shard {shard}"))?,
-                None => sources.merge(&ctx, v, metric)?,
+                Some(shard) => {
+                    sources.merge(&ctx, v, metric, &image).with_context(|| format!("shard {shard}"))?
+                }
+                None => sources.merge(&ctx, v, metric, &image)?,
             };
             let before = match &merged.log {
                 Some(log) => log.log.regions_before,
                 None => merged.raw.data.iter().copied().max().unwrap_or(0) as usize,
             };
             if export {
-                write_view(&scene, view, load, &config.out, &config.pipeline.merge, &merged)?;
+                write_view(view, &image, &config.out, &config.pipeline.merge, &merged)?;
             }
             bar.inc(1);
             Ok((merged.cached, before, merged.regions.len()))
@@ -161,9 +165,8 @@ fn brief(r: &RegionSummary) -> RegionBrief<'_> {
 
 /// Writes the merged regions of `view` as a label map, over its image, and its decisions.
 fn write_view(
-    scene: &Scene,
     view: &View,
-    load: &LoadOptions,
+    image: &ViewImage,
     out: &std::path::Path,
     config: &MergeConfig,
     merged: &MergedView,
@@ -173,8 +176,7 @@ fn write_view(
         bail!("the merge of view `{stem}` kept no decisions");
     };
     splatseg_scene::labels::write_label_png(&out.join("masks").join(format!("{stem}.png")), &merged.merged)?;
-    let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
-    let overlay = splatseg_scene::labels::overlay(&image, &merged.merged, 0.5);
+    let overlay = splatseg_scene::labels::overlay(image.rgb()?, &merged.merged, 0.5);
     splatseg_scene::labels::write_png_rgb(&out.join("overlays").join(format!("{stem}.png")), &overlay)?;
     let entry = ViewLog {
         stem,

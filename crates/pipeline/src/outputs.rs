@@ -10,17 +10,23 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Writes `OUT/masks/<stem>.png` (16-bit global ids) and `OUT/overlays/<stem>.png` of view `v`
-/// (`map`: `[H, W]` final ids).
+/// (`map`: `[H, W]` final ids; `rgb`: `[H, W, 3]` its image as the per-view pass decoded it, or
+/// `None` to decode it here).
 pub fn write_view_maps(
     out: &Path,
     scene: &Scene,
     load: &LoadOptions,
     v: usize,
     map: &Plane<u32>,
+    rgb: Option<Vec<u8>>,
 ) -> crate::Result<()> {
     let view = &scene.views[v];
     write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
-    let image = splatseg_scene::images::load_image_rgb(scene, view, load)?;
+    let image = match rgb {
+        Some(rgb) => image::RgbImage::from_raw(map.width as u32, map.height as u32, rgb)
+            .with_context(|| format!("the spilled image of view `{}` has another size", view.stem))?,
+        None => splatseg_scene::images::load_image_rgb(scene, view, load)?,
+    };
     let path = out.join("overlays").join(format!("{}.png", view.stem));
     write_png_rgb(&path, &overlay(&image, map, 0.5))?;
     Ok(())

@@ -8,6 +8,7 @@ use crate::lift_stage::ViewResult;
 use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
 use crate::profile::PartTimes;
 use crate::shard::Shard;
+use crate::view_data::{self, ViewImage};
 use crate::{visible, RunConfig};
 use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
@@ -105,15 +106,17 @@ impl MergeSources {
         })
     }
 
-    /// Merges view `v` (or reads it from the cache).
+    /// Merges view `v` (or reads it from the cache); `image` is its image, decoded if needed.
     pub fn merge(
         &self,
         ctx: &MergeContext,
         v: usize,
         metric: Option<Plane<f32>>,
+        image: &ViewImage,
     ) -> crate::Result<MergedView> {
         let (depth, key) = self.depth(ctx, v, metric.as_ref())?;
-        merge_one(ctx, &ctx.scene.views[v], &ViewDepth { depth: &depth, metric: metric.as_ref(), key })
+        let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key };
+        merge_one(ctx, &ctx.scene.views[v], &depth, image)
     }
 
     /// The merge of view `v` that `shard` wrote; an error naming the shard when it is missing or
@@ -180,11 +183,21 @@ impl PerView<'_> {
         };
         let metric = depth.as_ref().map(finite_depth);
         drop(depth);
+        let view = &self.ctx.scene.views[v];
+        // The view's image, decoded once for this run: the merge, the lift stage and the outputs
+        // all take it from here (the latter two from the view's spill).
+        let image = ViewImage::new(self.ctx.scene, view, self.ctx.load_options);
+        self.times.time("decode the image", || image.rgb().map(|_| ()))?;
         let merged =
             self.times.time("merge (inputs, cues, merging; or the cache)", || match self.sharded {
                 Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count }),
-                None => self.sources.merge(self.ctx, v, metric),
+                None => self.sources.merge(self.ctx, v, metric, &image),
             })?;
+        let data = view_data::spill_path(self.out, &view.stem);
+        self.times.time("spill the view's image and maps", || {
+            view_data::write_spill(&data, image.rgb()?.as_raw(), &merged.raw, &merged.merged)
+        })?;
+        drop(image);
         // Every visible Gaussian to disk, a bounded sample of them kept for matching.
         let (observations, spill) = match visibility {
             Some(vis) => {
@@ -209,6 +222,7 @@ impl PerView<'_> {
             cached: merged.cached,
             observations,
             spill,
+            data,
         })
     }
 }

@@ -5,7 +5,6 @@ use crate::error::Context;
 use crate::eval_stage::{eval_views, evaluate, local_offsets, offset_map, view_counts};
 use crate::inputs::RunInputs;
 use crate::lift_stage::ViewResult;
-use crate::merge_stage::MergeContext;
 use crate::{outputs, progress, RunConfig};
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
@@ -25,8 +24,6 @@ pub struct StageResults<'a> {
     pub matching: &'a Matching,
     /// The lift stage's output, with Gaussians.
     pub lifted: Option<LiftOutput>,
-    /// The merge cache (raw and merged maps, read back per view).
-    pub ctx: &'a MergeContext<'a>,
 }
 
 /// What writing the outputs found.
@@ -52,9 +49,8 @@ pub fn write_outputs(
     load: &LoadOptions,
     mut results: StageResults,
 ) -> crate::Result<Written> {
-    let (scene, views, ctx) = (&inputs.scene, results.views, results.ctx);
+    let (scene, views) = (&inputs.scene, results.views);
     let pc = &config.pipeline;
-    let cached_map = |v: usize, kind: &str| ctx.cached_map(&scene.views[v].stem, kind);
     let eval = inputs.gt.as_ref().map(|g| eval_views(scene, g)).transpose()?;
     let raw_offsets =
         local_offsets(&views.iter().map(|m| m.as_ref().map_or(0, |m| m.raw_max)).collect::<Vec<_>>());
@@ -83,12 +79,9 @@ pub fn write_outputs(
         }
         Ok(())
     };
-    let matched_map = |v: usize| -> crate::Result<Option<Plane<u32>>> {
-        if views[v].is_none() {
-            return Ok(None);
-        }
+    let matched_map = |v: usize, merged: &Plane<u32>| -> Plane<u32> {
         let table = &results.matching.global_of_label[v];
-        Ok(Some(cached_map(v, "merged")?.map(|&l| table.get(l as usize).copied().unwrap_or(0))))
+        merged.map(|&l| table.get(l as usize).copied().unwrap_or(0))
     };
     let bar = progress(scene.views.len(), "write label maps", config.options);
     let write_maps = || -> crate::Result<Vec<ViewOutputs>> {
@@ -96,7 +89,9 @@ pub fn write_outputs(
             .into_par_iter()
             .progress_with(bar.clone())
             .map(|v| -> crate::Result<ViewOutputs> {
-                let matched = matched_map(v)?;
+                // What the per-view pass decoded (a view with masks), read back once.
+                let data = views[v].as_ref().map(|m| m.data()).transpose()?;
+                let matched = data.as_ref().map(|d| matched_map(v, &d.merged));
                 let final_map = match lifted {
                     Some(l) => l.final_map(v),
                     None => matched.clone().unwrap_or_else(|| {
@@ -104,18 +99,22 @@ pub fn write_outputs(
                         Plane::filled(c.width as usize, c.height as usize, 0)
                     }),
                 };
-                outputs::write_view_maps(&config.out, scene, load, v, &final_map)?;
+                let (rgb, maps) = match data {
+                    Some(d) => (Some(d.rgb), Some((d.raw, d.merged))),
+                    None => (None, None),
+                };
+                outputs::write_view_maps(&config.out, scene, load, v, &final_map, rgb)?;
                 let ids = distinct_ids(&final_map);
                 let counts = match &eval {
                     Some(e) => {
-                        let local = |kind: &str, base: u32| -> crate::Result<Option<Plane<u32>>> {
-                            Ok(match views[v] {
-                                Some(_) => Some(offset_map(&cached_map(v, kind)?, base)),
-                                None => None,
-                            })
+                        let (raw, merged) = match &maps {
+                            Some((raw, merged)) => (
+                                Some(offset_map(raw, raw_offsets[v])),
+                                Some(offset_map(merged, merged_offsets[v])),
+                            ),
+                            None => (None, None),
                         };
-                        let mut maps =
-                            vec![local("raw", raw_offsets[v])?, local("merged", merged_offsets[v])?, matched];
+                        let mut maps = vec![raw, merged, matched];
                         if lifted.is_some() {
                             maps.push(Some(final_map));
                         }
