@@ -281,7 +281,7 @@ impl RegionCounts {
 /// the lift stage, `views/` after the outputs.
 fn remove_spills(spill_dir: &Path) -> crate::Result<()> {
     if spill_dir.is_dir() {
-        std::fs::remove_dir_all(&spill_dir).with_context(|| format!("removing {}", spill_dir.display()))?;
+        std::fs::remove_dir_all(spill_dir).with_context(|| format!("removing {}", spill_dir.display()))?;
     }
     Ok(())
 }
