@@ -3,11 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-/// Most lines `src/` may hold: what it holds now that its logic is in the crates and the options are
-/// cut (1,596; was 3,806), lowered as lines go and never raised. Issue 26's target is 1,000: what is
-/// left is clap argument structs and their help text, which would have to move into the library
-/// request structs (deriving clap's `Args` there) to go further.
-const MAX_SRC_LINES: usize = 1_600;
+/// Most lines `src/` may hold: issue 26's target. The argument structs and their help text are the
+/// libraries' own (clap's `Args` behind each crate's `cli` feature), so `src/` holds the `Cli`, the
+/// logging and allocator setup, and per command a few lines that call a library and print (about
+/// 630 lines; 3,806 before issue 26). Lowered as lines go, never raised.
+const MAX_SRC_LINES: usize = 1_000;
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("src/ is listable").flatten() {

@@ -2,7 +2,6 @@
 
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use splatseg_pipeline::PipelineConfig;
 use std::path::PathBuf;
 
 /// Print every setting of `splatseg run` with its default value, as TOML.
@@ -20,14 +19,11 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-/// The default pipeline settings as TOML text.
-pub fn default_config_toml() -> anyhow::Result<String> {
-    PipelineConfig::default().to_file_text().context("cannot serialise the default settings")
-}
-
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let text = default_config_toml()?;
+    let text = splatseg_pipeline::PipelineConfig::default()
+        .to_file_text()
+        .context("cannot serialise the default settings")?;
     match args.out {
         Some(path) => {
             splatseg_scene::atomic::write_bytes_atomic(&path, text.as_bytes())?;

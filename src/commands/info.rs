@@ -1,63 +1,11 @@
 //! `splatseg info PATH`: what splatseg finds in a scene folder, before running anything on it.
 
-use clap::Args as ClapArgs;
-use splatseg_pipeline::scene_info::{inspect, InfoRequest};
-use std::path::PathBuf;
-
-/// The long help of `splatseg info --help` (set on the subcommand in `commands/mod.rs`).
-pub const LONG_ABOUT: &str = "\
-Show what a scene folder holds: format, cameras, views, missing or mis-sized images, sparse \
-points, the Gaussians of a 3DGS PLY and which views have SAM masks or cue maps.
-
-PATH is any scene splatseg reads: a COLMAP folder (sparse/0/ + images/, binary or text model), \
-a COLMAP model folder itself, a NeRF/Blender folder (transforms_train.json) or an instant-ngp / \
-nerfstudio folder or file (transforms.json).
-
-Per-view inputs are matched by image stem: IMG_0001.jpg <-> sam/IMG_0001.json, \
-features/IMG_0001.npy, depth/IMG_0001.npy. Folders named sam, masks, features and depth inside \
-PATH are checked automatically.
-
-Exits with an error when an image cannot be loaded at its camera's size.
-
-Examples:
-  splatseg info data/garden
-  splatseg info data/garden --resolution 4 --gaussians output/point_cloud.ply --masks sam_out
-  splatseg info data/lego --json";
-
-/// Show what a scene folder holds: format, cameras, views, missing or mis-sized images, sparse
-/// points, the Gaussians of a 3DGS PLY and which views have SAM masks or cue maps.
-#[derive(Debug, ClapArgs)]
-pub struct Args {
-    /// Scene folder (or transforms .json file).
-    pub path: PathBuf,
-    /// A 3DGS PLY to describe. Default: the `*.ply` files directly in PATH, else the latest
-    /// `point_cloud/iteration_*/point_cloud.ply` (3DGS training output).
-    #[arg(long)]
-    pub gaussians: Option<PathBuf>,
-    /// Folder of per-view SAM masks (`<stem>.json`, or `<stem>/metadata.csv` PNG folders).
-    #[arg(long)]
-    pub masks: Option<PathBuf>,
-    /// Image down-scaling factor as 3DGS's `--resolution` (1, 2, 4 or 8): cameras are scaled and
-    /// `images_<f>/` is used when present.
-    #[arg(long, default_value_t = 1)]
-    pub resolution: u32,
-    /// Print the report as JSON on stdout (warnings included) instead of text.
-    #[arg(long)]
-    pub json: bool,
-}
+use splatseg_pipeline::args::InfoArgs;
 
 /// Runs the command: prints the report, and fails (exit code 1) when some image cannot be
 /// loaded at its camera's size.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let request = InfoRequest {
-        path: args.path,
-        gaussians: args.gaussians,
-        masks: args.masks,
-        resolution: args.resolution,
-        split: "train".into(), // Blender: the train split, as `run`
-        strict: super::run_options().strict,
-    };
-    let report = inspect(&request)?;
+pub fn run(args: InfoArgs) -> anyhow::Result<()> {
+    let report = splatseg_pipeline::scene_info::inspect(&args.request(super::run_options().strict))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

@@ -1,20 +1,18 @@
-//! Subcommands. Each lives in its own file with its clap arguments and a `run` function.
+//! Subcommands. Their arguments are the libraries' structs (clap's `Args` with each crate's `cli`
+//! feature); each file here calls the library and prints.
 
 use clap::{Parser, Subcommand};
+use splatseg_pipeline::args as pipeline;
 
-pub mod ablate;
 pub mod bench;
 pub mod config;
 pub mod cues;
 pub mod demo;
+pub mod edit;
 pub mod eval;
-pub mod extract;
 pub mod info;
 pub mod logging;
 pub mod merge;
-pub mod objects;
-pub mod recolor;
-pub mod remove;
 pub mod render;
 pub mod run;
 pub mod synth;
@@ -65,69 +63,61 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Print the merge stage's ablation and sensitivity tables on a synthetic scene.
-    Ablate(ablate::Args),
+    Ablate(splatseg_bench::AblateArgs),
     /// Measure quality over many synthetic scenes of the stress suite (`bench quality`).
-    Bench(bench::Args),
+    Bench(splatseg_bench::BenchArgs),
     /// Print the default settings, each with its meaning and source, as a TOML file for `run --config`.
     Config(config::Args),
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
-    Cues(cues::Args),
+    Cues(splatseg_model_cues::CuesArgs),
     /// Run the whole pipeline on a generated synthetic scene and print the metrics.
-    Demo(demo::Args),
+    Demo(pipeline::DemoArgs),
     /// Score predicted label maps against ground truth (mIoU, boundary mIoU, #masks, consistency).
-    Eval(eval::Args),
+    Eval(splatseg_eval::EvalArgs),
     /// Write the Gaussians of chosen objects of a labelled PLY to a new PLY.
-    Extract(extract::Args),
+    Extract(splatseg_edit::ExtractArgs),
     /// Show what a scene folder holds: cameras, views, missing images, Gaussians, masks.
-    #[command(long_about = info::LONG_ABOUT)]
-    Info(info::Args),
+    #[command(long_about = pipeline::INFO_LONG_ABOUT)]
+    Info(pipeline::InfoArgs),
     /// Merge each view's over-segmented SAM masks with semantic, depth and edge cues (paper §4.2).
-    Merge(merge::Args),
+    Merge(pipeline::MergeArgs),
     /// List the objects of a labelled PLY (id, Gaussians, bounding box, colour, views).
-    Objects(objects::Args),
+    Objects(splatseg_edit::ObjectsArgs),
     /// Paint each object of a labelled PLY in its palette colour.
-    Recolor(recolor::Args),
+    Recolor(splatseg_edit::RecolorArgs),
     /// Write a labelled PLY without chosen objects.
-    Remove(remove::Args),
+    Remove(splatseg_edit::RemoveArgs),
     /// Render every view of a scene from a 3DGS PLY (rgb, depth, ids, alpha) on the CPU.
-    Render(render::Args),
+    Render(pipeline::RenderArgs),
     /// Run the pipeline (cues → merge → match → lift → eval) on a scene with SAM masks.
-    Run(run::Args),
+    Run(splatseg_model_cues::RunArgs),
     /// Write a synthetic multi-object scene with ground truth, simulated SAM masks and cues.
-    Synth(synth::Args),
+    Synth(splatseg_synth::SynthArgs),
     /// Train the Gaussians on the images (3DGS on the CPU) and, with lifted ids, the joint optimisation.
-    Train(train::Args),
+    Train(pipeline::TrainArgs),
     /// Open a labelled scene in the browser: see, pick, hide and export objects (WebGL2 viewer).
-    View(view::Args),
+    View(splatseg_view::ViewArgs),
 }
 
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Ablate(args) => ablate::run(args),
+        Command::Ablate(args) => bench::ablate(args),
         Command::Bench(args) => bench::run(args),
         Command::Config(args) => config::run(args),
         Command::Cues(args) => cues::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Eval(args) => eval::run(args),
-        Command::Extract(args) => extract::run(args),
+        Command::Extract(args) => edit::extract(args),
         Command::Info(args) => info::run(args),
         Command::Merge(args) => merge::run(args),
-        Command::Objects(args) => objects::run(args),
-        Command::Recolor(args) => recolor::run(args),
-        Command::Remove(args) => remove::run(args),
+        Command::Objects(args) => edit::objects(args),
+        Command::Recolor(args) => edit::recolor(args),
+        Command::Remove(args) => edit::remove(args),
         Command::Render(args) => render::run(args),
         Command::Run(args) => run::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Train(args) => train::run(args),
         Command::View(args) => view::run(args),
     }
-}
-
-/// Parses an image size written `WIDTHxHEIGHT` (e.g. `320x240`).
-pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
-    let (w, h) = text.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{text}`"))?;
-    let parse =
-        |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` is not a whole number of pixels"));
-    Ok((parse(w)?, parse(h)?))
 }

@@ -21,6 +21,15 @@ pub enum DepthKind {
     InverseRelative,
 }
 
+/// Parses a `--depth-kind` value: `inverse` (or `inverse-relative`) or `metric` (or `metric-z`).
+pub fn parse_depth_kind(text: &str) -> Result<DepthKind, String> {
+    match text {
+        "inverse" | "inverse-relative" => Ok(DepthKind::InverseRelative),
+        "metric" | "metric-z" => Ok(DepthKind::MetricZ),
+        other => Err(format!("`{other}`: expected `inverse` (relative inverse depth, e.g. Depth Anything) or `metric` (camera z)")),
+    }
+}
+
 /// A depth map of one view at image resolution.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DepthMap {
@@ -174,5 +183,14 @@ mod tests {
         assert!(map.values.data.iter().all(|&v| (v - 3.0).abs() < 1e-6));
         let err = source.depth("b", 5, 4).unwrap_err().to_string();
         assert!(err.contains("`b`"), "{err}");
+    }
+
+    #[test]
+    fn depth_kinds_parse_by_their_short_and_long_names() {
+        assert_eq!(parse_depth_kind("inverse"), Ok(DepthKind::InverseRelative));
+        assert_eq!(parse_depth_kind("inverse-relative"), Ok(DepthKind::InverseRelative));
+        assert_eq!(parse_depth_kind("metric"), Ok(DepthKind::MetricZ));
+        assert_eq!(parse_depth_kind("metric-z"), Ok(DepthKind::MetricZ));
+        assert!(parse_depth_kind("disparity").unwrap_err().contains("`disparity`"));
     }
 }

@@ -17,7 +17,8 @@ pub mod regions;
 pub mod surface;
 
 pub use depth::{
-    depth_gradient, normalise_depth, DepthKind, DepthMap, DepthSource, InMemoryDepthSource, NpyDepthSource,
+    depth_gradient, normalise_depth, parse_depth_kind, DepthKind, DepthMap, DepthSource, InMemoryDepthSource,
+    NpyDepthSource,
 };
 pub use descriptors::{
     cosine, ColourTextureDescriptors, DenseFeatureDescriptors, DescribeRequest, DescriptorSource,

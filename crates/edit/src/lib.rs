@@ -5,8 +5,10 @@
 //! - [`recolor`](mod@recolor): flat palette colours per object, for viewing a segmentation.
 //! - [`objects`](mod@objects): the object table (id, Gaussian count, bounding box, colour, views).
 //! - [`viewer`]: stripping splatseg's extra properties so standard viewers open the output.
+//! - [`args`]: the commands' arguments (clap's `Args` with the `cli` feature).
 //! - [`io`]: reading a labelled PLY with a helpful error, writing an edited one atomically.
 
+pub mod args;
 pub mod error;
 pub mod io;
 pub mod objects;
@@ -16,6 +18,7 @@ pub mod select;
 mod testing;
 pub mod viewer;
 
+pub use args::{ExtractArgs, ObjectsArgs, RecolorArgs, RemoveArgs};
 pub use error::EditError;
 pub use objects::{ids_in_label_map, objects, ObjectInfo, ObjectTable};
 pub use recolor::{palette_colour, recolor, UnlabelledStyle};

@@ -7,6 +7,7 @@
 //! - [`metrics`]: [`Metrics`] from the counts: mIoU, boundary mIoU, #masks, per-view mIoU,
 //!   cross-view consistency (definitions there).
 //! - [`accuracy3d`]: per-Gaussian label accuracy.
+//! - [`args`]: `splatseg eval`'s arguments (clap's `Args` with the `cli` feature).
 //! - [`folders`]: scoring folders of `<stem>.png` label maps.
 //! - [`markdown`]: tables for reports.
 //! - [`photometric`]: PSNR and SSIM as 3DGS computes them, and the SSIM gradient for training.
@@ -24,6 +25,7 @@
 //! ```
 
 pub mod accuracy3d;
+pub mod args;
 pub mod band;
 pub mod config;
 pub mod error;
@@ -36,6 +38,7 @@ pub mod photometric;
 pub mod view;
 
 pub use accuracy3d::{label_accuracy_3d, label_accuracy_3d_files, read_gaussian_ids_npy};
+pub use args::EvalArgs;
 pub use config::{EvalConfig, IdScope, UnlabelledGt};
 pub use error::EvalError;
 pub use folders::{evaluate_folders, evaluate_prediction_sets, list_label_maps, PredictionSet};

@@ -6,10 +6,13 @@
 //!
 //! Outputs are cached by model, settings and image content (`OUT/cache/<cue>/<stem>.key`): a rerun
 //! only computes what changed. Shards ([`Shard`]) may run at once on the same `OUT`. Kept apart
-//! from `splatseg-pipeline` so that the pipeline does not depend on candle.
+//! from `splatseg-pipeline` so that the pipeline does not depend on candle. [`args`]: the arguments of
+//! `splatseg cues` and `splatseg run` (clap's `Args` with the `cli` feature).
 
+pub mod args;
 mod error;
 
+pub use args::{CuesArgs, RunArgs};
 pub use error::{Context, ModelCuesError, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use splatseg_models::depth_anything::DepthAnything;

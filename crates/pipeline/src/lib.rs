@@ -8,7 +8,9 @@
 //!   `run`'s inputs and cache keys; a later [`run_pipeline`] on the same output folder reuses it;
 //! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids);
 //! - [`scene_info`] (what a scene folder holds), [`demo`], [`render_views`], [`train_stage`]: the
-//!   other commands' work.
+//!   other commands' work;
+//! - [`args`]: the arguments of the commands above (clap's `Args` with the `cli` feature) and
+//!   the requests they make.
 //!
 //! Errors are [`PipelineError`]; [`PipelineError::report`] prints the chain of causes.
 //!
@@ -21,6 +23,7 @@
 //! OUT/cache/                per-stage results keyed by inputs + config (a rerun resumes)
 //! ```
 
+pub mod args;
 mod cache;
 pub mod config;
 pub mod demo;

@@ -21,4 +21,22 @@ pub enum SynthError {
         /// The file being written.
         path: PathBuf,
     },
+    /// The `--config` file of `splatseg synth` cannot be read.
+    #[error("cannot read synth config {}", path.display())]
+    ReadConfig {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The `--config` file of `splatseg synth` is not a valid `SynthConfig` TOML.
+    #[error("invalid synth config {}", path.display())]
+    ParseConfig {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: toml::de::Error,
+    },
 }

@@ -29,6 +29,7 @@
 //! and floors, thin posts, border-cut foreground objects, stacked and touching objects and
 //! heavier SAM noise; every instance gets its failure classes ([`classes`]).
 
+pub mod args;
 pub mod cameras;
 pub mod classes;
 pub mod components;
@@ -48,6 +49,7 @@ pub mod sam_sim;
 pub mod texture;
 mod write;
 
+pub use args::{parse_family, parse_size, SynthArgs};
 pub use classes::FailureClass;
 pub use config::{FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
 pub use error::SynthError;

@@ -6,6 +6,7 @@
 //! with an id pass, hides / isolates / recolours them and exports a selection through
 //! `splatseg-edit` ([`export`]).
 //!
+//! - [`args`]: `splatseg view`'s arguments.
 //! - [`source`]: what PATH is (run / train / INRIA folder or a PLY), cameras, per-view overlays.
 //! - [`pack`]: the 48-byte-per-Gaussian binary layout sent to the page.
 //! - [`manifest`]: the scene description (objects by slot, cameras, views).
@@ -13,6 +14,7 @@
 //! - [`browser`]: a minimal WebDriver client for headless Chromium (tests, benchmarks, the
 //!   README's screenshot).
 
+pub mod args;
 pub mod assets;
 pub mod browser;
 pub mod error;
@@ -23,6 +25,7 @@ pub mod routes;
 pub mod server;
 pub mod source;
 
+pub use args::ViewArgs;
 pub use error::{ViewError, ViewResult};
 pub use routes::Site;
 pub use server::{open_in_browser, ViewServer};

@@ -1,0 +1,174 @@
+//! The arguments of `splatseg bench quality`, `bench scale` and `ablate` (clap's `Args` and
+//! `Subcommand` with the `cli` feature), and the requests they make.
+
+use crate::ablate::{base_config, AblateRequest};
+use crate::quality::QualityRequest;
+use crate::scale::ScaleRequest;
+use crate::suite::SceneOverrides;
+use splatseg_pipeline::PipelineConfig;
+use splatseg_synth::Family;
+use std::path::PathBuf;
+
+/// Measure the pipeline over many scenes and print the distributions.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct BenchArgs {
+    /// What to measure.
+    #[cfg_attr(feature = "cli", command(subcommand))]
+    pub what: What,
+}
+
+/// The benchmarks.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Subcommand))]
+pub enum What {
+    /// Segmentation quality over the stress suite's families and seeds.
+    #[cfg_attr(feature = "cli", command(long_about = QUALITY_LONG_ABOUT))]
+    Quality(QualityArgs),
+    /// Time and peak memory of `run`, per stage, on a synthetic capture of a given size.
+    #[cfg_attr(feature = "cli", command(long_about = SCALE_LONG_ABOUT))]
+    Scale(ScaleArgs),
+}
+
+/// The long help of `bench quality`.
+pub const QUALITY_LONG_ABOUT: &str = "\
+Segmentation quality over the stress suite: for every family and seed, generate the synthetic \
+scene (`splatseg synth --family F --seed S`), run the pipeline on it as a user would (`splatseg \
+run` with --features, the scene's Gaussians and ground truth) and score the final label maps and \
+labelled Gaussians. Prints each metric's distribution over the scenes (min, p10, median, mean, \
+max), the means per family, the IoU per failure class (multi_tone, thin, border_cut, stacked, \
+touching, white_pair, same_depth_pair, occluded, room, plain; instances matched by the eval \
+crate's Hungarian matching over all views) and the worst scenes. Two ceilings are scored beside \
+the final maps: the SAM masks as regions and the merged regions, every region given its majority \
+ground-truth id (an oracle in place of matching and lifting): the gap from the SAM ceiling to the \
+merged one is what merging lost by wrong merges, from the merged ceiling to the final maps what \
+matching and lifting lost.
+
+Seed sets: tune settings on the tuning seeds 0..16 and report on the report seeds 100..132 \
+(`--seeds report`), which no setting was chosen on.
+
+Families (default: rooms multi_tone thin border clutter sam_noise): default, rooms, multi_tone, \
+thin, border, clutter, sam_noise, hires (the rooms at 1280×960), many_views (the rooms with 12–100 \
+views).
+
+Examples:
+  splatseg bench quality --seeds 0..4 --family rooms
+  splatseg bench quality --seeds report --out bench-report
+  splatseg bench quality --seeds 100..108 --family hires --no-features
+  splatseg bench quality --seeds 0..4 --config merge-off.toml --out tuning-merge-off";
+
+/// Score the pipeline over many synthetic scenes of the stress suite.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct QualityArgs {
+    /// Seeds: `A..B` (B excluded), `A..=B`, `1,5,9`, `tuning` (0..16) or `report` (100..132).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "tuning"))]
+    pub seeds: String,
+    /// A family to run (repeat for several); default: rooms multi_tone thin border clutter
+    /// sam_noise.
+    #[cfg_attr(feature = "cli", arg(long = "family", value_parser = splatseg_synth::parse_family))]
+    pub families: Vec<Family>,
+    /// Also run every scene without --features (the model-free descriptors) and report it too.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub no_features: bool,
+    /// Output folder: `quality.md` and `quality.json`.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: Option<PathBuf>,
+    /// A pipeline config (TOML, as for `splatseg run --config`) for every run instead of the
+    /// defaults: to compare settings on the tuning seeds.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub config: Option<PathBuf>,
+}
+
+/// How many of the worst scenes the report lists.
+const WORST_LISTED: usize = 8;
+
+impl QualityArgs {
+    /// The suite's request: each family's own size and views, the `--config` settings.
+    pub fn into_request(self) -> crate::Result<QualityRequest> {
+        Ok(QualityRequest {
+            seeds: self.seeds,
+            families: self.families,
+            overrides: SceneOverrides { size: None, views: None },
+            no_features: self.no_features,
+            out: self.out,
+            keep: false,
+            pipeline: PipelineConfig::from_optional_file(self.config.as_deref())?,
+            worst: WORST_LISTED,
+        })
+    }
+}
+
+/// The long help of `bench scale`.
+pub const SCALE_LONG_ABOUT: &str = "Measure `splatseg run` on a synthetic capture of N views × W×H pixels × G Gaussians.
+
+Writes the capture once into DIR/scene-<N>v-<W>x<H>-<G>g-s<seed>/ (a `rooms` scene with SAM JSON masks, \
+`.npy` features and depth, as a user brings them; reused when it is there), then runs `splatseg run` on it \
+in a child process with a fresh output folder, and prints the wall time and peak resident memory of the whole \
+run and of each stage (from its --profile: VmHWM reset at each stage; the run's peak is the largest), \
+with the thread time of each stage's parts (surface depth and visibility, merge, votes, render back…; \
+summed over threads, so parts may add up to more than the stage's wall time).
+
+The scene has min(N, --distinct-views) distinct views; beyond that, views repeat the distinct ones (same \
+image, masks, cues and pose under a new name), so a 1,000-view capture costs the disk of 100. The Gaussians \
+are the synthetic ones subsampled evenly to G, or repeated with a small deterministic offset up to G.
+
+Example: splatseg bench scale --views 100 --size 1280x960 --gaussians 1000000 --dir /tmp/scale";
+
+/// Arguments of `bench scale`.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct ScaleArgs {
+    /// Views of the capture.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 100))]
+    pub views: usize,
+    /// Image size, WIDTHxHEIGHT.
+    #[cfg_attr(feature = "cli", arg(long, value_parser = splatseg_synth::parse_size, default_value = "1280x960"))]
+    pub size: (u32, u32),
+    /// Gaussians in the PLY.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1_000_000))]
+    pub gaussians: usize,
+    /// Most distinct views rendered; further views repeat them.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 100))]
+    pub distinct_views: usize,
+    /// Working folder (captures and outputs; several GB for large captures).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "bench-scale"))]
+    pub dir: PathBuf,
+}
+
+impl ScaleArgs {
+    /// The benchmark's request: one fixed scene (seed 0), so runs compare.
+    pub fn request(self) -> ScaleRequest {
+        ScaleRequest {
+            views: self.views,
+            size: self.size,
+            gaussians: self.gaussians,
+            seed: 0,
+            distinct_views: self.distinct_views,
+            dir: self.dir,
+        }
+    }
+}
+
+/// Measure Multi-Cue-Guided Mask Merging on a generated synthetic scene with ground truth.
+///
+/// Prints Markdown tables of masks per view and per-view mIoU
+/// (Hungarian matching per view): the score profiles, boundary statistics, the cue ablation
+/// (raw / semantic only / + LoG / + depth, as the paper's Table 3), the paper's supplementary
+/// sensitivity table (τ_merge, τ_depth, w_sem), the depth gates on the white-on-white pair, and
+/// the rule for uncovered pixels. Cues: the scene's simulated DINOv2-like features and monocular
+/// depth; metric depth for the relative gate rendered from its Gaussians.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct AblateArgs {
+    /// Base merge settings (TOML `MergeConfig`); default: the paper profile.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub config: Option<PathBuf>,
+}
+
+impl AblateArgs {
+    /// The request of the documented tables: seed 0, 12 views, the `--config` merge settings.
+    pub fn request(&self) -> crate::Result<AblateRequest> {
+        Ok(AblateRequest { seed: 0, views: 12, size: None, base: base_config(self.config.as_deref())? })
+    }
+}

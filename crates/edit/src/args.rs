@@ -1,0 +1,99 @@
+//! The arguments of `splatseg objects`, `extract`, `remove` and `recolor` (clap's `Args` with the
+//! `cli` feature).
+
+use crate::ExtraFields;
+use std::path::PathBuf;
+
+/// List the objects of a labelled PLY: id, Gaussian count, bounding box of the centres, palette
+/// colour and (with --masks) the number of views showing it.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct ObjectsArgs {
+    /// Labelled 3DGS PLY (with `object_id`, as `splatseg run` writes it).
+    pub ply: PathBuf,
+    /// Folder of per-view label maps (`<stem>.png`, e.g. `OUT/masks`) to count views per object.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
+    pub masks: Option<PathBuf>,
+    /// Print JSON instead of a table.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub json: bool,
+}
+
+/// Write the Gaussians of the chosen objects to a new PLY (e.g. to open one object alone).
+///
+/// The input is a labelled PLY (with `object_id`, as `splatseg run` writes it); the Gaussians
+/// keep their order and every value bit for bit. The output has the standard INRIA 3DGS layout
+/// that viewers open: splatseg's `object_id` and `feat_*` properties (and any other non-standard
+/// property) are dropped unless --keep-extras is given. `splatseg objects PLY` lists the ids.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct ExtractArgs {
+    /// Labelled 3DGS PLY.
+    pub ply: PathBuf,
+    /// Object ids to keep, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, required = true, value_delimiter = ',', allow_negative_numbers = true)
+    )]
+    pub ids: Vec<i32>,
+    /// Output PLY.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub keep_extras: bool,
+}
+
+/// Write the scene without the chosen objects (every other Gaussian unchanged, same order).
+///
+/// The input is a labelled PLY (with `object_id`, as `splatseg run` writes it). The output has
+/// the standard INRIA 3DGS layout that viewers open: splatseg's `object_id` and `feat_*`
+/// properties (and any other non-standard property) are dropped unless --keep-extras is given.
+/// `splatseg objects PLY` lists the ids.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct RemoveArgs {
+    /// Labelled 3DGS PLY.
+    pub ply: PathBuf,
+    /// Object ids to remove, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, required = true, value_delimiter = ',', allow_negative_numbers = true)
+    )]
+    pub ids: Vec<i32>,
+    /// Output PLY.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub keep_extras: bool,
+}
+
+/// Paint each object in its palette colour (the colours of the label-map overlays), to see a
+/// segmentation in any 3DGS viewer.
+///
+/// Sets each labelled Gaussian's base colour (`f_dc`) to its object's colour and zeroes its
+/// view-dependent part (`f_rest`), and Gaussians without an object flat dark grey; positions,
+/// shapes and opacities are unchanged. The output
+/// has the standard INRIA 3DGS layout unless --keep-extras is given.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct RecolorArgs {
+    /// Labelled 3DGS PLY.
+    pub ply: PathBuf,
+    /// Output PLY.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub keep_extras: bool,
+}
+
+/// `--keep-extras` as the writer's choice.
+pub fn extras(keep_extras: bool) -> ExtraFields {
+    if keep_extras {
+        ExtraFields::Keep
+    } else {
+        ExtraFields::Strip
+    }
+}

@@ -1,0 +1,154 @@
+//! The arguments of `splatseg cues` and `splatseg run` (clap's `Args` with the `cli` feature):
+//! `run` lives here because its `--sam`, `--dinov2` and `--depth-model` run the models first.
+
+use crate::{compute_cues, models_for_run, CuesRequest, CuesSummary, ModelCuesError};
+use splatseg_cues::DepthKind;
+use splatseg_pipeline::{PipelineConfig, RunConfig, RunOptions};
+use std::path::PathBuf;
+
+/// Compute per-view cues with in-process models: SAM automatic masks (`OUT/sam/<stem>.json`),
+/// DINOv2 patch features (`OUT/features/<stem>.npy`, `[h/14, w/14, C]`, L2-normalised),
+/// Depth Anything V2 relative inverse depth (`OUT/depth/<stem>.npy`, `[H, W]`) and the LoG edge map
+/// (`OUT/log/<stem>.npy`). Feed them to `splatseg run --masks OUT/sam --features OUT/features
+/// --depth OUT/depth`.
+///
+/// Models are given as a checkpoint file, a Hugging Face snapshot folder, or a model id found in the
+/// local Hugging Face cache (`facebook/dinov2-small`); nothing is downloaded. Outputs are cached by
+/// model, settings and image content: a rerun only computes what changed.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct CuesArgs {
+    /// Scene folder (COLMAP `sparse/0` + `images/`, or transforms.json).
+    pub scene: PathBuf,
+    /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// DINOv2 checkpoint (`.safetensors`/`.pth`, HF folder or model id).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub dinov2: Option<PathBuf>,
+    /// Depth Anything V2 checkpoint.
+    #[cfg_attr(feature = "cli", arg(long = "depth-model"))]
+    pub depth_model: Option<PathBuf>,
+    /// Segment Anything checkpoint (`sam_vit_{b,l,h}_*.pth`).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub sam: Option<PathBuf>,
+    /// Image down-scaling factor (as 3DGS `--resolution`).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1))]
+    pub resolution: u32,
+    /// Shard `K/N` (0 ≤ K < N): only the views `v` with `v mod N = K`. Shards
+    /// may run at once on the same --out (a Slurm job array, a Kubernetes indexed Job); together
+    /// they write exactly what one unsharded run writes.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub shard: Option<splatseg_pipeline::Shard>,
+}
+
+impl CuesArgs {
+    /// Runs the chosen models on every view with the library's defaults: the references' input
+    /// sizes (518 px) and SAM's automatic mask generator settings (32 points per side, no crops,
+    /// no clean-up), the train split.
+    pub fn compute(self, show_progress: bool) -> crate::Result<CuesSummary> {
+        compute_cues(&CuesRequest {
+            dinov2: self.dinov2,
+            depth_model: self.depth_model,
+            sam: self.sam,
+            resolution: self.resolution,
+            shard: self.shard,
+            show_progress,
+            ..CuesRequest::defaults_for(self.scene, self.out)
+        })
+    }
+}
+
+/// Run cues → merge → match → lift (→ eval with --gt) on a scene and write per-view label maps
+/// with global object ids, the labelled PLY, overlays, report.md and metrics.json.
+///
+/// Cues come from files you already have (--masks, --features, --depth) or are computed in-process
+/// from model checkpoints (--sam, --dinov2, --depth-model; as `splatseg cues`, into OUT/cues).
+/// Without features the model-free colour/texture descriptors are used; without depth it is
+/// rendered from the Gaussians.
+///
+/// Each stage's results are cached in OUT/cache keyed by the inputs and settings, so a rerun
+/// resumes where it can. After `splatseg merge --shard K/N` ran for every K with the same
+/// arguments and --out (a cluster job array), run does only the global steps (matching,
+/// lifting) and names any shard whose results are missing.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct RunArgs {
+    /// Scene folder (COLMAP `sparse/0` + `images/`, or transforms.json).
+    pub scene: PathBuf,
+    /// Folder of SAM automatic masks, `<image stem>.json` (COCO RLE) per view. Not needed with
+    /// --sam (the masks are then computed into OUT/cues/sam).
+    #[cfg_attr(feature = "cli", arg(long, required_unless_present = "sam"))]
+    pub masks: Option<PathBuf>,
+    /// Segment Anything checkpoint: compute the masks in-process with the automatic mask
+    /// generator (as `splatseg cues --sam`) instead of reading --masks.
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "masks"))]
+    pub sam: Option<PathBuf>,
+    /// DINOv2 checkpoint: compute the dense features in-process instead of reading --features.
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "features"))]
+    pub dinov2: Option<PathBuf>,
+    /// Depth Anything V2 checkpoint: compute relative depth in-process instead of reading
+    /// --depth or rendering it from the Gaussians.
+    #[cfg_attr(feature = "cli", arg(long = "depth-model", conflicts_with = "depth"))]
+    pub depth_model: Option<PathBuf>,
+    /// Folder of dense feature maps `<image stem>.npy` (`[h, w, C]`, e.g. DINOv2 patches);
+    /// without it, the model-free colour/texture descriptors are used.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub features: Option<PathBuf>,
+    /// Folder of depth maps `<image stem>.npy`; without it depth is rendered from the Gaussians.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub depth: Option<PathBuf>,
+    /// What --depth holds: `inverse` (relative inverse depth from monocular models such as Depth
+    /// Anything V2; larger = nearer) or `metric` (camera z, 0 = no surface), as in `splatseg merge`.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "inverse", value_parser = splatseg_cues::parse_depth_kind))]
+    pub depth_kind: DepthKind,
+    /// 3DGS PLY (default: SCENE/gaussians.ply when present).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub gaussians: Option<PathBuf>,
+    /// Ground truth: a folder of `<image stem>.png` instance maps, or a synthetic scene's `gt/`
+    /// (adds `gaussian_ids.npy` for the 3D label accuracy).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub gt: Option<PathBuf>,
+    /// TOML settings (`splatseg config` prints them): tables [merge], [match], [lift], [objects],
+    /// [final_maps], [eval], each optional.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub config: Option<PathBuf>,
+    /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// Write the wall time and peak resident memory of every stage to this JSON file (Linux:
+    /// each stage's own peak, from /proc/self/status VmHWM); `splatseg bench scale` uses it.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub profile: Option<PathBuf>,
+}
+
+impl RunArgs {
+    /// The pipeline's request: the `--config` settings, and the cues the models computed (into
+    /// OUT/cues) in place of the folders given.
+    pub fn into_config(self, options: RunOptions, show_progress: bool) -> crate::Result<RunConfig> {
+        let pipeline = PipelineConfig::from_optional_file(self.config.as_deref())?;
+        let computed = models_for_run(
+            &self.scene,
+            &self.out,
+            self.sam.as_deref(),
+            self.dinov2.as_deref(),
+            self.depth_model.as_deref(),
+            show_progress,
+        )?;
+        Ok(RunConfig {
+            masks: computed
+                .masks
+                .or(self.masks)
+                .ok_or_else(|| ModelCuesError::Invalid("either --masks or --sam is needed".into()))?,
+            features: computed.features.or(self.features),
+            depth_kind: if computed.depth.is_some() { DepthKind::InverseRelative } else { self.depth_kind },
+            depth: computed.depth.or(self.depth),
+            scene: self.scene,
+            gaussians: self.gaussians,
+            gt: self.gt,
+            pipeline,
+            out: self.out,
+            options,
+        })
+    }
+}

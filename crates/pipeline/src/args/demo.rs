@@ -1,0 +1,47 @@
+//! `splatseg demo`'s arguments.
+
+use crate::demo::DemoRequest;
+use crate::RunOptions;
+use std::path::PathBuf;
+
+/// Generate the synthetic benchmark scene (with ground truth), run every pipeline stage on it and
+/// print the metrics table.
+///
+/// Writes `OUT/scene/` (the capture: COLMAP model, images, gaussians.ply, simulated SAM masks and
+/// cues, ground truth) and `OUT/run/` (the pipeline's outputs: masks, overlays, labelled PLY,
+/// report.md) and `OUT/train/` (the Gaussians after the train stage and its joint optimisation, with
+/// held-out renders). Open `OUT/run/report.md` or the PNGs in `OUT/run/overlays/` to look at the result.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct DemoArgs {
+    /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "out/demo"))]
+    pub out: PathBuf,
+    /// Seed of the synthetic scene.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 0))]
+    pub seed: u64,
+    /// Iterations of the train stage after the pipeline (0 = skip): the first 100 photometric only,
+    /// the rest the joint optimisation of object features seeded by the lifted ids.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 300))]
+    pub train_iterations: usize,
+    /// Instead of the train stage, compare its joint optimisation with the 3D terms only and with the
+    /// 3D terms plus the 2D identity maps (every read-back) against the ground truth, as one table
+    /// (trains twice; `BENCHMARKS.md` records it over several seeds).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub identity_study: bool,
+}
+
+impl DemoArgs {
+    /// The demo's request: 12 views of 320×240, the demo's scene (`synth` + `run` for others).
+    pub fn request(self, options: RunOptions) -> DemoRequest {
+        DemoRequest {
+            out: self.out,
+            seed: self.seed,
+            views: 12,
+            size: (320, 240),
+            train_iterations: self.train_iterations,
+            identity_study: self.identity_study,
+            options,
+        }
+    }
+}

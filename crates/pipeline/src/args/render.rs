@@ -1,0 +1,98 @@
+//! `splatseg render`'s arguments and the parser of `--background`.
+
+use crate::render_views::RenderViews;
+use crate::RunOptions;
+use splatseg_render::RenderRequest;
+use std::path::PathBuf;
+
+/// One kind of output image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum What {
+    /// Colour, `<stem>_rgb.png`.
+    Rgb,
+    /// Expected metric depth: `<stem>_depth.png` (16-bit, 0 = empty, near → far over the view's
+    /// own range) and `<stem>_depth.npy` (float32 camera z).
+    Depth,
+    /// Per pixel the Gaussian with the largest blending weight, coloured with the label palette
+    /// (Gaussian i has the colour of id i + 1): `<stem>_ids.png`.
+    Ids,
+    /// Accumulated opacity, `<stem>_alpha.png` (8-bit).
+    Alpha,
+}
+
+/// Render every camera of a scene from its Gaussians (CPU rasteriser, gsplat's math).
+///
+/// Lens distortion is ignored (the views are rendered as pinholes with the same intrinsics).
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct RenderArgs {
+    /// Scene folder (COLMAP, Blender or instant-ngp transforms).
+    pub scene: PathBuf,
+    /// The 3DGS PLY to render.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub gaussians: PathBuf,
+    /// Output folder (created if needed).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// Which outputs to write, comma-separated.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, value_delimiter = ',', default_value = "rgb,depth,ids,alpha")
+    )]
+    pub what: Vec<What>,
+    /// Image down-scaling factor, as 3DGS's `--resolution` (1, 2, 4 or 8).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1))]
+    pub resolution: u32,
+    /// Background colour R,G,B in [0, 1] (e.g. `1,1,1` for white).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "0,0,0", value_parser = parse_rgb))]
+    pub background: [f32; 3],
+}
+
+impl RenderArgs {
+    /// The rendering job.
+    pub fn job(self, options: RunOptions) -> RenderViews<'static> {
+        let want = |w: What| self.what.contains(&w);
+        let request = RenderRequest {
+            rgb: want(What::Rgb),
+            depth: want(What::Depth),
+            alpha: want(What::Alpha),
+            max_weight_ids: want(What::Ids),
+            background: self.background,
+            ..RenderRequest::default()
+        };
+        RenderViews {
+            scene: self.scene,
+            gaussians: self.gaussians,
+            out: self.out,
+            request,
+            resolution: self.resolution,
+            options,
+        }
+    }
+}
+
+/// Parses `R,G,B` with each channel in [0, 1].
+pub fn parse_rgb(text: &str) -> Result<[f32; 3], String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|_| format!("`{v}` is not a number")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [r, g, b] if values.iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
+        _ => Err(format!("expected R,G,B with each channel in [0, 1], got `{text}`")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_background_is_three_channels_in_zero_to_one() {
+        assert_eq!(parse_rgb("1,0.5, 0"), Ok([1.0, 0.5, 0.0]));
+        assert!(parse_rgb("1,1").is_err());
+        assert!(parse_rgb("2,0,0").is_err());
+        assert!(parse_rgb("a,0,0").unwrap_err().contains("`a` is not a number"));
+    }
+}

@@ -1,0 +1,28 @@
+//! `splatseg bench` and `splatseg ablate`: measurements that take minutes, printed as tables
+//! (`splatseg_bench`).
+
+use anyhow::Context;
+use splatseg_bench::args::What;
+use splatseg_bench::{ablate, quality, scale, AblateArgs, BenchArgs};
+use std::io::Write;
+
+/// Runs the chosen benchmark: the quality suite (progress on stderr) or the scale run.
+pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    match args.what {
+        What::Quality(a) => {
+            let text = quality::quality(&a.into_request()?, &mut |line| eprintln!("{line}"))?;
+            let _ = std::io::stdout().write_all(text.as_bytes());
+        }
+        What::Scale(a) => {
+            let exe = std::env::current_exe().context("cannot find the splatseg binary")?;
+            print!("{}", scale::scale(&a.request(), &exe)?);
+        }
+    }
+    Ok(())
+}
+
+/// Runs `splatseg ablate`.
+pub fn ablate(args: AblateArgs) -> anyhow::Result<()> {
+    print!("{}", ablate::ablate(&args.request()?)?);
+    Ok(())
+}
