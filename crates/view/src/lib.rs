@@ -9,7 +9,7 @@
 //! - [`source`]: what PATH is (run / train / INRIA folder or a PLY), cameras, per-view overlays.
 //! - [`pack`]: the 48-byte-per-Gaussian binary layout sent to the page.
 //! - [`manifest`]: the scene description (objects by slot, cameras, views).
-//! - [`routes`]: every URL the server answers; anything else is 404.
+//! - [`routes`]: every URL of the scene (the page itself is [`request`]'s); anything else is 404.
 //! - [`access`], [`request`], [`wire`]: who may drive the server (`Host`, the page's token and
 //!   `Origin`), one request → one reply as a pure function, and HTTP/1.1 within fixed limits
 //!   ([`fuzzing`] runs the whole exchange on bytes).
