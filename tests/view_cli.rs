@@ -144,11 +144,43 @@ fn the_server_serves_only_the_scene_and_writes_only_into_out() {
         request("POST", &format!("{base}/api/export"), Some(&big), Duration::from_secs(30)).expect("post");
     assert_eq!(r.status, 413);
 
-    // The synthetic scene's own PLY has no object ids: export explains, writes nothing.
-    let body = br#"{"ids":[1],"mode":"extract"}"#;
-    let r =
-        request("POST", &format!("{base}/api/export"), Some(body), Duration::from_secs(30)).expect("post");
-    assert_eq!(r.status, 400, "{}", String::from_utf8_lossy(&r.body));
-    assert!(String::from_utf8_lossy(&r.body).contains("splatseg run"));
+    // The synthetic scene's own PLY has no object ids: export (from the page: its token and
+    // Origin) explains, writes nothing.
+    let page = String::from_utf8_lossy(&page).into_owned();
+    let token = page.split(r#"name="splatseg-token" content=""#).nth(1).and_then(|t| t.split('"').next());
+    let host = base.trim_start_matches("http://");
+    let body = r#"{"ids":[1],"mode":"extract"}"#;
+    let post = format!(
+        "POST /api/export HTTP/1.1\r\nHost: {host}\r\nOrigin: {base}\r\nX-Splatseg-Token: {}\r\n\
+         Content-Length: {}\r\n\r\n{body}",
+        token.expect("the page's token"),
+        body.len()
+    );
+    let answer = raw(host, post.as_bytes());
+    assert!(answer.starts_with("HTTP/1.1 400") && answer.contains("splatseg run"), "{answer}");
     assert!(!exports.exists() || std::fs::read_dir(&exports).expect("dir").next().is_none());
+}
+
+/// Sends `bytes` as they are on a fresh connection to `addr` (`host:port`) and returns the whole
+/// answer as text.
+fn raw(addr: &str, bytes: &[u8]) -> String {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(addr).expect("connect");
+    stream.set_read_timeout(Some(Duration::from_secs(30))).expect("timeout");
+    stream.write_all(bytes).expect("send");
+    let mut answer = Vec::new();
+    let _ = stream.read_to_end(&mut answer);
+    String::from_utf8_lossy(&answer).into_owned()
+}
+
+#[test]
+fn an_unresolvable_listen_host_is_reported_as_such() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let out = splatseg(&["view", utf8(&scene.join("gaussians.ply")), "--listen", "no-such-host.invalid:0"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("no-such-host.invalid") && err.contains("does not resolve"), "{err}");
+    assert!(!err.contains("another program"), "{err}");
 }

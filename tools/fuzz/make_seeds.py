@@ -126,6 +126,35 @@ def png_seeds(path):
     return [raw]
 
 
+# The fuzz site's address and token (crates/view/src/fuzzing.rs).
+VIEW_ADDR, VIEW_TOKEN = "127.0.0.1:8080", "00112233445566778899aabbccddeeff"
+
+
+def view_request_seeds(put):
+    """Raw requests for the viewer's server (`view_request`): every route, an export with and
+    without the token, and the hostile heads of issue 28."""
+    host = f"Host: {VIEW_ADDR}\r\n"
+    export = '{"ids":[1],"mode":"extract","keep_extras":true}'
+    remove = '{"ids":[-1,2],"mode":"remove"}'
+    allowed = f"Origin: http://{VIEW_ADDR}\r\nX-Splatseg-Token: {VIEW_TOKEN}\r\n"
+    seeds = {
+        "page": f"GET / HTTP/1.1\r\n{host}\r\n",
+        "scene": f"GET /api/scene.json?x=1 HTTP/1.1\r\n{host}Connection: close\r\n\r\n",
+        "chunk": f"HEAD /api/gaussians/0.bin HTTP/1.0\r\n{host}\r\n",
+        "label": f"GET /api/label/0/1/2 HTTP/1.1\r\n{host}\r\n",
+        "asset": f"GET /assets/viewer.js HTTP/1.1\r\nHost: localhost:8080\r\n\r\n",
+        "export": f"POST /api/export HTTP/1.1\r\n{host}{allowed}Content-Length: {len(export)}\r\n\r\n{export}",
+        "export_remove": f"POST /api/export HTTP/1.1\r\n{host}{allowed}Content-Length: {len(remove)}\r\n\r\n{remove}",
+        "export_no_token": f"POST /api/export HTTP/1.1\r\n{host}Origin: http://evil.example\r\n"
+                           f"Content-Type: text/plain\r\nContent-Length: {len(export)}\r\n\r\n{export}",
+        "huge_length": f"POST /api/export HTTP/1.1\r\n{host}{allowed}Content-Length: 1000000000000\r\n\r\n{{}}",
+        "chunked": f"POST /api/export HTTP/1.1\r\n{host}Transfer-Encoding: chunked\r\n\r\n2\r\n{{}}\r\n0\r\n\r\n",
+        "rebind": "GET /api/scene.json HTTP/1.1\r\nHost: rebind.evil.example:8080\r\n\r\n",
+    }
+    for name, text in seeds.items():
+        put("view_request", f"seed_{name}.http", text)
+
+
 def main(scene, corpus):
     scene, corpus = Path(scene), Path(corpus)
 
@@ -173,6 +202,7 @@ def main(scene, corpus):
     put("npz", "seed_deflated.npz", buffer.getvalue())
 
     put("label_png", "seed_16bit.png", (scene / "gt" / "instance" / "view_000.png").read_bytes())
+    view_request_seeds(put)
 
 
 if __name__ == "__main__":

@@ -374,12 +374,14 @@ class Viewer {
     this.changed();
   }
 
-  // Asks the server to write the selection (`extract`) or everything else (`remove`).
+  // Asks the server to write the selection (`extract`) or everything else (`remove`), with the
+  // token the page was served with (the server refuses changes without it).
   async exportSelection(mode = 'extract') {
     const ids = this.ids(this.selected);
+    const token = document.querySelector('meta[name="splatseg-token"]')?.content ?? '';
     const r = await fetch('/api/export', {
       method: 'POST',
-      headers: { 'Content-Type': 'application/json' },
+      headers: { 'Content-Type': 'application/json', 'X-Splatseg-Token': token },
       body: JSON.stringify({ ids, mode }),
     });
     const answer = await r.json();

@@ -12,8 +12,9 @@ use std::path::PathBuf;
 /// PATH, or --scene. The page (HTML, JS, WebGL2 shaders) is built into the binary: no network, no
 /// GPU toolkit, any browser with WebGL2.
 ///
-/// The server listens on 127.0.0.1 only, serves nothing but this scene's files, and writes
-/// exports (the same bytes as `splatseg extract` / `remove`) into --out, or PATH's folder.
+/// The server listens on 127.0.0.1 only, answers only requests addressed to it (`Host`), serves
+/// nothing but this scene's files, and writes exports (the same bytes as `splatseg extract` /
+/// `remove`), asked for by its own page only, into --out, or PATH's folder.
 /// Stop it with Ctrl-C.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]

@@ -1,8 +1,11 @@
 //! The page's files, embedded in the binary: no CDN, no network, no build step.
 
-/// `(URL path, content type, bytes)` of every asset.
+/// The page, with the placeholder `SPLATSEG_TOKEN` that [`crate::access::Access::page`] replaces
+/// by the server's token; served at `/` and `/index.html` by [`crate::request`].
+pub const INDEX_HTML: &[u8] = include_bytes!("../assets/index.html");
+
+/// `(URL path, content type, bytes)` of every asset but the page.
 pub const ASSETS: &[(&str, &str, &[u8])] = &[
-    ("/", "text/html; charset=utf-8", include_bytes!("../assets/index.html")),
     ("/assets/style.css", "text/css; charset=utf-8", include_bytes!("../assets/style.css")),
     ("/assets/viewer.js", "text/javascript; charset=utf-8", include_bytes!("../assets/viewer.js")),
     ("/assets/camera.js", "text/javascript; charset=utf-8", include_bytes!("../assets/camera.js")),
@@ -15,13 +18,12 @@ pub const ASSETS: &[(&str, &str, &[u8])] = &[
     ("/assets/lines.frag", "text/plain; charset=utf-8", include_bytes!("../assets/lines.frag")),
 ];
 
-/// The asset at `path`, if any.
+/// The asset at `path`, if any (not the page).
 pub fn asset(path: &str) -> Option<(&'static str, &'static [u8])> {
-    let path = if path == "/index.html" { "/" } else { path };
     ASSETS.iter().find(|(p, _, _)| *p == path).map(|(_, t, b)| (*t, *b))
 }
 
 /// Total bytes of the page and its assets.
 pub fn total_bytes() -> usize {
-    ASSETS.iter().map(|(_, _, b)| b.len()).sum()
+    INDEX_HTML.len() + ASSETS.iter().map(|(_, _, b)| b.len()).sum::<usize>()
 }

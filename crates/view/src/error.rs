@@ -29,14 +29,27 @@ pub enum ViewError {
         /// The scene folder.
         path: PathBuf,
     },
+    /// The `--listen` host name does not resolve to an address.
+    #[error("cannot listen on host `{host}`: the name does not resolve ({reason}); give an IP address such as 127.0.0.1, or a name this machine resolves")]
+    Resolve {
+        /// The host as given.
+        host: String,
+        /// The resolver's message.
+        reason: String,
+    },
     /// The address could not be bound (e.g. the port is in use).
-    #[error("cannot listen on {addr}: {reason} (is another program using the port? try --listen 127.0.0.1:0 for any free port)")]
+    #[error("cannot listen on {addr}: {reason} ({hint})")]
     Bind {
         /// `host:port`.
         addr: String,
         /// The system's message.
         reason: String,
+        /// What to try, by the kind of failure.
+        hint: &'static str,
     },
+    /// The operating system gave no random bytes for the page's token.
+    #[error("cannot draw the viewer's random token: {0}")]
+    Random(String),
     /// Exporting a selection failed.
     #[error("cannot export the selection: {0}")]
     Export(String),
@@ -46,6 +59,21 @@ pub enum ViewError {
     /// Reading or writing a file failed.
     #[error(transparent)]
     SceneIo(#[from] splatseg_scene::SceneError),
+}
+
+impl ViewError {
+    /// A bind failure on `addr`, with a hint that fits its kind.
+    pub fn bind(addr: &str, e: &std::io::Error) -> ViewError {
+        let hint = match e.kind() {
+            std::io::ErrorKind::AddrInUse => {
+                "is another program using the port? try --listen 127.0.0.1:0 for any free port"
+            }
+            std::io::ErrorKind::AddrNotAvailable => "is it an address of this machine? 127.0.0.1 is",
+            std::io::ErrorKind::PermissionDenied => "ports below 1024 need privileges; try a port above 1024",
+            _ => "try --listen 127.0.0.1:0 for any free port on this machine only",
+        };
+        ViewError::Bind { addr: addr.to_string(), reason: e.to_string(), hint }
+    }
 }
 
 /// `Result` with [`ViewError`].

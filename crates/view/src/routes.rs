@@ -1,5 +1,6 @@
 //! Request routing: a pure function from (method, URL, body) to a reply, so every rule (what is
-//! served, 404 for anything else, export) is tested without a socket. Nothing here builds a file
+//! served, 404 for anything else, export) is tested without a socket. Who may ask (`Host`, the
+//! token) and the page itself are [`crate::request`]'s, in front of this. Nothing here builds a file
 //! path from the URL: files are looked up in tables made at start, so `..` and unknown paths are
 //! simply not found.
 
@@ -39,8 +40,14 @@ impl<'a> Reply<'a> {
         Reply { status, content_type: "application/json", body: Cow::Owned(body), download_name: None }
     }
 
-    fn error(status: u16, message: &str) -> Self {
+    /// An error as `{"error": message}`.
+    pub fn error(status: u16, message: &str) -> Self {
         Self::json(status, &serde_json::json!({ "error": message }))
+    }
+
+    /// The page (`index.html`).
+    pub fn page(body: Cow<'a, [u8]>) -> Self {
+        Self::ok("text/html; charset=utf-8", body)
     }
 
     /// 404.

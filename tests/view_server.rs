@@ -1,0 +1,166 @@
+//! `splatseg view`'s server against hostile clients (issue 28): a `Content-Length` far over the
+//! limit is refused and the server keeps answering; a foreign `Host` (DNS rebinding) gets 403; an
+//! export without the page's token or from another origin gets 403 and writes nothing, while the
+//! page's own export (token from the served page, its `Origin`) works.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+/// A labelled 3DGS PLY (ASCII) of four Gaussians: objects 1, 1, 2 and unlabelled.
+fn labelled_ply(path: &Path) {
+    let props = ["x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity"]
+        .iter()
+        .chain(&["scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"])
+        .map(|p| format!("property float {p}\n"))
+        .collect::<String>();
+    let mut text =
+        format!("ply\nformat ascii 1.0\nelement vertex 4\n{props}property int object_id\nend_header\n");
+    for (i, id) in [1, 1, 2, -1].iter().enumerate() {
+        text.push_str(&format!("{i} 0 1 0.5 0.5 0.5 2 -3 -3 -3 1 0 0 0 {id}\n"));
+    }
+    std::fs::write(path, text).expect("write the PLY");
+}
+
+/// `splatseg view` on 127.0.0.1, any port, stopped on drop.
+struct Served {
+    child: Child,
+    /// `127.0.0.1:PORT`.
+    addr: String,
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn serve(ply: &Path, out: &Path) -> Served {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_splatseg"))
+        .arg("view")
+        .arg(ply)
+        .arg("--out")
+        .arg(out)
+        .args(["--listen", "127.0.0.1:0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("splatseg view starts");
+    let stdout = child.stdout.take().expect("stdout");
+    let url = BufReader::new(stdout)
+        .lines()
+        .map_while(Result::ok)
+        .find_map(|l| l.strip_prefix("open ").map(str::to_string))
+        .expect("splatseg view prints the URL");
+    let addr = url.trim_start_matches("http://").trim_end_matches('/').to_string();
+    Served { child, addr }
+}
+
+/// Sends `bytes` on a fresh connection and returns the whole answer (status, text).
+fn raw(addr: &str, bytes: &[u8]) -> (u16, String) {
+    let mut stream = std::net::TcpStream::connect(addr).expect("connect");
+    stream.set_read_timeout(Some(Duration::from_secs(30))).expect("timeout");
+    stream.write_all(bytes).expect("send");
+    let mut answer = Vec::new();
+    let _ = stream.read_to_end(&mut answer);
+    let answer = String::from_utf8_lossy(&answer).into_owned();
+    (answer.split_whitespace().nth(1).and_then(|s| s.parse().ok()).unwrap_or(0), answer)
+}
+
+fn get(addr: &str, host: &str, path: &str) -> (u16, String) {
+    raw(addr, format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n\r\n").as_bytes())
+}
+
+/// The token in the page served at `/`.
+fn page_token(addr: &str) -> String {
+    let (status, page) = get(addr, addr, "/");
+    assert_eq!(status, 200, "{page}");
+    let token =
+        page.split(r#"<meta name="splatseg-token" content=""#).nth(1).and_then(|t| t.split('"').next());
+    token.expect("the page carries a token").to_string()
+}
+
+fn export(addr: &str, headers: &str) -> (u16, String) {
+    let body = r#"{"ids":[1],"mode":"extract"}"#;
+    let head = format!(
+        "POST /api/export HTTP/1.1\r\nHost: {addr}\r\n{headers}Content-Length: {}\r\n\r\n",
+        body.len()
+    );
+    raw(addr, format!("{head}{body}").as_bytes())
+}
+
+fn count_files(dir: &Path) -> usize {
+    std::fs::read_dir(dir).map(|d| d.count()).unwrap_or(0)
+}
+
+#[test]
+fn a_hostile_content_length_is_refused_and_the_server_keeps_answering() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let ply = tmp.path().join("labelled.ply");
+    labelled_ply(&ply);
+    let mut server = serve(&ply, &tmp.path().join("exports"));
+    let addr = server.addr.clone();
+    for claimed in ["1000000000000", "18446744073709551615", "99999999999999999999999"] {
+        let head =
+            format!("POST /api/export HTTP/1.1\r\nHost: {addr}\r\nContent-Length: {claimed}\r\n\r\n{{}}");
+        let (status, answer) = raw(&addr, head.as_bytes());
+        assert_eq!(status, 413, "Content-Length {claimed}: {answer}");
+        std::thread::sleep(Duration::from_millis(200));
+        assert!(
+            server.child.try_wait().expect("wait").is_none(),
+            "the server died after Content-Length {claimed}"
+        );
+        assert_eq!(get(&addr, &addr, "/api/scene.json").0, 200, "after Content-Length {claimed}");
+    }
+}
+
+#[test]
+fn a_foreign_host_is_refused() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let ply = tmp.path().join("labelled.ply");
+    labelled_ply(&ply);
+    let server = serve(&ply, &tmp.path().join("exports"));
+    let addr = &server.addr;
+    let port = addr.rsplit(':').next().expect("port");
+    for path in ["/", "/api/scene.json", "/api/gaussians/0.bin"] {
+        assert_eq!(get(addr, addr, path).0, 200, "{path}");
+        assert_eq!(get(addr, &format!("localhost:{port}"), path).0, 200, "{path}");
+        let (status, answer) = get(addr, &format!("rebind.attacker.example:{port}"), path);
+        assert_eq!(status, 403, "{path}: {answer}");
+        assert!(!answer.contains("\"objects\""), "{path}: the scene leaked: {answer}");
+    }
+    let (status, _) = raw(addr, b"GET /api/scene.json HTTP/1.1\r\n\r\n");
+    assert_eq!(status, 403, "no Host");
+}
+
+#[test]
+fn exports_need_the_pages_token_and_origin() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let ply = tmp.path().join("labelled.ply");
+    labelled_ply(&ply);
+    let out = tmp.path().join("exports");
+    let server = serve(&ply, &out);
+    let addr = &server.addr;
+    let token = page_token(addr);
+    let page = format!("http://{addr}");
+    for (headers, why) in [
+        (
+            "Content-Type: text/plain\r\nOrigin: http://attacker.example\r\n".to_string(),
+            "a cross-site form post",
+        ),
+        (format!("Origin: {page}\r\n"), "no token"),
+        (format!("Origin: {page}\r\nX-Splatseg-Token: {}\r\n", "0".repeat(32)), "a wrong token"),
+        (format!("Origin: http://attacker.example\r\nX-Splatseg-Token: {token}\r\n"), "another origin"),
+        (format!("X-Splatseg-Token: {token}\r\n"), "no Origin"),
+    ] {
+        let (status, answer) = export(addr, &headers);
+        assert_eq!(status, 403, "{why}: {answer}");
+        assert_eq!(count_files(&out), 0, "{why}: a file was written");
+    }
+    let (status, answer) = export(addr, &format!("Origin: {page}\r\nX-Splatseg-Token: {token}\r\n"));
+    assert_eq!(status, 200, "{answer}");
+    let written = splatseg_scene::ply::read_ply(&out.join("extract_1.ply")).expect("the export");
+    assert_eq!(written.len(), 2);
+}
