@@ -10,6 +10,7 @@ use std::io::Write;
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     match args.what {
         What::Quality(a) => {
+            a.refuse_overwrite()?;
             let text = quality::quality(&a.into_request()?, &mut |line| eprintln!("{line}"))?;
             let _ = std::io::stdout().write_all(text.as_bytes());
         }

@@ -5,6 +5,7 @@ use splatseg_model_cues::CuesArgs;
 
 /// Runs the chosen models on every view.
 pub fn run(args: CuesArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let out = args.out.clone();
     let done = args.compute(!super::logging::quiet())?;
     let cached = done.views * done.cues - done.computed;

@@ -42,6 +42,7 @@ pub fn objects(args: ObjectsArgs) -> anyhow::Result<()> {
 
 /// Runs `splatseg extract`.
 pub fn extract(args: ExtractArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let g = read_labelled(&args.ply)?;
     let picked = splatseg_edit::extract(&g, &args.ids).map_err(|e| e.with_path(&args.ply))?;
     let count = picked.len();
@@ -52,6 +53,7 @@ pub fn extract(args: ExtractArgs) -> anyhow::Result<()> {
 
 /// Runs `splatseg remove`.
 pub fn remove(args: RemoveArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let g = read_labelled(&args.ply)?;
     let kept = splatseg_edit::remove(&g, &args.ids).map_err(|e| e.with_path(&args.ply))?;
     let count = kept.len();
@@ -62,6 +64,7 @@ pub fn remove(args: RemoveArgs) -> anyhow::Result<()> {
 
 /// Runs `splatseg recolor`.
 pub fn recolor(args: RecolorArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let g = read_labelled(&args.ply)?;
     let style = splatseg_edit::UnlabelledStyle::Grey;
     let painted = splatseg_edit::recolor(&g, |id| splatseg_edit::palette_colour(id, style))

@@ -7,6 +7,7 @@ use splatseg_scene::atomic::write_bytes_atomic;
 
 /// Runs the command.
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let cfg = EvalConfig {
         pred_id_scope: IdScope::Global,
         ..match &args.config {

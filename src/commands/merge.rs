@@ -5,6 +5,7 @@ use std::time::Instant;
 
 /// Runs the command.
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let started = Instant::now();
     let (config, request) = args.into_request(super::run_options())?;
     let summary = splatseg_pipeline::merge_views(&config, &request)?;

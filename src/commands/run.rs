@@ -6,6 +6,7 @@ use splatseg_model_cues::RunArgs;
 
 /// Runs the pipeline and prints the summary.
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let profile = args.profile.clone();
     let summary =
         splatseg_pipeline::run_pipeline(&args.into_config(super::run_options(), !super::logging::quiet())?)?;

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 /// Runs the command.
 pub fn run(args: SynthArgs) -> anyhow::Result<()> {
+    args.refuse_overwrite()?;
     let config = args.config()?;
     let started = Instant::now();
     let scene = generate(&config).context("generating the synthetic scene")?;

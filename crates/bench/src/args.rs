@@ -172,3 +172,18 @@ impl AblateArgs {
         Ok(AblateRequest { seed: 0, views: 12, size: None, base: base_config(self.config.as_deref())? })
     }
 }
+
+impl QualityArgs {
+    /// Refuses a --config that is --out or its `quality.md` / `quality.json`, before anything is
+    /// read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        use splatseg_scene::paths::{refuse_overwrite, Role};
+        let (Some(config), Some(out)) = (&self.config, &self.out) else { return Ok(()) };
+        let outputs = [
+            Role::folder("--out", out),
+            Role::file("--out's quality.md", out.join("quality.md")),
+            Role::file("--out's quality.json", out.join("quality.json")),
+        ];
+        refuse_overwrite(&[Role::file("--config", config)], &outputs)
+    }
+}

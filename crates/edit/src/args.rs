@@ -97,3 +97,31 @@ pub fn extras(keep_extras: bool) -> ExtraFields {
         ExtraFields::Strip
     }
 }
+
+/// `extract`, `remove` and `recolor` read one PLY and write one: `--out` must not be the input PLY
+/// (by any spelling: symlinks, `./`, `..`).
+fn refuse_overwrite(ply: &std::path::Path, out: &std::path::Path) -> splatseg_scene::SceneResult<()> {
+    use splatseg_scene::paths::{refuse_overwrite, Role};
+    refuse_overwrite(&[Role::file("the input PLY", ply)], &[Role::file("--out", out)])
+}
+
+impl ExtractArgs {
+    /// Refuses an `--out` that is the input PLY (before anything is read).
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        refuse_overwrite(&self.ply, &self.out)
+    }
+}
+
+impl RemoveArgs {
+    /// Refuses an `--out` that is the input PLY (before anything is read).
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        refuse_overwrite(&self.ply, &self.out)
+    }
+}
+
+impl RecolorArgs {
+    /// Refuses an `--out` that is the input PLY (before anything is read).
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        refuse_overwrite(&self.ply, &self.out)
+    }
+}

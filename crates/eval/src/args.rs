@@ -61,3 +61,22 @@ impl EvalArgs {
         }
     }
 }
+
+impl EvalArgs {
+    /// Refuses a --write file equal to an input (--config, --gt-gaussian-ids, the --pred-ply) or
+    /// inside a folder of label maps (--gt, --pred), before anything is read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        use splatseg_scene::paths::{refuse_overwrite, Role};
+        let mut inputs = vec![Role::tree("--gt", &self.gt)];
+        for pred in &self.pred {
+            inputs.push(Role::tree("--pred", crate::named::split_named(pred, |_| String::new()).1));
+        }
+        inputs.extend(self.gt_gaussian_ids.as_ref().map(|p| Role::file("--gt-gaussian-ids", p)));
+        if let Some(ply) = &self.pred_ply {
+            inputs.push(Role::file("--pred-ply", crate::named::split_named(ply, |_| String::new()).1));
+        }
+        inputs.extend(self.config.as_ref().map(|p| Role::file("--config", p)));
+        let outputs: Vec<Role> = self.write.iter().map(|p| Role::file("--write", p)).collect();
+        refuse_overwrite(&inputs, &outputs)
+    }
+}

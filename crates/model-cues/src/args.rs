@@ -4,6 +4,7 @@
 use crate::{compute_cues, models_for_run, CuesRequest, CuesSummary, ModelCuesError};
 use splatseg_cues::DepthKind;
 use splatseg_pipeline::{PipelineConfig, RunConfig, RunOptions};
+use splatseg_scene::paths::Role;
 use std::path::PathBuf;
 
 /// Compute per-view cues with in-process models: SAM automatic masks (`OUT/sam/<stem>.json`),
@@ -150,5 +151,55 @@ impl RunArgs {
             out: self.out,
             options,
         })
+    }
+}
+
+impl CuesArgs {
+    /// Refuses an --out that would overwrite an input: OUT equal to SCENE or a checkpoint, or a
+    /// checkpoint inside what cues writes (`sam/`, `features/`, `depth/`, `log/`, `cache/`);
+    /// before anything is read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        let mut inputs = vec![Role::folder("SCENE", &self.scene)];
+        inputs.extend(checkpoints(&self.sam, &self.dinov2, &self.depth_model));
+        let mut outputs = vec![Role::folder("--out", &self.out)];
+        for dir in ["sam", "features", "depth", "log", "cache"] {
+            outputs.push(Role::tree(format!("--out's {dir}/"), self.out.join(dir)));
+        }
+        splatseg_scene::paths::refuse_overwrite(&inputs, &outputs)
+    }
+}
+
+/// The model checkpoints given, as inputs.
+fn checkpoints(sam: &Option<PathBuf>, dinov2: &Option<PathBuf>, depth_model: &Option<PathBuf>) -> Vec<Role> {
+    [("--sam", sam), ("--dinov2", dinov2), ("--depth-model", depth_model)]
+        .into_iter()
+        .filter_map(|(what, p)| p.as_ref().map(|p| Role::file(what, p)))
+        .collect()
+}
+
+impl RunArgs {
+    /// Refuses an --out that would overwrite an input, before anything is read: OUT equal to any
+    /// input (SCENE, its `gaussians.ply`, --masks, --features, --depth, --gaussians, --gt,
+    /// --config, a checkpoint), an input inside what run writes into OUT (`masks/`, `overlays/`,
+    /// `cache/`, `cues/` with models, `gaussians.ply`, `report.md`, `metrics.json`), OUT inside
+    /// an input folder of masks, features, depth or ground truth, and --profile equal to an input.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        let mut inputs = splatseg_pipeline::args::pipeline_inputs(
+            &self.scene,
+            self.masks.as_deref(),
+            self.features.as_deref(),
+            self.depth.as_deref(),
+            self.gaussians.as_deref(),
+            self.config.as_deref(),
+        );
+        inputs.extend(self.gt.as_ref().map(|p| Role::tree("--gt", p)));
+        let models = checkpoints(&self.sam, &self.dinov2, &self.depth_model);
+        let mut outputs = splatseg_pipeline::args::run_outputs(&self.out);
+        if !models.is_empty() {
+            outputs.push(Role::tree("--out's cues/", self.out.join("cues")));
+        }
+        inputs.extend(models);
+        outputs.extend(self.profile.as_ref().map(|p| Role::file("--profile", p)));
+        splatseg_scene::paths::refuse_overwrite(&inputs, &outputs)
     }
 }

@@ -47,6 +47,9 @@ pub enum SceneError {
         /// The offending file.
         path: PathBuf,
     },
+    /// An output path would overwrite an input (see [`crate::paths::refuse_overwrite`]).
+    #[error("{0}")]
+    Overwrite(Box<crate::paths::Clash>),
     /// An image could not be decoded or encoded.
     #[error("image error: {source}: {}", path.display())]
     Image {

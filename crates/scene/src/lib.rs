@@ -23,6 +23,7 @@ pub mod labels;
 pub mod limits;
 pub mod load;
 pub mod npy;
+pub mod paths;
 pub mod plane;
 pub mod ply;
 pub mod rle;

@@ -87,6 +87,23 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
+impl SynthArgs {
+    /// Refuses a --config that is --out or lies where synth writes (OUT's `images/`, `sparse/`,
+    /// `sam/`, `features/`, `depth/`, `gt/`, `gaussians.ply`), before anything is read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        use splatseg_scene::paths::{refuse_overwrite, Role};
+        let Some(config) = &self.config else { return Ok(()) };
+        let mut outputs = vec![
+            Role::folder("--out", &self.out),
+            Role::file("--out's gaussians.ply", self.out.join("gaussians.ply")),
+        ];
+        for dir in ["images", "sparse", "sam", "features", "depth", "gt"] {
+            outputs.push(Role::tree(format!("--out's {dir}/"), self.out.join(dir)));
+        }
+        refuse_overwrite(&[Role::file("--config", config)], &outputs)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,7 @@ use crate::error::{ViewError, ViewResult};
 use serde::Deserialize;
 use splatseg_edit::io::write_edited_ply;
 use splatseg_edit::{extract, remove, ExtraFields};
+use splatseg_scene::paths::Role;
 use splatseg_scene::Gaussians;
 use std::path::{Path, PathBuf};
 
@@ -70,6 +71,11 @@ pub fn export(g: &Gaussians, ply: &Path, dir: &Path, request: &ExportRequest) ->
     .map_err(|e| ViewError::Export(e.with_path(ply).to_string()))?;
     let name = export_name(request);
     let path = dir.join(&name);
+    splatseg_scene::paths::refuse_overwrite(
+        &[Role::file("the served PLY", ply)],
+        &[Role::file("the export", &path)],
+    )
+    .map_err(|e| ViewError::Export(e.to_string()))?;
     std::fs::create_dir_all(dir).map_err(|e| ViewError::Export(format!("{e}: {}", dir.display())))?;
     let count = picked.len();
     let extras = if request.keep_extras { ExtraFields::Keep } else { ExtraFields::Strip };
@@ -109,5 +115,27 @@ mod tests {
         let bad = ExportRequest { ids: vec![5], mode: ExportMode::Remove, keep_extras: false };
         let err = export(&g, Path::new("in.ply"), dir.path(), &bad).unwrap_err().to_string();
         assert!(err.contains("no Gaussian has object id 5"), "{err}");
+    }
+
+    #[test]
+    fn an_export_named_as_the_served_ply_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let served = dir.path().join("extract_1.ply");
+        std::fs::write(&served, b"the served PLY").unwrap();
+        let g = Gaussians {
+            means: vec![[0.0; 3]; 2],
+            sh_dc: vec![[0.0; 3]; 2],
+            raw_opacities: vec![0.0; 2],
+            log_scales: vec![[0.0; 3]; 2],
+            rotations: vec![[1.0, 0.0, 0.0, 0.0]; 2],
+            object_ids: Some(vec![1, 2]),
+            ..Gaussians::default()
+        };
+        let request = ExportRequest { ids: vec![1], mode: ExportMode::Extract, keep_extras: false };
+        let err = export(&g, &served, &dir.path().join("."), &request).unwrap_err().to_string();
+        assert!(err.contains("refusing to overwrite") && err.contains("extract_1.ply"), "{err}");
+        assert_eq!(std::fs::read(&served).unwrap(), b"the served PLY");
+        let remove = ExportRequest { ids: vec![1], mode: ExportMode::Remove, keep_extras: false };
+        assert!(export(&g, &served, dir.path(), &remove).is_ok());
     }
 }

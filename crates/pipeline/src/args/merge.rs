@@ -94,6 +94,24 @@ impl MergeArgs {
     }
 }
 
+impl MergeArgs {
+    /// Refuses an --out that would overwrite an input (see `super::run_outputs`, plus OUT/merge/),
+    /// before anything is read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        let inputs = super::pipeline_inputs(
+            &self.scene,
+            Some(&self.masks),
+            self.features.as_deref(),
+            self.depth.as_deref(),
+            self.gaussians.as_deref(),
+            self.config.as_deref(),
+        );
+        let mut outputs = super::run_outputs(&self.out);
+        outputs.push(splatseg_scene::paths::Role::tree("--out's merge/", self.out.join("merge")));
+        splatseg_scene::paths::refuse_overwrite(&inputs, &outputs)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

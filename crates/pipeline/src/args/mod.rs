@@ -47,3 +47,41 @@ impl crate::RunSummary {
         text + &format!("report: {}\n", self.out.join("report.md").display())
     }
 }
+
+/// The inputs `run` and `merge` share, as [`splatseg_scene::paths`] roles: SCENE (a folder of which
+/// named parts are read), its default `gaussians.ply`, the cue folders (every file read), the PLY
+/// and the config file.
+pub fn pipeline_inputs(
+    scene: &std::path::Path,
+    masks: Option<&std::path::Path>,
+    features: Option<&std::path::Path>,
+    depth: Option<&std::path::Path>,
+    gaussians: Option<&std::path::Path>,
+    config: Option<&std::path::Path>,
+) -> Vec<splatseg_scene::paths::Role> {
+    use splatseg_scene::paths::Role;
+    let mut inputs = vec![Role::folder("SCENE", scene)];
+    inputs.push(match gaussians {
+        Some(p) => Role::file("--gaussians", p),
+        None => Role::file("SCENE's gaussians.ply", scene.join("gaussians.ply")),
+    });
+    inputs.extend(masks.map(|p| Role::tree("--masks", p)));
+    inputs.extend(features.map(|p| Role::tree("--features", p)));
+    inputs.extend(depth.map(|p| Role::tree("--depth", p)));
+    inputs.extend(config.map(|p| Role::file("--config", p)));
+    inputs
+}
+
+/// What `run` (and `merge`, a part of it) writes into OUT: the folder itself, `masks/`,
+/// `overlays/`, `cache/` (every file), `gaussians.ply`, `report.md`, `metrics.json` and the lock.
+pub fn run_outputs(out: &std::path::Path) -> Vec<splatseg_scene::paths::Role> {
+    use splatseg_scene::paths::Role;
+    let mut outputs = vec![Role::folder("--out", out)];
+    for dir in ["masks", "overlays", "cache"] {
+        outputs.push(Role::tree(format!("--out's {dir}/"), out.join(dir)));
+    }
+    for file in ["gaussians.ply", "report.md", "metrics.json", ".splatseg.lock"] {
+        outputs.push(Role::file(format!("--out's {file}"), out.join(file)));
+    }
+    outputs
+}

@@ -84,6 +84,18 @@ pub fn parse_rgb(text: &str) -> Result<[f32; 3], String> {
     }
 }
 
+impl RenderArgs {
+    /// Refuses an --out (a folder of `<stem>_<what>.png` files) equal to SCENE or the PLY, or
+    /// holding either, before anything is read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        use splatseg_scene::paths::{refuse_overwrite, Role};
+        refuse_overwrite(
+            &[Role::folder("SCENE", &self.scene), Role::file("--gaussians", &self.gaussians)],
+            &[Role::tree("--out", &self.out)],
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -93,3 +93,30 @@ impl TrainArgs {
         })
     }
 }
+
+impl TrainArgs {
+    /// Refuses an --out that would overwrite an input: OUT equal to SCENE, the PLY, the config or
+    /// the label maps, an input inside what train writes into OUT (`gaussians.ply`,
+    /// `quality.json`, `object_features.npy`, `renders/`, `masks/`, `overlays/`, `readback/`,
+    /// `point_cloud/`), or OUT inside the label-map folder; before anything is read.
+    pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
+        use splatseg_scene::paths::{refuse_overwrite, Role};
+        let mut inputs = vec![Role::folder("SCENE", &self.scene)];
+        inputs.extend(self.gaussians.as_ref().map(|p| Role::file("--gaussians", p)));
+        inputs.extend(self.config.as_ref().map(|p| Role::file("--config", p)));
+        let beside = self.gaussians.as_ref().and_then(|p| p.parent()).map(|dir| dir.join("masks"));
+        match (&self.label_maps, beside) {
+            (Some(dir), _) => inputs.push(Role::tree("--label-maps", dir)),
+            (None, Some(dir)) => inputs.push(Role::tree("the label maps beside --gaussians", dir)),
+            (None, None) => {}
+        }
+        let mut outputs = vec![Role::folder("--out", &self.out)];
+        for dir in ["renders", "masks", "overlays", "readback", "point_cloud"] {
+            outputs.push(Role::tree(format!("--out's {dir}/"), self.out.join(dir)));
+        }
+        for file in ["gaussians.ply", "quality.json", "object_features.npy", ".splatseg.lock"] {
+            outputs.push(Role::file(format!("--out's {file}"), self.out.join(file)));
+        }
+        refuse_overwrite(&inputs, &outputs)
+    }
+}
