@@ -17,6 +17,11 @@
 //! gradients are written to a buffer laid out like the tile lists (bands own disjoint slices),
 //! then added into per-splat totals sequentially in list order: deterministic for any thread
 //! count. The buffer is processed in groups of bands to bound its memory.
+//!
+//! Kernels: on x86-64 CPUs with AVX2 the forward blends 8 pixels of a row at a time and the
+//! backward computes a row's α and transmittances 8 at a time, with intrinsics that do the
+//! portable code's operations in its order (no fused multiply-adds): the same bits on every CPU
+//! (`rasterise_kernels_tests.rs`).
 
 use crate::bin::{TileBins, TILE_SIZE};
 use crate::fast_exp::fast_exp;
@@ -196,7 +201,8 @@ impl RowTerms {
 /// Per-pixel state of one tile in the forward pass.
 struct TileState {
     t: Vec<f32>,
-    done: Vec<bool>,
+    /// 1 where the pixel has stopped, else 0.
+    done: Vec<u32>,
     walked: Vec<u32>,
     best_w: Vec<f32>,
     best_id: Vec<i32>,
@@ -208,7 +214,7 @@ impl TileState {
     fn new(c: usize) -> Self {
         TileState {
             t: vec![1.0; TILE_PIXELS],
-            done: vec![false; TILE_PIXELS],
+            done: vec![0; TILE_PIXELS],
             walked: vec![0; TILE_PIXELS],
             best_w: vec![0.0; TILE_PIXELS],
             best_id: vec![-1; TILE_PIXELS],
@@ -218,7 +224,7 @@ impl TileState {
 
     fn reset(&mut self) {
         self.t.fill(1.0);
-        self.done.fill(false);
+        self.done.fill(0);
         self.walked.fill(0);
         self.best_w.fill(0.0);
         self.best_id.fill(-1);
@@ -234,22 +240,42 @@ struct BandOut<'b> {
     ids: &'b mut [i32],
 }
 
+/// Which tile kernels run: the AVX2 ones when the CPU has them (the same bits either way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Kernels {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl Kernels {
+    pub(crate) fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            return Kernels::Avx2;
+        }
+        Kernels::Portable
+    }
+}
+
 /// Blends one tile into `st`; returns the number of (pixel, splat) pairs blended.
 fn rasterise_tile(
     inp: &RasterInputs,
     list: &[u32],
     tile: (usize, usize, usize, usize),
     st: &mut TileState,
+    kernels: Kernels,
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+    if kernels == Kernels::Avx2 {
         // SAFETY: the CPU has the features `rasterise_tile_avx2` is compiled for.
         return unsafe { rasterise_tile_avx2(inp, list, tile, st) };
     }
-    rasterise_tile_any(inp, list, tile, st)
+    rasterise_tile_any::<false>(inp, list, tile, st)
 }
 
-/// [`rasterise_tile_any`] compiled for AVX2 + FMA (same arithmetic up to FMA rounding).
+/// [`rasterise_tile_any`] with the rows blended by AVX2 intrinsics ([`blend_row_avx2`]: the
+/// same bits as the portable code).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn rasterise_tile_avx2(
@@ -258,30 +284,30 @@ fn rasterise_tile_avx2(
     tile: (usize, usize, usize, usize),
     st: &mut TileState,
 ) -> u64 {
-    rasterise_tile_any(inp, list, tile, st)
+    rasterise_tile_any::<true>(inp, list, tile, st)
 }
 
 /// Dispatch on the channel count, so the common counts get unrolled loops (19 = RGB + the joint
-/// stage's 16-channel identity map).
+/// stage's 16-channel identity map). `AVX2`: the caller is compiled for AVX2 and checked the CPU.
 #[inline(always)]
-fn rasterise_tile_any(
+fn rasterise_tile_any<const AVX2: bool>(
     inp: &RasterInputs,
     list: &[u32],
     tile: (usize, usize, usize, usize),
     st: &mut TileState,
 ) -> u64 {
     match inp.channel_count {
-        1 => rasterise_tile_c::<1>(inp, list, tile, st),
-        3 => rasterise_tile_c::<3>(inp, list, tile, st),
-        4 => rasterise_tile_c::<4>(inp, list, tile, st),
-        19 => rasterise_tile_c::<19>(inp, list, tile, st),
-        _ => rasterise_tile_c::<0>(inp, list, tile, st),
+        1 => rasterise_tile_c::<1, AVX2>(inp, list, tile, st),
+        3 => rasterise_tile_c::<3, AVX2>(inp, list, tile, st),
+        4 => rasterise_tile_c::<4, AVX2>(inp, list, tile, st),
+        19 => rasterise_tile_c::<19, AVX2>(inp, list, tile, st),
+        _ => rasterise_tile_c::<0, AVX2>(inp, list, tile, st),
     }
 }
 
 /// [`rasterise_tile`] for `C` channels (`C = 0`: any number, read from the inputs).
 #[inline(always)]
-fn rasterise_tile_c<const C: usize>(
+fn rasterise_tile_c<const C: usize, const AVX2: bool>(
     inp: &RasterInputs,
     list: &[u32],
     tile: (usize, usize, usize, usize),
@@ -310,17 +336,32 @@ fn rasterise_tile_c<const C: usize>(
             let row = RowTerms::new(s, py);
             let li0 = (py - y0) * TILE_SIZE + bx0 - x0;
             let mut weights = [0.0f32; TILE_SIZE];
-            let (stops, blended) = blend_row(
-                &row,
-                s.opacity,
-                inp.settings,
-                bx0,
-                li0..li0 + (bx1 - bx0),
-                k as u32 + 1,
-                gid as i32,
-                st,
-                &mut weights,
-            );
+            let pixels = li0..li0 + (bx1 - bx0);
+            let (walk, id) = (k as u32 + 1, gid as i32);
+            #[cfg(target_arch = "x86_64")]
+            if AVX2 {
+                // SAFETY: `AVX2` is only set by `rasterise_tile_avx2`, called after the check.
+                let (stops, blended) = unsafe {
+                    let counts = blend_row_avx2(
+                        &row,
+                        s.opacity,
+                        inp.settings,
+                        bx0,
+                        pixels,
+                        walk,
+                        id,
+                        st,
+                        &mut weights,
+                    );
+                    accumulate_row_avx2(colour, li0, bx1 - bx0, &weights, &mut st.acc);
+                    counts
+                };
+                n_done += stops;
+                blends += blended;
+                continue;
+            }
+            let (stops, blended) =
+                blend_row(&row, s.opacity, inp.settings, bx0, pixels, walk, id, st, &mut weights);
             n_done += stops;
             blends += blended;
             for (ch, &v) in colour.iter().enumerate() {
@@ -368,13 +409,13 @@ fn blend_row(
         let alpha = (opacity * fast_exp(-sigma)).min(a_max);
         let t = t_row[j];
         let next_t = t * (1.0 - alpha);
-        let live = !done_row[j] & (sigma >= 0.0) & (alpha >= a_min);
+        let live = (done_row[j] == 0) & (sigma >= 0.0) & (alpha >= a_min);
         let stop = live & (next_t <= t_min);
         let blend = live & !stop;
         let w = if blend { alpha * t } else { 0.0 };
         weights[j] = w;
         t_row[j] = if blend { next_t } else { t };
-        done_row[j] |= stop;
+        done_row[j] |= stop as u32;
         walked_row[j] = if blend { walk } else { walked_row[j] };
         let better = w > best_w_row[j];
         best_w_row[j] = if better { w } else { best_w_row[j] };
@@ -385,13 +426,142 @@ fn blend_row(
     (stops, blended)
 }
 
-fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, st: &mut TileState) -> u64 {
+/// [`blend_row`] on 8 pixels at a time with AVX2 intrinsics: every lane does the operations of
+/// the portable loop in its order (no fused multiply-adds), so the same bits; lanes past the
+/// row are masked off (neither read nor written).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn blend_row_avx2(
+    row: &RowTerms,
+    opacity: f32,
+    settings: &RasterSettings,
+    px0: usize,
+    pixels: std::ops::Range<usize>,
+    walk: u32,
+    gid: i32,
+    st: &mut TileState,
+    weights: &mut [f32; TILE_SIZE],
+) -> (usize, u64) {
+    use std::arch::x86_64::*;
+    let set = _mm256_set1_ps;
+    let n = pixels.len().min(TILE_SIZE);
+    debug_assert!(pixels.end <= TILE_PIXELS);
+    let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let (mut stops, mut blended) = (0usize, 0u64);
+    for step in (0..n).step_by(8) {
+        let i = pixels.start + step;
+        // Lanes `step + lane < n` are pixels of the row.
+        let valid = _mm256_cmpgt_epi32(_mm256_set1_epi32((n - step) as i32), lane);
+        let t_ptr = st.t.as_mut_ptr().add(i);
+        let done_ptr = st.done.as_mut_ptr().add(i) as *mut i32;
+        let walked_ptr = st.walked.as_mut_ptr().add(i) as *mut i32;
+        let best_w_ptr = st.best_w.as_mut_ptr().add(i);
+        let best_id_ptr = st.best_id.as_mut_ptr().add(i);
+        // `(px0 + step + lane) as f32` is the portable loop's `centre − 0.5` (exact integers).
+        let columns = _mm256_add_epi32(_mm256_set1_epi32((px0 + step) as i32), lane);
+        let dx = _mm256_sub_ps(set(row.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
+        let sigma = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(_mm256_mul_ps(set(row.half_a), dx), dx),
+                _mm256_mul_ps(set(row.b_dy), dx),
+            ),
+            set(row.half_c_dy2),
+        );
+        let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
+        // `f32::min` gives `alpha_max` where the product is NaN, as `min_ps(product, max)` does.
+        let alpha = _mm256_min_ps(_mm256_mul_ps(set(opacity), vis), set(settings.alpha_max));
+        let t = _mm256_maskload_ps(t_ptr, valid);
+        let next_t = _mm256_mul_ps(t, _mm256_sub_ps(set(1.0), alpha));
+        let not_done = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_maskload_epi32(done_ptr, valid),
+            _mm256_setzero_si256(),
+        ));
+        let live = _mm256_and_ps(
+            _mm256_and_ps(_mm256_castsi256_ps(valid), not_done),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(sigma, _mm256_setzero_ps()),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(alpha, set(settings.alpha_min)),
+            ),
+        );
+        let stop = _mm256_and_ps(live, _mm256_cmp_ps::<_CMP_LE_OQ>(next_t, set(settings.transmittance_min)));
+        let blend = _mm256_andnot_ps(stop, live);
+        let w = _mm256_and_ps(blend, _mm256_mul_ps(alpha, t));
+        _mm256_storeu_ps(weights.as_mut_ptr().add(step), w);
+        _mm256_maskstore_ps(t_ptr, valid, _mm256_blendv_ps(t, next_t, blend));
+        let stop_i = _mm256_castps_si256(stop);
+        let done = _mm256_maskload_epi32(done_ptr, valid);
+        _mm256_maskstore_epi32(done_ptr, valid, _mm256_or_si256(done, _mm256_srli_epi32::<31>(stop_i)));
+        let walked = _mm256_castsi256_ps(_mm256_maskload_epi32(walked_ptr, valid));
+        let walk_v = _mm256_castsi256_ps(_mm256_set1_epi32(walk as i32));
+        _mm256_maskstore_epi32(
+            walked_ptr,
+            valid,
+            _mm256_castps_si256(_mm256_blendv_ps(walked, walk_v, blend)),
+        );
+        let best_w = _mm256_maskload_ps(best_w_ptr, valid);
+        let better = _mm256_cmp_ps::<_CMP_GT_OQ>(w, best_w);
+        _mm256_maskstore_ps(best_w_ptr, valid, _mm256_blendv_ps(best_w, w, better));
+        let best_id = _mm256_castsi256_ps(_mm256_maskload_epi32(best_id_ptr, valid));
+        let id_v = _mm256_castsi256_ps(_mm256_set1_epi32(gid));
+        _mm256_maskstore_epi32(
+            best_id_ptr,
+            valid,
+            _mm256_castps_si256(_mm256_blendv_ps(best_id, id_v, better)),
+        );
+        stops += (_mm256_movemask_ps(stop) as u32).count_ones() as usize;
+        blended += (_mm256_movemask_ps(blend) as u32).count_ones() as u64;
+    }
+    (stops, blended)
+}
+
+/// `acc[ch · 256 + li0 + j] += weights[j] · colour[ch]` for `j < n` (`n ≤ 16`), 8 pixels at a
+/// time with AVX2 (a multiply then an add per lane: the portable loop's bits).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn accumulate_row_avx2(
+    colour: &[f32],
+    li0: usize,
+    n: usize,
+    weights: &[f32; TILE_SIZE],
+    acc: &mut [f32],
+) {
+    use std::arch::x86_64::*;
+    debug_assert!(n <= TILE_SIZE && li0 + n <= TILE_PIXELS && acc.len() >= colour.len() * TILE_PIXELS);
+    let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for step in (0..n).step_by(8) {
+        let valid = _mm256_cmpgt_epi32(_mm256_set1_epi32((n - step) as i32), lane);
+        let w = _mm256_loadu_ps(weights.as_ptr().add(step));
+        for (ch, &v) in colour.iter().enumerate() {
+            let p = acc.as_mut_ptr().add(ch * TILE_PIXELS + li0 + step);
+            let sum = _mm256_add_ps(_mm256_maskload_ps(p, valid), _mm256_mul_ps(w, _mm256_set1_ps(v)));
+            _mm256_maskstore_ps(p, valid, sum);
+        }
+    }
+}
+
+fn rasterise_band(
+    inp: &RasterInputs,
+    bins: &TileBins,
+    ty: usize,
+    out: BandOut,
+    st: &mut TileState,
+    kernels: Kernels,
+) -> u64 {
     let (w, c_count) = (inp.width, inp.channel_count);
     let mut blends = 0;
     for tx in 0..bins.tiles_x {
         let tile = tile_pixels(tx, ty, inp.width, inp.height);
         st.reset();
-        blends += rasterise_tile(inp, bins.tile(ty * bins.tiles_x + tx), tile, st);
+        blends += rasterise_tile(inp, bins.tile(ty * bins.tiles_x + tx), tile, st, kernels);
         let (x0, x1, y0, y1) = tile;
         for py in y0..y1 {
             for px in x0..x1 {
@@ -413,6 +583,11 @@ fn rasterise_band(inp: &RasterInputs, bins: &TileBins, ty: usize, out: BandOut, 
 
 /// Blends the binned splats into an image.
 pub fn rasterise(inp: &RasterInputs, bins: &TileBins) -> RasterOutput {
+    rasterise_with(inp, bins, Kernels::detect())
+}
+
+/// [`rasterise`] with the given kernels.
+pub(crate) fn rasterise_with(inp: &RasterInputs, bins: &TileBins, kernels: Kernels) -> RasterOutput {
     let (w, h, c) = (inp.width, inp.height, inp.channel_count);
     let mut out = RasterOutput {
         channels: vec![0.0; w * h * c],
@@ -432,7 +607,7 @@ pub fn rasterise(inp: &RasterInputs, bins: &TileBins) -> RasterOutput {
         .map_init(
             || TileState::new(c),
             |st, (ty, (((channels, final_t), walked), ids))| {
-                rasterise_band(inp, bins, ty, BandOut { channels, final_t, walked, ids }, st)
+                rasterise_band(inp, bins, ty, BandOut { channels, final_t, walked, ids }, st, kernels)
             },
         )
         .sum();
@@ -522,6 +697,7 @@ fn load_bwd_state(
     max_walked
 }
 
+#[allow(clippy::too_many_arguments)]
 fn rasterise_tile_bwd(
     inp: &RasterInputs,
     fwd: &RasterOutput,
@@ -530,18 +706,20 @@ fn rasterise_tile_bwd(
     tile: (usize, usize, usize, usize),
     records: &mut [f32],
     st: &mut BwdState,
+    kernels: Kernels,
 ) {
     let max_walked = load_bwd_state(inp, fwd, grads, tile, st);
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+    if kernels == Kernels::Avx2 {
         // SAFETY: the CPU has the features `rasterise_tile_bwd_avx2` is compiled for.
         unsafe { rasterise_tile_bwd_avx2(inp, list, tile, records, st, max_walked) };
         return;
     }
-    rasterise_tile_bwd_any(inp, list, tile, records, st, max_walked);
+    rasterise_tile_bwd_any::<false>(inp, list, tile, records, st, max_walked);
 }
 
-/// [`rasterise_tile_bwd_any`] compiled for AVX2 + FMA.
+/// [`rasterise_tile_bwd_any`] with each row's α computed by AVX2 intrinsics ([`bwd_row_avx2`]:
+/// the same bits as the portable code).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn rasterise_tile_bwd_avx2(
@@ -552,12 +730,12 @@ fn rasterise_tile_bwd_avx2(
     st: &mut BwdState,
     max_walked: usize,
 ) {
-    rasterise_tile_bwd_any(inp, list, tile, records, st, max_walked);
+    rasterise_tile_bwd_any::<true>(inp, list, tile, records, st, max_walked);
 }
 
-/// Dispatch on the channel count.
+/// Dispatch on the channel count. `AVX2`: the caller is compiled for AVX2 and checked the CPU.
 #[inline(always)]
-fn rasterise_tile_bwd_any(
+fn rasterise_tile_bwd_any<const AVX2: bool>(
     inp: &RasterInputs,
     list: &[u32],
     tile: (usize, usize, usize, usize),
@@ -566,17 +744,17 @@ fn rasterise_tile_bwd_any(
     max_walked: usize,
 ) {
     match inp.channel_count {
-        1 => rasterise_tile_bwd_c::<1>(inp, list, tile, records, st, max_walked),
-        3 => rasterise_tile_bwd_c::<3>(inp, list, tile, records, st, max_walked),
-        4 => rasterise_tile_bwd_c::<4>(inp, list, tile, records, st, max_walked),
-        19 => rasterise_tile_bwd_c::<19>(inp, list, tile, records, st, max_walked),
-        _ => rasterise_tile_bwd_c::<0>(inp, list, tile, records, st, max_walked),
+        1 => rasterise_tile_bwd_c::<1, AVX2>(inp, list, tile, records, st, max_walked),
+        3 => rasterise_tile_bwd_c::<3, AVX2>(inp, list, tile, records, st, max_walked),
+        4 => rasterise_tile_bwd_c::<4, AVX2>(inp, list, tile, records, st, max_walked),
+        19 => rasterise_tile_bwd_c::<19, AVX2>(inp, list, tile, records, st, max_walked),
+        _ => rasterise_tile_bwd_c::<0, AVX2>(inp, list, tile, records, st, max_walked),
     }
 }
 
 /// Back-to-front walk of one tile for `C` channels (`C = 0`: any number).
 #[inline(always)]
-fn rasterise_tile_bwd_c<const C: usize>(
+fn rasterise_tile_bwd_c<const C: usize, const AVX2: bool>(
     inp: &RasterInputs,
     list: &[u32],
     tile: (usize, usize, usize, usize),
@@ -603,6 +781,15 @@ fn rasterise_tile_bwd_c<const C: usize>(
             let (bx0, bx1) = fp.row(py);
             let row = RowTerms::new(s, py);
             let base = (py - y0) * TILE_SIZE;
+            #[cfg(target_arch = "x86_64")]
+            if AVX2 && C != 0 && bx0 < bx1 {
+                let pixels = (base + bx0 - x0, bx1 - bx0);
+                // SAFETY: `AVX2` is only set by `rasterise_tile_bwd_avx2`, called after the check.
+                unsafe {
+                    bwd_row_avx2::<C>(&row, s, inp.settings, bx0, pixels, k, colour, rec_ch, &mut geo, st)
+                };
+                continue;
+            }
             for px in bx0..bx1 {
                 let li = base + px - x0;
                 if k >= st.walked[li] as usize {
@@ -643,6 +830,116 @@ fn rasterise_tile_bwd_c<const C: usize>(
     }
 }
 
+/// One row of [`rasterise_tile_bwd_c`] for `C > 0` channels: α, `1/(1 − α)` and the
+/// transmittances of 8 pixels at a time with AVX2 intrinsics (the operations of
+/// [`RowTerms::alpha`] and of the portable loop, in their order: the same bits), then per
+/// blended pixel, in column order, the channel terms (vectorised over channels, summed in
+/// channel order) and the geometry sums. `pixels`: (tile-local index of column `px0`, count ≤ 16).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn bwd_row_avx2<const C: usize>(
+    row: &RowTerms,
+    s: &Splat2d,
+    settings: &RasterSettings,
+    px0: usize,
+    (li0, n): (usize, usize),
+    k: usize,
+    colour: &[f32],
+    rec_ch: &mut [f32],
+    geo: &mut [f32; 6],
+    st: &mut BwdState,
+) {
+    use std::arch::x86_64::*;
+    let set = _mm256_set1_ps;
+    let n = n.min(TILE_SIZE);
+    debug_assert!(li0 + n <= TILE_PIXELS && colour.len() == C && rec_ch.len() == C);
+    let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let (mut alpha_l, mut vis_l, mut dx_l) = ([0f32; TILE_SIZE], [0f32; TILE_SIZE], [0f32; TILE_SIZE]);
+    let (mut inv_keep_l, mut t_before_l) = ([0f32; TILE_SIZE], [0f32; TILE_SIZE]);
+    let (mut active, mut clamped) = (0u32, 0u32);
+    for step in (0..n).step_by(8) {
+        let i = li0 + step;
+        let valid = _mm256_cmpgt_epi32(_mm256_set1_epi32((n - step) as i32), lane);
+        // Pixels that blended this splat: `k < walked` (walks are below 2³¹).
+        let walked = _mm256_maskload_epi32(st.walked.as_ptr().add(i) as *const i32, valid);
+        let in_walk = _mm256_cmpgt_epi32(walked, _mm256_set1_epi32(k as i32));
+        let columns = _mm256_add_epi32(_mm256_set1_epi32((px0 + step) as i32), lane);
+        let dx = _mm256_sub_ps(set(row.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
+        let sigma = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(_mm256_mul_ps(set(row.half_a), dx), dx),
+                _mm256_mul_ps(set(row.b_dy), dx),
+            ),
+            set(row.half_c_dy2),
+        );
+        let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
+        let raw = _mm256_mul_ps(set(s.opacity), vis);
+        let alpha = _mm256_min_ps(raw, set(settings.alpha_max));
+        // `RowTerms::alpha` skips `σ < 0 || α < alpha_min` (so NaN σ is not skipped there).
+        let keep = _mm256_and_ps(
+            _mm256_and_ps(_mm256_castsi256_ps(valid), _mm256_castsi256_ps(in_walk)),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_NLT_UQ>(sigma, _mm256_setzero_ps()),
+                _mm256_cmp_ps::<_CMP_NLT_UQ>(alpha, set(settings.alpha_min)),
+            ),
+        );
+        let inv_keep = _mm256_div_ps(set(1.0), _mm256_sub_ps(set(1.0), alpha));
+        let t_ptr = st.t.as_mut_ptr().add(i);
+        let t_before = _mm256_mul_ps(_mm256_maskload_ps(t_ptr, valid), inv_keep);
+        _mm256_maskstore_ps(t_ptr, _mm256_castps_si256(keep), t_before);
+        _mm256_storeu_ps(alpha_l.as_mut_ptr().add(step), alpha);
+        _mm256_storeu_ps(vis_l.as_mut_ptr().add(step), vis);
+        _mm256_storeu_ps(dx_l.as_mut_ptr().add(step), dx);
+        _mm256_storeu_ps(inv_keep_l.as_mut_ptr().add(step), inv_keep);
+        _mm256_storeu_ps(t_before_l.as_mut_ptr().add(step), t_before);
+        active |= (_mm256_movemask_ps(keep) as u32) << step;
+        let over = _mm256_cmp_ps::<_CMP_GT_OQ>(raw, set(settings.alpha_max));
+        clamped |= (_mm256_movemask_ps(over) as u32) << step;
+    }
+    let [a, b, c] = s.conic;
+    let dy = row.dy;
+    let colour: &[f32; C] = colour.try_into().expect("C channels");
+    let rec_ch: &mut [f32; C] = rec_ch.try_into().expect("C channels");
+    while active != 0 {
+        let j = active.trailing_zeros() as usize;
+        active &= active - 1;
+        let li = li0 + j;
+        let (alpha, inv_keep, t_before) = (alpha_l[j], inv_keep_l[j], t_before_l[j]);
+        let weight = alpha * t_before;
+        let g_out: &[f32; C] = st.g_out[li * C..][..C].try_into().expect("C channels");
+        let behind: &mut [f32; C] = (&mut st.behind[li * C..][..C]).try_into().expect("C channels");
+        let mut terms = [0f32; C];
+        for ch in 0..C {
+            terms[ch] = g_out[ch] * (colour[ch] * t_before - behind[ch] * inv_keep);
+        }
+        for ch in 0..C {
+            rec_ch[ch] += weight * g_out[ch];
+            behind[ch] += colour[ch] * weight;
+        }
+        let mut g_alpha = 0.0;
+        for term in terms {
+            g_alpha += term;
+        }
+        g_alpha -= st.g_t_final[li] * inv_keep;
+        if clamped & (1 << j) != 0 {
+            continue;
+        }
+        let dx = dx_l[j];
+        geo[5] += g_alpha * vis_l[j];
+        let g_sigma = -g_alpha * alpha;
+        geo[0] += g_sigma * (a * dx + b * dy);
+        geo[1] += g_sigma * (b * dx + c * dy);
+        geo[2] += g_sigma * 0.5 * dx * dx;
+        geo[3] += g_sigma * dx * dy;
+        geo[4] += g_sigma * 0.5 * dy * dy;
+    }
+}
+
 /// Largest number of (splat, tile) records held at once by the backward.
 const MAX_RECORDS_PER_GROUP: usize = 1 << 20;
 
@@ -652,6 +949,17 @@ pub fn rasterise_bwd(
     bins: &TileBins,
     fwd: &RasterOutput,
     grads: &RasterOutputGrads,
+) -> RasterGrads {
+    rasterise_bwd_with(inp, bins, fwd, grads, Kernels::detect())
+}
+
+/// [`rasterise_bwd`] with the given kernels.
+pub(crate) fn rasterise_bwd_with(
+    inp: &RasterInputs,
+    bins: &TileBins,
+    fwd: &RasterOutput,
+    grads: &RasterOutputGrads,
+    kernels: Kernels,
 ) -> RasterGrads {
     let n = inp.splats.len();
     let c = inp.channel_count;
@@ -689,7 +997,7 @@ pub fn rasterise_bwd(
                     let (lo, hi) = (bins.offsets[t] - base, bins.offsets[t + 1] - base);
                     let tile = tile_pixels(tx, ty, inp.width, inp.height);
                     let recs = &mut band_records[lo * rl..hi * rl];
-                    rasterise_tile_bwd(inp, fwd, grads, bins.tile(t), tile, recs, st);
+                    rasterise_tile_bwd(inp, fwd, grads, bins.tile(t), tile, recs, st, kernels);
                 }
             },
         );
@@ -737,3 +1045,7 @@ fn scatter_records(ids: &[u32], records: &[f32], c: usize, out: &mut RasterGrads
         .enumerate()
         .for_each(|(i, (((m2, con), op), ch))| add(i * per, m2, con, op, ch));
 }
+
+#[cfg(test)]
+#[path = "rasterise_kernels_tests.rs"]
+mod kernels_tests;
