@@ -237,7 +237,9 @@ fn train_scales_images_wider_than_1600_px_unless_told() {
         args.extend(extra);
         let out = splatseg(&args);
         assert!(out.status.success(), "train failed: {}", stderr(&out));
-        image::open(out_dir.join("renders/view_000.png")).expect("held-out render").width()
+        splatseg_scene::image_io::image_size(&out_dir.join("renders/view_000.png"))
+            .expect("held-out render")
+            .0
     };
     assert_eq!(render_width(&[]), 850, "1700 px → 1/2");
     assert_eq!(render_width(&["--resolution", "1"]), 1700);

@@ -61,7 +61,7 @@ fn check_complete(out: &Path) -> usize {
         let bytes = std::fs::read(&path).expect("readable");
         let ext = path.extension().map(|e| e.to_string_lossy().to_string()).unwrap_or_default();
         let problem = match ext.as_str() {
-            "png" => image::load_from_memory(&bytes).err().map(|e| e.to_string()),
+            "png" => splatseg_scene::image_io::decode_rgb8_alpha(&bytes).err().map(|e| e.to_string()),
             "ply" => splatseg_scene::ply::parse_ply_bytes_rows(&bytes).err(),
             "json" => serde_json::from_slice::<serde_json::Value>(&bytes).err().map(|e| e.to_string()),
             "npy" => splatseg_scene::npy::parse_npy(&bytes).err(),

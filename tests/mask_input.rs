@@ -2,7 +2,9 @@
 //! result as the same masks in SAM JSON, and a mask of the wrong size is refused with an error
 //! naming the mask's own file.
 
+use splatseg_scene::image_io::write_png_luma8;
 use splatseg_scene::sam::{read_sam_json, write_sam_png_folder};
+use splatseg_scene::Plane;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -82,12 +84,13 @@ fn a_wrong_size_mask_png_is_named_by_merge_and_run() {
     let folder = png_folder_masks(&scene, &pngs);
     // One mask of the wrong size among right ones: named, not only the folder's metadata.csv.
     let bad = folder.join("1.png");
-    image::GrayImage::new(32, 24).save(&bad).expect("write a 32×24 mask");
+    write_png_luma8(&bad, &Plane::filled(32, 24, 0)).expect("write a 32×24 mask");
     assert_both_name(&scene, &pngs, &bad, &tmp.path().join("one_bad"));
     // Every mask of the same wrong size: the first PNG is named, not `view_000.json`.
     let count = std::fs::read_dir(&folder).expect("folder").count() - 1;
     for i in 0..count {
-        image::GrayImage::new(32, 24).save(folder.join(format!("{i}.png"))).expect("write a 32×24 mask");
+        write_png_luma8(&folder.join(format!("{i}.png")), &Plane::filled(32, 24, 0))
+            .expect("write a 32×24 mask");
     }
     assert_both_name(&scene, &pngs, &folder.join("0.png"), &tmp.path().join("all_bad"));
 }

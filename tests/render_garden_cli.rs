@@ -3,6 +3,7 @@
 //! must decode at the right size and show the scene. Skips with a message when `../shared/data` is
 //! absent.
 
+use splatseg_scene::image_io::{read_luma8, read_rgb8, write_png_rgb8, RgbImage};
 use splatseg_scene::load::{SceneFormat, View};
 use splatseg_scene::npy::{read_npz, NpyArray};
 use splatseg_scene::{Camera, Gaussians, Pose, Scene};
@@ -90,8 +91,8 @@ fn splatseg_render_writes_viewable_pngs_for_the_garden_points() {
     splatseg_scene::colmap::write_colmap_text(&root.join("sparse/0"), &scene).expect("write COLMAP");
     for view in &scene.views {
         let camera = scene.camera(view);
-        let blank = image::RgbImage::new(camera.width, camera.height);
-        splatseg_scene::labels::write_png_rgb(&view.image_path, &blank).expect("write image");
+        let blank = RgbImage::filled(camera.width as usize, camera.height as usize, [0; 3]);
+        write_png_rgb8(&view.image_path, &blank).expect("write image");
     }
     // Scale: a fraction of the scene's extent (the garden spans ≈ 10 units; points ≈ 1 cm apart
     // where dense), large enough to close gaps at a quarter of the resolution.
@@ -110,22 +111,22 @@ fn splatseg_render_writes_viewable_pngs_for_the_garden_points() {
     let (w, h) = (162, 105); // 648×420 / 4
     for view in &scene.views {
         let file = |suffix: &str| out.join(format!("{}_{suffix}", view.stem));
-        let rgb = image::open(file("rgb.png")).expect("rgb PNG decodes").to_rgb8();
-        let alpha = image::open(file("alpha.png")).expect("alpha PNG decodes").to_luma8();
-        let ids = image::open(file("ids.png")).expect("ids PNG decodes").to_rgb8();
-        let depth_png = image::open(file("depth.png")).expect("depth PNG decodes");
+        let rgb = read_rgb8(&file("rgb.png")).expect("rgb PNG decodes");
+        let alpha = read_luma8(&file("alpha.png")).expect("alpha PNG decodes");
+        let ids = read_rgb8(&file("ids.png")).expect("ids PNG decodes");
+        let depth_png = read_luma8(&file("depth.png")).expect("depth PNG decodes");
         let depth = splatseg_scene::npy::read_npy(&file("depth.npy")).expect("depth npy");
-        assert_eq!(rgb.dimensions(), (w, h), "{}", view.stem);
-        assert_eq!(alpha.dimensions(), (w, h));
-        assert_eq!(ids.dimensions(), (w, h));
-        assert_eq!((depth_png.width(), depth_png.height()), (w, h));
-        assert_eq!(depth.shape, vec![h as usize, w as usize]);
+        assert_eq!(rgb.size(), (w, h), "{}", view.stem);
+        assert_eq!(alpha.size(), (w, h));
+        assert_eq!(ids.size(), (w, h));
+        assert_eq!(depth_png.size(), (w, h));
+        assert_eq!(depth.shape, vec![h, w]);
 
-        let covered = alpha.pixels().filter(|p| p[0] > 128).count() as f64 / (w * h) as f64;
+        let covered = alpha.data.iter().filter(|&&a| a > 128).count() as f64 / (w * h) as f64;
         assert!(covered > 0.5, "{}: only {:.0}% of pixels covered", view.stem, 100.0 * covered);
         // Where it is covered the image shows colour (the garden is mostly green/brown, not black),
         // and the depth is positive and in front of the camera.
-        let lit = rgb.pixels().filter(|p| p.0.iter().map(|&c| c as u32).sum::<u32>() > 60).count();
+        let lit = rgb.data.chunks_exact(3).filter(|p| p.iter().map(|&c| c as u32).sum::<u32>() > 60).count();
         assert!(lit as f64 > 0.5 * covered * (w * h) as f64, "{}: image too dark", view.stem);
         let positive = depth.data.iter().filter(|&&z| z > 0.0).count();
         assert!(positive as f64 > 0.5 * covered * (w * h) as f64, "{}: depth mostly empty", view.stem);

@@ -77,12 +77,8 @@ fn canvas_pixels(browser: &Browser) -> Rgb {
 }
 
 fn read_png_rgb(path: &Path) -> Rgb {
-    let img = image::open(path).expect("png").to_rgb8();
-    Rgb {
-        width: img.width() as usize,
-        height: img.height() as usize,
-        data: img.as_raw().iter().map(|&b| b as f32 / 255.0).collect(),
-    }
+    let img = splatseg_scene::image_io::read_rgb8(path).expect("png");
+    Rgb { width: img.width, height: img.height, data: img.data.iter().map(|&b| b as f32 / 255.0).collect() }
 }
 
 /// Per label, the pixel farthest (4-neighbour steps) from any other label or the image border,

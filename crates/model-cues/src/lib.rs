@@ -291,18 +291,18 @@ pub fn compute_cues(args: &CuesRequest) -> crate::Result<CuesSummary> {
         });
         for view in views.iter() {
             let image = receiver.recv().ok().context("the image loader stopped")??;
-            let size = (image.height() as usize, image.width() as usize);
+            let size = (image.height, image.width);
             for cue in &cues {
                 let (folder, ext) = cue.folder();
                 bar.set_message(format!("{folder} {}", view.name));
                 let key =
-                    format!("{:016x}", fnv1a(image.as_raw(), fnv1a(cue.identity().as_bytes(), FNV_OFFSET)));
+                    format!("{:016x}", fnv1a(&image.data, fnv1a(cue.identity().as_bytes(), FNV_OFFSET)));
                 let out = args.out.join(folder).join(format!("{}.{ext}", view.stem));
                 let key_path = args.out.join("cache").join(folder).join(format!("{}.key", view.stem));
                 let cached = out.is_file()
                     && std::fs::read_to_string(&key_path).map(|k| k.trim() == key).unwrap_or(false);
                 if !cached {
-                    cue.write(image.as_raw(), size, &out)
+                    cue.write(&image.data, size, &out)
                         .with_context(|| format!("{folder} for view {}", view.name))?;
                     splatseg_scene::atomic::write_bytes_atomic(&key_path, key.as_bytes())?;
                     computed += 1;

@@ -120,14 +120,14 @@ pub fn lift_views(
             None => bail!("view {v} has no masks to snap onto"),
         }
     };
-    let image_rgb =
-        |v: usize| -> crate::Result<Vec<u8>> {
-            match spilled(v) {
-                Some(m) => Ok(m.data()?.rgb),
-                None => Ok(splatseg_scene::images::load_image_rgb(scene, &scene.views[v], ctx.load_options)?
-                    .into_raw()),
+    let image_rgb = |v: usize| -> crate::Result<Vec<u8>> {
+        match spilled(v) {
+            Some(m) => Ok(m.data()?.rgb),
+            None => {
+                Ok(splatseg_scene::images::load_image_rgb(scene, &scene.views[v], ctx.load_options)?.data)
             }
-        };
+        }
+    };
     let store = SpilledViews {
         views,
         snap_map: &snap_map,

@@ -156,7 +156,7 @@ pub fn merge_one(
     let rgb = Plane {
         width: size.0,
         height: size.1,
-        data: image.as_raw().chunks_exact(3).map(|p| [0, 1, 2].map(|c| p[c] as f32 / 255.0)).collect(),
+        data: image.data.chunks_exact(3).map(|p| [0, 1, 2].map(|c| p[c] as f32 / 255.0)).collect(),
     };
     let masks = read_masks(ctx, view, camera.width, camera.height)?;
     let inputs = build_view_inputs(&CueRequest {
@@ -262,7 +262,8 @@ mod tests {
         let folder = tmp.path().join(&view.stem);
         write_sam_png_folder(&folder, &view.sam_masks).expect("png folder");
         let bad = folder.join("2.png");
-        image::GrayImage::new(80, 60).save(&bad).expect("small png");
+        splatseg_scene::image_io::write_png_luma8(&bad, &splatseg_scene::Plane::filled(80, 60, 0))
+            .expect("small png");
         let err = read_view_mask_inputs(tmp.path(), &view.stem, 160, 120).unwrap_err().report();
         assert!(err.contains(&bad.display().to_string()), "{err}");
         assert!(err.contains("80") && err.contains("160"), "both sizes: {err}");

@@ -177,7 +177,7 @@ fn write_view(
     };
     splatseg_scene::labels::write_label_png(&out.join("masks").join(format!("{stem}.png")), &merged.merged)?;
     let overlay = splatseg_scene::labels::overlay(image.rgb()?, &merged.merged, 0.5);
-    splatseg_scene::labels::write_png_rgb(&out.join("overlays").join(format!("{stem}.png")), &overlay)?;
+    splatseg_scene::image_io::write_png_rgb8(&out.join("overlays").join(format!("{stem}.png")), &overlay)?;
     let entry = ViewLog {
         stem,
         config,

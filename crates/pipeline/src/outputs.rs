@@ -3,7 +3,8 @@
 
 use super::RunSummary;
 use crate::error::Context;
-use splatseg_scene::labels::{overlay, write_label_png, write_png_rgb};
+use splatseg_scene::image_io::{write_png_rgb8, RgbImage};
+use splatseg_scene::labels::{overlay, write_label_png};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::fmt::Write as _;
@@ -23,12 +24,12 @@ pub fn write_view_maps(
     let view = &scene.views[v];
     write_label_png(&out.join("masks").join(format!("{}.png", view.stem)), map)?;
     let image = match rgb {
-        Some(rgb) => image::RgbImage::from_raw(map.width as u32, map.height as u32, rgb)
+        Some(rgb) => RgbImage::from_vec(map.width, map.height, rgb)
             .with_context(|| format!("the spilled image of view `{}` has another size", view.stem))?,
         None => splatseg_scene::images::load_image_rgb(scene, view, load)?,
     };
     let path = out.join("overlays").join(format!("{}.png", view.stem));
-    write_png_rgb(&path, &overlay(&image, map, 0.5))?;
+    write_png_rgb8(&path, &overlay(&image, map, 0.5))?;
     Ok(())
 }
 

@@ -195,7 +195,7 @@ impl PerView<'_> {
             })?;
         let data = view_data::spill_path(self.out, &view.stem);
         self.times.time("spill the view's image and maps", || {
-            view_data::write_spill(&data, image.rgb()?.as_raw(), &merged.raw, &merged.merged)
+            view_data::write_spill(&data, &image.rgb()?.data, &merged.raw, &merged.merged)
         })?;
         drop(image);
         // Every visible Gaussian to disk, a bounded sample of them kept for matching.

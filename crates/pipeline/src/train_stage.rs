@@ -2,15 +2,15 @@
 //! `test_every`-th view, train, score PSNR / SSIM before and after, write the trained PLY.
 
 use crate::error::{bail, Context};
-use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;
 use splatseg_lift::render_labels::ABSTAIN;
 use splatseg_lift::{render_label_map, LiftConfig, PreparedGaussians, RenderVotes};
 use splatseg_render::export::write_rgb_png;
 use splatseg_render::{render, RenderCamera, RenderRequest};
+use splatseg_scene::image_io::{write_png_rgb8, RgbImage};
 use splatseg_scene::images::load_image_rgb;
-use splatseg_scene::labels::{overlay, read_label_png, write_label_png, write_png_rgb};
+use splatseg_scene::labels::{overlay, read_label_png, write_label_png};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::npy::write_npy_f32;
 use splatseg_scene::ply::write_ply;
@@ -172,17 +172,17 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> crate::Result<Inputs> {
         .zip(&images)
         .map(|(view, image)| {
             let camera = RenderCamera::from_scene(scene.camera(view), &view.world_from_cam);
-            if (image.width(), image.height()) != (camera.width, camera.height) {
+            if image.size() != (camera.width as usize, camera.height as usize) {
                 bail!(
                     "image of view {} is {}×{} but its camera is {}×{}",
                     view.name,
-                    image.width(),
-                    image.height(),
+                    image.width,
+                    image.height,
                     camera.width,
                     camera.height
                 );
             }
-            let pixels = image.as_raw().iter().map(|&c| f32::from(c) / 255.0).collect();
+            let pixels = image.data.iter().map(|&c| f32::from(c) / 255.0).collect();
             Ok(TrainView { name: view.stem.clone(), camera, image: pixels, labels: None })
         })
         .collect::<crate::Result<Vec<_>>>()?;
@@ -300,7 +300,10 @@ fn write_object_maps(
             let map = render_label_map(&prepared, &votes, camera, pose, &config, None)?;
             write_label_png(&out.join("masks").join(format!("{name}.png")), &map)?;
             if overlays {
-                write_png_rgb(&out.join("overlays").join(format!("{name}.png")), &overlay(image, &map, 0.5))?;
+                write_png_rgb8(
+                    &out.join("overlays").join(format!("{name}.png")),
+                    &overlay(image, &map, 0.5),
+                )?;
             }
             Ok::<_, crate::PipelineError>(())
         },

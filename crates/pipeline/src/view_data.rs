@@ -12,6 +12,7 @@
 
 use crate::error::{bail, Context};
 use splatseg_lift::RunLengths;
+use splatseg_scene::image_io::RgbImage;
 use splatseg_scene::images::load_image_rgb;
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene, View};
@@ -26,7 +27,7 @@ pub struct ViewImage<'a> {
     scene: &'a Scene,
     view: &'a View,
     load: &'a LoadOptions,
-    decoded: OnceLock<image::RgbImage>,
+    decoded: OnceLock<RgbImage>,
 }
 
 impl<'a> ViewImage<'a> {
@@ -36,7 +37,7 @@ impl<'a> ViewImage<'a> {
     }
 
     /// `[H, W, 3]` 8-bit colours at the camera's size, decoded on the first call.
-    pub fn rgb(&self) -> crate::Result<&image::RgbImage> {
+    pub fn rgb(&self) -> crate::Result<&RgbImage> {
         if let Some(image) = self.decoded.get() {
             return Ok(image);
         }

@@ -3,22 +3,14 @@
 //! palette. All writes are atomic.
 
 use crate::error::{RenderError, RenderResult};
-use image::{DynamicImage, GrayImage, ImageBuffer, ImageFormat, Luma, RgbImage};
-use splatseg_scene::atomic::write_bytes_atomic;
+use splatseg_scene::image_io::{write_png_luma16, write_png_luma8, write_png_rgb8, RgbImage};
 use splatseg_scene::labels::colour_of_id;
 use splatseg_scene::npy::write_npy_f32;
-use splatseg_scene::{Plane, SceneError};
+use splatseg_scene::Plane;
 use std::path::Path;
 
 fn to_u8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0).round() as u8
-}
-
-fn write_png(path: &Path, img: DynamicImage) -> RenderResult<()> {
-    let mut bytes = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut bytes), ImageFormat::Png)
-        .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?;
-    Ok(write_bytes_atomic(path, &bytes)?)
 }
 
 fn size_error(what: &'static str, got: usize, expected: usize) -> RenderError {
@@ -28,17 +20,17 @@ fn size_error(what: &'static str, got: usize, expected: usize) -> RenderError {
 /// Writes `rgb` (`[height, width, 3]`, values clamped to [0, 1]) as an 8-bit RGB PNG.
 pub fn write_rgb_png(path: &Path, rgb: &[f32], width: usize, height: usize) -> RenderResult<()> {
     let data: Vec<u8> = rgb.iter().map(|&v| to_u8(v)).collect();
-    let img = RgbImage::from_raw(width as u32, height as u32, data)
+    let img = RgbImage::from_vec(width, height, data)
         .ok_or_else(|| size_error("rgb image", rgb.len(), width * height * 3))?;
-    write_png(path, DynamicImage::ImageRgb8(img))
+    Ok(write_png_rgb8(path, &img)?)
 }
 
 /// Writes a [0, 1] map (e.g. alpha) as an 8-bit greyscale PNG.
 pub fn write_unit_png(path: &Path, plane: &Plane<f32>) -> RenderResult<()> {
     let data: Vec<u8> = plane.data.iter().map(|&v| to_u8(v)).collect();
-    let img = GrayImage::from_raw(plane.width as u32, plane.height as u32, data)
+    let img = Plane::from_vec(plane.width, plane.height, data)
         .ok_or_else(|| size_error("grey image", plane.data.len(), plane.width * plane.height))?;
-    write_png(path, DynamicImage::ImageLuma8(img))
+    Ok(write_png_luma8(path, &img)?)
 }
 
 /// 16-bit values for a metric depth map: 0 where there is no surface (depth ≤ 0 or not finite),
@@ -71,10 +63,9 @@ pub fn depth_to_u16(depth: &Plane<f32>) -> (Vec<u16>, (f32, f32)) {
 /// `[height, width]` `.npy` at `npy`.
 pub fn write_depth(png: &Path, npy: &Path, depth: &Plane<f32>) -> RenderResult<()> {
     let (data, _) = depth_to_u16(depth);
-    let img: ImageBuffer<Luma<u16>, Vec<u16>> =
-        ImageBuffer::from_raw(depth.width as u32, depth.height as u32, data)
-            .ok_or_else(|| size_error("depth image", depth.data.len(), depth.width * depth.height))?;
-    write_png(png, DynamicImage::ImageLuma16(img))?;
+    let img = Plane::from_vec(depth.width, depth.height, data)
+        .ok_or_else(|| size_error("depth image", depth.data.len(), depth.width * depth.height))?;
+    write_png_luma16(png, &img)?;
     Ok(write_npy_f32(npy, &[depth.height, depth.width], &depth.data)?)
 }
 
@@ -82,9 +73,9 @@ pub fn write_depth(png: &Path, npy: &Path, depth: &Plane<f32>) -> RenderResult<(
 /// `colour_of_id(i + 1)`, no Gaussian is black.
 pub fn write_ids_png(path: &Path, ids: &Plane<i32>) -> RenderResult<()> {
     let data: Vec<u8> = ids.data.iter().flat_map(|&id| colour_of_id((id + 1).max(0) as u32)).collect();
-    let img = RgbImage::from_raw(ids.width as u32, ids.height as u32, data)
+    let img = RgbImage::from_vec(ids.width, ids.height, data)
         .ok_or_else(|| size_error("id image", ids.data.len(), ids.width * ids.height))?;
-    write_png(path, DynamicImage::ImageRgb8(img))
+    Ok(write_png_rgb8(path, &img)?)
 }
 
 #[cfg(test)]

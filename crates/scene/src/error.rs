@@ -55,9 +55,9 @@ pub enum SceneError {
     Image {
         /// The image file.
         path: PathBuf,
-        /// The decoder's error.
+        /// What the decoder or encoder refused.
         #[source]
-        source: image::ImageError,
+        source: crate::image_io::CodecError,
     },
 }
 

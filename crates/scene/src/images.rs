@@ -4,8 +4,9 @@
 
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
+use crate::image_io::{image_size, read_rgb8_alpha, resize_triangle, RgbImage};
 use crate::load::{LoadOptions, Scene, View};
-use image::{imageops::FilterType, DynamicImage, ImageReader, RgbImage};
+use crate::plane::Plane;
 use std::path::{Path, PathBuf};
 
 /// Extensions tried, in order, for a file named without one (Blender's `./train/r_0`).
@@ -55,15 +56,6 @@ pub(crate) fn locate_image(root: &Path, rel: &Path, factor: u32) -> Option<PathB
         }
     }
     with_known_extension(&root.join(rel))
-}
-
-/// `(width, height)` of an image file, from its header only.
-pub fn image_size(path: &Path) -> SceneResult<(u32, u32)> {
-    let reader = ImageReader::open(path)
-        .map_err(|e| SceneError::io("cannot open image", path, e))?
-        .with_guessed_format()
-        .map_err(|e| SceneError::io("cannot read image", path, e))?;
-    reader.into_dimensions().map_err(|source| SceneError::Image { path: path.to_path_buf(), source })
 }
 
 /// `camera` with its size set to exactly `width × height`, intrinsics scaled per axis.
@@ -174,38 +166,28 @@ pub fn check_image_sizes(scene: &Scene, options: &LoadOptions) -> SceneResult<()
 /// triangle (area-like) filter. Any other size disagreement with the camera is an error naming
 /// the file and both sizes.
 pub fn load_image_rgb(scene: &Scene, view: &View, options: &LoadOptions) -> SceneResult<RgbImage> {
-    let path = &view.image_path;
-    let decoded = ImageReader::open(path)
-        .map_err(|e| SceneError::io("cannot open image", path, e))?
-        .with_guessed_format()
-        .map_err(|e| SceneError::io("cannot read image", path, e))?
-        .decode()
-        .map_err(|source| SceneError::Image { path: path.clone(), source })?;
-    let fit = fit_of(scene, view, (decoded.width(), decoded.height()), options)?;
-    let rgb = composite_on(decoded, options.background);
+    let (rgb, alpha) = read_rgb8_alpha(&view.image_path)?;
+    let fit = fit_of(scene, view, (rgb.width as u32, rgb.height as u32), options)?;
+    let rgb = composite_on(rgb, alpha.as_ref(), options.background);
     match fit {
         ImageFit::Exact => Ok(rgb),
         ImageFit::Resize => {
             let camera = scene.camera(view);
-            Ok(image::imageops::resize(&rgb, camera.width, camera.height, FilterType::Triangle))
+            Ok(resize_triangle(&rgb, camera.width as usize, camera.height as usize))
         }
     }
 }
 
-/// RGB of `image`; pixels with alpha `a` become `a·colour + (1 − a)·background`.
-/// `background`: RGB in [0, 1].
-pub fn composite_on(image: DynamicImage, background: [f32; 3]) -> RgbImage {
-    if !image.color().has_alpha() {
-        return image.into_rgb8();
-    }
-    let rgba = image.into_rgba8();
+/// `rgb` with each pixel of alpha `a` (`alpha`: `[height, width]` 8-bit, `None` = opaque)
+/// made `a·colour + (1 − a)·background`. `background`: RGB in [0, 1].
+pub fn composite_on(mut rgb: RgbImage, alpha: Option<&Plane<u8>>, background: [f32; 3]) -> RgbImage {
+    let Some(alpha) = alpha else { return rgb };
     let bg = background.map(|c| c.clamp(0.0, 1.0) * 255.0);
-    let mut out = RgbImage::new(rgba.width(), rgba.height());
-    for (o, p) in out.pixels_mut().zip(rgba.pixels()) {
-        let a = p.0[3] as f32 / 255.0;
-        for ((out, &colour), &b) in o.0.iter_mut().zip(&p.0[..3]).zip(&bg) {
-            *out = (colour as f32 * a + b * (1.0 - a)).round() as u8;
+    for (px, &a) in rgb.data.chunks_exact_mut(3).zip(&alpha.data) {
+        let a = a as f32 / 255.0;
+        for (out, &b) in px.iter_mut().zip(&bg) {
+            *out = (*out as f32 * a + b * (1.0 - a)).round() as u8;
         }
     }
-    out
+    rgb
 }

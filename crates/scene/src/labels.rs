@@ -1,10 +1,9 @@
 //! Label maps (8/16-bit grey PNGs, value = object id, 0 = unlabelled), the one id → colour
 //! palette every output uses, and readable colour overlays.
 
-use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
+use crate::image_io::{write_png_luma16, RgbImage};
 use crate::plane::Plane;
-use image::{ImageBuffer, ImageFormat, Luma, RgbImage};
 use std::path::Path;
 
 const FORMAT: &str = "label map PNG";
@@ -80,26 +79,9 @@ pub fn write_label_png(path: &Path, labels: &Plane<u32>) -> SceneResult<()> {
         ));
     }
     let data: Vec<u16> = labels.data.iter().map(|&id| id as u16).collect();
-    let img: ImageBuffer<Luma<u16>, Vec<u16>> =
-        ImageBuffer::from_raw(labels.width as u32, labels.height as u32, data)
-            .ok_or_else(|| SceneError::invalid(FORMAT, path, "label plane size disagrees with its data"))?;
-    write_png_with(path, |out| img.write_to(out, ImageFormat::Png))
-}
-
-/// Writes an RGB image as PNG, atomically.
-pub fn write_png_rgb(path: &Path, img: &RgbImage) -> SceneResult<()> {
-    write_png_with(path, |out| img.write_to(out, ImageFormat::Png))
-}
-
-/// Encodes with `encode` into memory, then writes the bytes to `path` atomically.
-fn write_png_with(
-    path: &Path,
-    encode: impl FnOnce(&mut std::io::Cursor<&mut Vec<u8>>) -> image::ImageResult<()>,
-) -> SceneResult<()> {
-    let mut bytes = Vec::new();
-    encode(&mut std::io::Cursor::new(&mut bytes))
-        .map_err(|source| SceneError::Image { path: path.to_path_buf(), source })?;
-    write_bytes_atomic(path, &bytes)
+    let ids = Plane::from_vec(labels.width, labels.height, data)
+        .ok_or_else(|| SceneError::invalid(FORMAT, path, "label plane size disagrees with its data"))?;
+    write_png_luma16(path, &ids)
 }
 
 /// HSV (all in [0, 1]) to 8-bit RGB.
@@ -138,7 +120,7 @@ pub fn colour_of_id(id: u32) -> [u8; 3] {
 /// The label map in palette colours (`[height, width]` ids → RGB, 0 = black).
 pub fn label_colour_image(labels: &Plane<u32>) -> RgbImage {
     let raw: Vec<u8> = labels.data.iter().flat_map(|&id| colour_of_id(id)).collect();
-    RgbImage::from_raw(labels.width as u32, labels.height as u32, raw).unwrap_or_default()
+    RgbImage::from_vec(labels.width, labels.height, raw).unwrap_or_default()
 }
 
 /// `v.round()` without a libm call for `+0 ≤ v < 2²³` (`f32::round` is one without SSE4.1):
@@ -203,7 +185,7 @@ impl OverlayTables {
 /// labelled pixels and darkens pixels on a boundary between different labels. `labels`
 /// (`[h, w]` ids) may have another size than the image: it is sampled nearest-neighbour.
 pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
-    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    let (w, h) = rgb.size();
     let mut out = rgb.clone();
     if labels.width == 0 || labels.height == 0 || w == 0 || h == 0 {
         return out;
@@ -223,7 +205,7 @@ pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
             .collect::<Vec<u32>>();
         &resampled
     };
-    let pixels: &mut [u8] = &mut out;
+    let pixels: &mut [u8] = &mut out.data;
     // Neighbouring pixels mostly share their id: its colour is kept from the pixel before.
     let mut last = (0u32, colour_of_id(0));
     for y in 0..h {
@@ -261,10 +243,10 @@ pub fn overlay(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
 mod tests {
     use super::*;
 
-    /// The former [`overlay`] (pixel by pixel through `get_pixel_mut`, neighbours through the
+    /// The former [`overlay`] (pixel by pixel, neighbours through the
     /// sampling closure): the reference the new one is compared with.
     fn overlay_reference(rgb: &RgbImage, labels: &Plane<u32>, alpha: f32) -> RgbImage {
-        let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+        let (w, h) = rgb.size();
         let mut out = rgb.clone();
         if labels.width == 0 || labels.height == 0 {
             return out;
@@ -286,12 +268,12 @@ mod tests {
                 if id == 0 && !boundary {
                     continue;
                 }
-                let px = out.get_pixel_mut(x as u32, y as u32);
+                let px = &mut out.data[(y * w + x) * 3..][..3];
                 if last.0 != id {
                     last = (id, colour_of_id(id));
                 }
                 let colour = last.1;
-                for (channel, &tint) in px.0.iter_mut().zip(&colour) {
+                for (channel, &tint) in px.iter_mut().zip(&colour) {
                     let mut v = *channel as f32;
                     if id != 0 {
                         v = (1.0 - alpha) * v + alpha * tint as f32;
@@ -319,7 +301,7 @@ mod tests {
             [(37, 23, 37, 23), (40, 30, 20, 15), (33, 17, 50, 40), (1, 1, 1, 1), (5, 1, 3, 2)]
         {
             let raw: Vec<u8> = (0..w * h * 3).map(|_| next(256) as u8).collect();
-            let image = RgbImage::from_raw(w as u32, h as u32, raw).expect("sized");
+            let image = RgbImage::from_vec(w, h, raw).expect("sized");
             let mut data = Vec::with_capacity(lw * lh);
             while data.len() < lw * lh {
                 let (id, run) = (if next(3) == 0 { 0 } else { next(300) }, 1 + next(9) as usize);
@@ -329,7 +311,7 @@ mod tests {
             let labels = Plane { width: lw, height: lh, data };
             for alpha in [0.0, 0.5, 0.77, 1.0] {
                 let (new, old) = (overlay(&image, &labels, alpha), overlay_reference(&image, &labels, alpha));
-                assert_eq!(new.as_raw(), old.as_raw(), "{w}×{h} image, {lw}×{lh} map, alpha {alpha}");
+                assert_eq!(new.data, old.data, "{w}×{h} image, {lw}×{lh} map, alpha {alpha}");
             }
         }
     }

@@ -6,6 +6,7 @@
 //! - [`gaussians`] + [`ply`]: the INRIA 3DGS PLY layout, with round-tripped extra properties.
 //! - [`rle`] + [`sam`]: Segment Anything automatic-mask output (COCO RLE JSON and PNG folders).
 //! - [`labels`]: 8/16-bit label-map PNGs (0 = unlabelled).
+//! - [`image_io`]: PNG and JPEG files to and from pixel buffers ([`image_io::RgbImage`]), resizing.
 //! - [`npy`]: NumPy `.npy`/`.npz` arrays (dense features, depth).
 //! - [`limits`]: the one cap on pixels per image and Gaussians per PLY.
 //! - [`plane`]: the row-major 2D array type every per-pixel map uses.
@@ -18,6 +19,7 @@ pub mod colmap;
 pub mod error;
 pub mod fuzzing;
 pub mod gaussians;
+pub mod image_io;
 pub mod images;
 pub mod labels;
 pub mod limits;

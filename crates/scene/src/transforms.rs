@@ -10,7 +10,8 @@
 
 use crate::camera::{Camera, CameraModel, Distortion, Pose};
 use crate::error::{SceneError, SceneResult};
-use crate::images::{camera_at_resolution, check_resolution, image_size, locate_image, with_known_extension};
+use crate::image_io::image_size;
+use crate::images::{camera_at_resolution, check_resolution, locate_image, with_known_extension};
 use crate::load::{shared_stem_warning, LoadOptions, Scene, SceneFormat, View};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,7 @@
 //! Bad input to the format readers and writers: each case is a clear error naming the file
 //! and the problem, never a panic, and failed writes leave no file behind.
 
+use splatseg_scene::image_io::write_png_luma8;
 use splatseg_scene::labels::read_label_png;
 use splatseg_scene::ply::{parse_ply_bytes, read_ply, to_ply_bytes, write_ply};
 use splatseg_scene::rle::Rle;
@@ -304,8 +305,8 @@ fn broken_png_folders_are_rejected() {
     let header = "id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,predicted_iou,stability_score,crop_box_x0,crop_box_y0,crop_box_w,crop_box_h\n";
     write(dir.path(), "metadata.csv", &format!("{header}0,1,0,0,1,1,0.5,0.5,0.9,0.9,0,0,2,2\n"));
     assert_has(&read_sam_png_folder(dir.path()).unwrap_err().to_string(), &["SAM mask PNG", "0.png"]);
-    image::GrayImage::new(2, 2).save(dir.path().join("0.png")).unwrap();
-    image::GrayImage::new(3, 2).save(dir.path().join("1.png")).unwrap();
+    write_png_luma8(&dir.path().join("0.png"), &Plane::filled(2, 2, 0)).unwrap();
+    write_png_luma8(&dir.path().join("1.png"), &Plane::filled(3, 2, 0)).unwrap();
     write(
         dir.path(),
         "metadata.csv",

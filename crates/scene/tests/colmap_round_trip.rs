@@ -147,7 +147,7 @@ fn scene_inverts_cam_from_world_and_sorts_views_by_name() {
         (61.0, 59.0, 0.0005, -0.0003)
     );
     let rgb = load_image_rgb(&scene, &scene.views[3], &LoadOptions::default()).expect("image loads");
-    assert_eq!(rgb.dimensions(), (64, 48));
+    assert_eq!(rgb.size(), (64, 48));
 }
 
 fn assert_scenes_match(a: &Scene, b: &Scene) {
@@ -245,7 +245,7 @@ fn resolution_uses_images_folder_with_factor_suffix_and_its_exact_size() {
     let cam = &scene.cameras[0];
     assert_eq!((cam.width, cam.height), (51, 41));
     assert!((cam.fx - 100.0 * 51.0 / 101.0).abs() < 1e-12);
-    assert_eq!(load_image_rgb(&scene, &scene.views[0], &options).expect("resized").dimensions(), (51, 41));
+    assert_eq!(load_image_rgb(&scene, &scene.views[0], &options).expect("resized").size(), (51, 41));
 
     // With images_2/ holding floor-rounded 50×40 images: the camera takes that exact size.
     write_png(&root.path().join("images_2").join("img.png"), 50, 40);
@@ -254,5 +254,5 @@ fn resolution_uses_images_folder_with_factor_suffix_and_its_exact_size() {
     assert_eq!((cam.width, cam.height), (50, 40));
     assert!((cam.cx - 50.5 * 50.0 / 101.0).abs() < 1e-12);
     assert!(scene.views[0].image_path.ends_with("images_2/img.png"));
-    assert_eq!(load_image_rgb(&scene, &scene.views[0], &options).expect("loads").dimensions(), (50, 40));
+    assert_eq!(load_image_rgb(&scene, &scene.views[0], &options).expect("loads").size(), (50, 40));
 }

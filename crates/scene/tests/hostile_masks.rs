@@ -5,6 +5,7 @@
 mod colmap_fixture;
 
 use glam::DVec2;
+use splatseg_scene::image_io::write_png_luma8;
 use splatseg_scene::rle::{Rle, MAX_MASK_PIXELS};
 use splatseg_scene::sam::{
     read_sam_json, read_sam_json_for_image, read_sam_png_folder, read_sam_png_folder_for_image,
@@ -254,11 +255,8 @@ fn write_png_folder(dir: &Path, masks: &[Plane<bool>], rows: &[&str]) {
         "id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,predicted_iou,stability_score,crop_box_x0,crop_box_y0,crop_box_w,crop_box_h\n",
     );
     for (i, (m, row)) in masks.iter().zip(rows).enumerate() {
-        let pixels: Vec<u8> = m.data.iter().map(|&v| if v { 255 } else { 0 }).collect();
-        image::GrayImage::from_raw(m.width as u32, m.height as u32, pixels)
-            .unwrap()
-            .save(dir.join(format!("{i}.png")))
-            .unwrap();
+        let pixels = m.map(|&v| if v { 255u8 } else { 0 });
+        write_png_luma8(&dir.join(format!("{i}.png")), &pixels).unwrap();
         csv.push_str(row);
         csv.push('\n');
     }

@@ -1,8 +1,7 @@
 //! Label-map PNGs (8/16-bit), the id palette and overlays.
 
-use splatseg_scene::labels::{
-    colour_of_id, label_colour_image, overlay, read_label_png, write_label_png, write_png_rgb,
-};
+use splatseg_scene::image_io::{read_rgb8, write_png_luma8, write_png_rgb8, RgbImage};
+use splatseg_scene::labels::{colour_of_id, label_colour_image, overlay, read_label_png, write_label_png};
 use splatseg_scene::Plane;
 
 fn ids(width: usize, height: usize, f: impl Fn(usize, usize) -> u32) -> Plane<u32> {
@@ -18,16 +17,21 @@ fn sixteen_bit_label_maps_round_trip() {
     write_label_png(&path, &labels).unwrap();
     assert_eq!(read_label_png(&path).unwrap(), labels);
     // It really is a 16-bit grey PNG.
-    assert_eq!(image::open(&path).unwrap().color(), image::ColorType::L16);
+    let reader =
+        png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap())).read_info().unwrap();
+    assert_eq!(
+        (reader.info().color_type, reader.info().bit_depth),
+        (png::ColorType::Grayscale, png::BitDepth::Sixteen)
+    );
 }
 
 #[test]
 fn eight_bit_label_maps_are_read() {
     let dir = tempfile::tempdir().unwrap();
     let labels = ids(5, 3, |x, y| (x + 5 * y) as u32 * 17 % 256);
-    let pixels: Vec<u8> = labels.data.iter().map(|&v| v as u8).collect();
+    let pixels = labels.map(|&v| v as u8);
     let path = dir.path().join("eight.png");
-    image::GrayImage::from_raw(5, 3, pixels).unwrap().save(&path).unwrap();
+    write_png_luma8(&path, &pixels).unwrap();
     assert_eq!(read_label_png(&path).unwrap(), labels);
 }
 
@@ -86,7 +90,7 @@ fn ids_above_65535_are_rejected_and_nothing_is_written() {
 fn colour_labels_are_rejected() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("rgb.png");
-    image::RgbImage::new(2, 2).save(&path).unwrap();
+    write_png_rgb8(&path, &RgbImage::filled(2, 2, [0; 3])).unwrap();
     let err = read_label_png(&path).unwrap_err().to_string();
     assert!(err.contains("greyscale") && err.contains("rgb.png"), "{err}");
 }
@@ -117,24 +121,24 @@ fn palette_is_deterministic_distinct_and_black_only_for_zero() {
 fn colour_image_and_overlay_use_the_palette_and_mark_boundaries() {
     let labels = ids(8, 6, |x, _| if x < 4 { 0 } else { 3 });
     let colours = label_colour_image(&labels);
-    assert_eq!(colours.get_pixel(0, 0).0, [0, 0, 0]);
-    assert_eq!(colours.get_pixel(7, 5).0, colour_of_id(3));
-    let grey = image::RgbImage::from_pixel(8, 6, image::Rgb([100, 100, 100]));
+    assert_eq!(colours.pixel(0, 0), [0, 0, 0]);
+    assert_eq!(colours.pixel(7, 5), colour_of_id(3));
+    let grey = RgbImage::filled(8, 6, [100, 100, 100]);
     let over = overlay(&grey, &labels, 0.5);
     // Unlabelled, away from the boundary: unchanged.
-    assert_eq!(over.get_pixel(1, 2).0, [100, 100, 100]);
+    assert_eq!(over.pixel(1, 2), [100, 100, 100]);
     // Labelled interior: halfway between grey and the palette colour.
     let c = colour_of_id(3);
     let expected = c.map(|v| ((100.0 + v as f32) / 2.0).round() as u8);
-    assert_eq!(over.get_pixel(6, 2).0, expected);
+    assert_eq!(over.pixel(6, 2), expected);
     // Both sides of the boundary are darker than their interiors.
-    assert!(over.get_pixel(3, 2).0[0] < 100);
-    assert!(over.get_pixel(4, 2).0.iter().sum::<u8>() < expected.iter().sum::<u8>());
+    assert!(over.pixel(3, 2)[0] < 100);
+    assert!(over.pixel(4, 2).iter().sum::<u8>() < expected.iter().sum::<u8>());
     // A half-resolution label map is sampled nearest-neighbour.
     let half = ids(4, 3, |x, _| if x < 2 { 0 } else { 3 });
-    assert_eq!(overlay(&grey, &half, 0.5).get_pixel(6, 2).0, expected);
+    assert_eq!(overlay(&grey, &half, 0.5).pixel(6, 2), expected);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("overlay.png");
-    write_png_rgb(&path, &over).unwrap();
-    assert_eq!(image::open(&path).unwrap().into_rgb8(), over);
+    write_png_rgb8(&path, &over).unwrap();
+    assert_eq!(read_rgb8(&path).unwrap(), over);
 }

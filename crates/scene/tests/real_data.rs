@@ -64,12 +64,12 @@ fn nerf_synthetic_lego_loads_and_cameras_look_at_the_origin() {
 
     // RGBA composited on white: the corners (transparent) are white, the centre is not.
     let rgb = load_image_rgb(&scene, &scene.views[0], &LoadOptions::default()).expect("image loads");
-    assert_eq!(rgb.dimensions(), (800, 800));
-    assert_eq!(rgb.get_pixel(0, 0).0, [255, 255, 255]);
+    assert_eq!(rgb.size(), (800, 800));
+    assert_eq!(rgb.pixel(0, 0), [255, 255, 255]);
     let black = LoadOptions { background: [0.0, 0.0, 0.0], ..LoadOptions::default() };
     let on_black = load_image_rgb(&scene, &scene.views[0], &black).expect("image loads");
-    assert_eq!(on_black.get_pixel(0, 0).0, [0, 0, 0]);
-    assert_eq!(rgb.get_pixel(400, 400), on_black.get_pixel(400, 400), "opaque centre ignores background");
+    assert_eq!(on_black.pixel(0, 0), [0, 0, 0]);
+    assert_eq!(rgb.pixel(400, 400), on_black.pixel(400, 400), "opaque centre ignores background");
 }
 
 #[test]
@@ -82,7 +82,7 @@ fn nerf_synthetic_lego_at_resolution_2_halves_cameras_and_images() {
     assert!((cam.fx - 200.0 / (0.5f64 * 0.6911112070083618).tan()).abs() < 1e-9);
     assert_eq!((cam.cx, cam.cy), (200.0, 200.0));
     let rgb = load_image_rgb(&scene, &scene.views[3], &options).expect("resized on load");
-    assert_eq!(rgb.dimensions(), (400, 400));
+    assert_eq!(rgb.size(), (400, 400));
 }
 
 #[test]
@@ -120,7 +120,7 @@ fn instant_ngp_fox_loads_the_50_present_frames_and_warns_once() {
     assert_eq!(inside, 50);
 
     let rgb = load_image_rgb(&scene, &scene.views[0], &LoadOptions::default()).expect("jpeg loads");
-    assert_eq!(rgb.dimensions(), (1080, 1920));
+    assert_eq!(rgb.size(), (1080, 1920));
 }
 
 /// Camera and `world_from_cam` from gsplat's `K` (`[3, 3]` row-major) and view matrix

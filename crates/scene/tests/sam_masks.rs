@@ -1,6 +1,7 @@
 //! Segment Anything mask files: JSON with compressed and uncompressed counts, binary masks,
 //! defaults, write → read, the PNG-folder output and the per-view loader.
 
+use splatseg_scene::image_io::write_png_luma8;
 use splatseg_scene::rle::Rle;
 use splatseg_scene::sam::{
     check_mask_sizes, read_sam_json, read_sam_png_folder, read_view_masks, write_sam_json,
@@ -96,11 +97,8 @@ fn write_png_folder(dir: &Path, masks: &[Plane<bool>], rows: &[&str]) {
         "id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,predicted_iou,stability_score,crop_box_x0,crop_box_y0,crop_box_w,crop_box_h\n",
     );
     for (i, (m, row)) in masks.iter().zip(rows).enumerate() {
-        let pixels: Vec<u8> = m.data.iter().map(|&v| if v { 255 } else { 0 }).collect();
-        image::GrayImage::from_raw(m.width as u32, m.height as u32, pixels)
-            .unwrap()
-            .save(dir.join(format!("{i}.png")))
-            .unwrap();
+        let pixels = m.map(|&v| if v { 255u8 } else { 0 });
+        write_png_luma8(&dir.join(format!("{i}.png")), &pixels).unwrap();
         csv.push_str(row);
         csv.push('\n');
     }

@@ -6,7 +6,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 use splatseg_scene::atomic::write_bytes_atomic;
 use splatseg_scene::colmap::write_colmap_text;
-use splatseg_scene::labels::{write_label_png, write_png_rgb};
+use splatseg_scene::image_io::{write_png_rgb8, RgbImage};
+use splatseg_scene::labels::write_label_png;
 use splatseg_scene::npy::write_npy_f32;
 use splatseg_scene::ply::write_ply;
 use splatseg_scene::sam::write_sam_json;
@@ -128,12 +129,12 @@ fn write_view(dir: &Path, v: &SynthView) -> Result<usize, SynthError> {
     let (w, h) = v.image.size();
     let rgb: Vec<u8> = v.image.data.iter().flat_map(|p| p.iter().copied()).collect();
     let image_path = dir.join("images").join(format!("{stem}.png"));
-    let image = image::RgbImage::from_raw(w as u32, h as u32, rgb).ok_or_else(|| SynthError::Encode {
+    let image = RgbImage::from_vec(w, h, rgb).ok_or_else(|| SynthError::Encode {
         what: "PNG image",
         reason: "image plane size disagrees with its data".into(),
         path: image_path.clone(),
     })?;
-    write_png_rgb(&image_path, &image)?;
+    write_png_rgb8(&image_path, &image)?;
     write_label_png(&dir.join("gt").join("instance").join(format!("{stem}.png")), &v.gt_instance)?;
     write_npy_f32(&dir.join("gt").join("depth").join(format!("{stem}.npy")), &[h, w], &v.gt_depth_z.data)?;
     write_sam_json(&dir.join("sam").join(format!("{stem}.json")), &v.sam_masks)?;

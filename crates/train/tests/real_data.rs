@@ -26,7 +26,7 @@ fn lego_trains_from_a_random_cube_with_densification() {
             TrainView {
                 name: view.stem.clone(),
                 camera: RenderCamera::from_scene(scene.camera(view), &view.world_from_cam),
-                image: image.as_raw().iter().map(|&c| f32::from(c) / 255.0).collect(),
+                image: image.data.iter().map(|&c| f32::from(c) / 255.0).collect(),
                 labels: None,
             }
         })

@@ -3,9 +3,9 @@
 use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, warn_recomputed, SamMask};
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
+use crate::image_io::{image_size, read_luma8, write_png_luma8};
 use crate::plane::Plane;
 use crate::rle::Rle;
-use image::ImageReader;
 use std::path::Path;
 
 const FORMAT: &str = "SAM metadata.csv";
@@ -121,14 +121,6 @@ pub fn parse_metadata_csv(
     Ok(masks)
 }
 
-/// Opens `path` as an image reader with its format guessed from the content.
-fn open_png(path: &Path) -> SceneResult<ImageReader<std::io::BufReader<std::fs::File>>> {
-    ImageReader::open(path)
-        .map_err(|e| SceneError::io("cannot open", path, e))?
-        .with_guessed_format()
-        .map_err(|e| SceneError::io("cannot read", path, e))
-}
-
 /// Reads a mask PNG as booleans (non-zero grey = inside). Its header's size is checked first
 /// (against `expected` `(width, height)` when known, and against
 /// [`crate::rle::MAX_MASK_PIXELS`]), so an oversized PNG is never decoded.
@@ -136,17 +128,10 @@ fn read_binary_png(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Pla
     if !path.is_file() {
         return Err(SceneError::missing("SAM mask PNG listed in metadata.csv", path));
     }
-    let image_error = |source| SceneError::Image { path: path.to_path_buf(), source };
-    let (w, h) = open_png(path)?.into_dimensions().map_err(image_error)?;
+    let (w, h) = image_size(path)?;
     check_declared_mask_size(h as u64, w as u64, expected)
         .map_err(|e| SceneError::invalid("SAM mask PNG", path, e))?;
-    let img = open_png(path)?.decode().map_err(image_error)?.into_luma8();
-    let (w, h) = img.dimensions();
-    Ok(Plane {
-        width: w as usize,
-        height: h as usize,
-        data: img.into_raw().into_iter().map(|v| v != 0).collect(),
-    })
+    Ok(read_luma8(path)?.map(|&v| v != 0))
 }
 
 /// Writes masks in SAM's PNG-folder layout: `dir/<i>.png` (8-bit grey, 255 = inside) and
@@ -161,13 +146,8 @@ pub fn write_sam_png_folder(dir: &Path, masks: &[SamMask]) -> SceneResult<()> {
             .segmentation
             .decode()
             .map_err(|e| SceneError::invalid("SAM mask", &png, format!("mask {i}: {e}")))?;
-        let pixels: Vec<u8> = mask.data.iter().map(|&v| if v { 255 } else { 0 }).collect();
-        let img = image::GrayImage::from_raw(mask.width as u32, mask.height as u32, pixels)
-            .ok_or_else(|| SceneError::invalid("SAM mask", &png, "mask size disagrees with its data"))?;
-        let mut bytes = Vec::new();
-        img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-            .map_err(|source| SceneError::Image { path: png.clone(), source })?;
-        write_bytes_atomic(&png, &bytes)?;
+        let pixels = mask.map(|&v| if v { 255u8 } else { 0 });
+        write_png_luma8(&png, &pixels)?;
         let [px, py] = m.point_coords.first().copied().unwrap_or([f64::NAN; 2]);
         let [bx, by, bw, bh] = m.bbox_xywh;
         let [cx, cy, cw, ch] = m.crop_box_xywh;

@@ -7,6 +7,7 @@
 //! (1, 0.5, 5) in camera a → pixel (70, 50), and at (0, 0.5, 5) in camera b → pixel (50, 50).
 #![allow(dead_code)]
 
+use splatseg_scene::image_io::{write_png_rgb8, RgbImage};
 use std::path::Path;
 
 pub const CAMERAS_TXT: &str = "# Camera list with one line of data per camera:
@@ -63,8 +64,10 @@ pub fn write_text_model(model_dir: &Path) {
 /// Writes a `width × height` PNG (a colour ramp) at `path`.
 pub fn write_png(path: &Path, width: u32, height: u32) {
     std::fs::create_dir_all(path.parent().expect("parent")).expect("create dir");
-    let img = image::RgbImage::from_fn(width, height, |x, y| image::Rgb([(x * 2) as u8, (y * 3) as u8, 90]));
-    img.save(path).expect("write png");
+    let data =
+        (0..height).flat_map(|y| (0..width).flat_map(move |x| [(x * 2) as u8, (y * 3) as u8, 90])).collect();
+    let img = RgbImage::from_vec(width as usize, height as usize, data).expect("sized");
+    write_png_rgb8(path, &img).expect("write png");
 }
 
 /// A COLMAP scene folder: `root/sparse/0/*.txt` and `root/images/*.png` at full resolution.
