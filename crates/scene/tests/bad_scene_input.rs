@@ -138,7 +138,17 @@ fn inconsistent_models_are_rejected_when_building_the_scene() {
     assert_message(&err, &["none of the 1 images", "nowhere.png"]);
     let zero = LoadOptions { resolution: 0, ..LoadOptions::default() };
     write_scene(root.path());
-    assert_message(&load_scene(root.path(), &zero).expect_err("resolution 0"), &["resolution factor 0"]);
+    assert_message(
+        &load_scene(root.path(), &zero).expect_err("resolution 0"),
+        &["resolution 0", "1, 2, 4 or 8"],
+    );
+    for factor in [3, 16, 1600] {
+        let odd = LoadOptions { resolution: factor, ..LoadOptions::default() };
+        let err = load_scene(root.path(), &odd).expect_err("a factor 3DGS does not take");
+        assert_message(&err, &[&format!("resolution {factor}"), "1, 2, 4 or 8", "target width"]);
+    }
+    let two = LoadOptions { resolution: 2, ..LoadOptions::default() };
+    load_scene(root.path(), &two).expect("factor 2 loads");
 }
 
 #[test]
