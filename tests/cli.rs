@@ -242,3 +242,17 @@ fn train_scales_images_wider_than_1600_px_unless_told() {
     assert_eq!(render_width(&[]), 850, "1700 px → 1/2");
     assert_eq!(render_width(&["--resolution", "1"]), 1700);
 }
+
+#[test]
+fn negative_numbers_get_the_options_own_message() {
+    for (args, expected) in [
+        (&["merge", "s", "--masks", "m", "--out", "o", "--shard", "-1/2"][..], "expected K/N with 0 ≤ K < N"),
+        (&["train", "s", "--out", "o", "--iterations", "-5"][..], "invalid value '-5' for '--iterations"),
+        (&["synth", "--out", "o", "--views", "-3"][..], "invalid value '-3' for '--views"),
+    ] {
+        let out = splatseg(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: a usage error");
+        assert!(stderr(&out).contains(expected), "{args:?}: {}", stderr(&out));
+        assert!(!stderr(&out).contains("unexpected argument"), "{args:?}: {}", stderr(&out));
+    }
+}
