@@ -136,6 +136,26 @@ fn inconsistent_models_are_rejected_when_building_the_scene() {
     let err = load_scene(root.path(), &LoadOptions::default()).expect_err("no image exists");
     assert!(matches!(err, SceneError::Missing { .. }), "{err}");
     assert_message(&err, &["none of the 1 images", "nowhere.png"]);
+    write_scene(root.path());
+    let cameras_txt = root.path().join("sparse/0/cameras.txt");
+    let cameras = std::fs::read_to_string(&cameras_txt).expect("read");
+    for (bad, needles) in [
+        ("1 PINHOLE 100 80 0 0 50 40", &["camera 1", "fx 0, fy 0", "cameras.txt"][..]),
+        ("1 PINHOLE 100 80 100 nan 50 40", &["camera 1", "non-finite", "cameras.txt"][..]),
+        ("1 PINHOLE 0 80 100 100 50 40", &["camera 1", "0x80", "cameras.txt"][..]),
+    ] {
+        std::fs::write(&cameras_txt, cameras.replace("1 PINHOLE 100 80 100 100 50 40", bad)).expect("write");
+        let err = load_scene(root.path(), &LoadOptions::default()).expect_err(bad);
+        assert_message(&err, needles);
+    }
+    std::fs::write(&cameras_txt, &cameras).expect("write");
+    std::fs::write(&images_txt, "1 1 0 0 0 0 0 5 1 a_front.png\n\n1 1 0 0 0 0 0 5 1 b_side.png\n\n")
+        .expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("image id 1 twice");
+    assert_message(&err, &["image id 1 appears twice", "a_front.png", "b_side.png", "images.txt"]);
+    std::fs::write(&images_txt, "# no images\n").expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("no images");
+    assert_message(&err, &["lists no images", "images.txt"]);
     let zero = LoadOptions { resolution: 0, ..LoadOptions::default() };
     write_scene(root.path());
     assert_message(
