@@ -286,3 +286,33 @@ fn a_ply_without_gaussians_is_refused_by_render_train_and_run() {
         );
     }
 }
+
+#[test]
+fn train_says_when_a_labelled_ply_gets_no_joint_stage() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let path = |p: &Path| p.to_str().expect("utf-8").to_string();
+    let run = tmp.path().join("run");
+    let masks = scene.join("sam");
+    let out = splatseg(&["run", &path(&scene), "--masks", &path(&masks), "--out", &path(&run)]);
+    assert!(out.status.success(), "run: {}", stderr(&out));
+    let labelled = run.join("gaussians.ply");
+    let train = tmp.path().join("train");
+    let out = splatseg(&[
+        "train",
+        &path(&scene),
+        "--gaussians",
+        &path(&labelled),
+        "--out",
+        &path(&train),
+        "--iterations",
+        "20",
+    ]);
+    assert!(out.status.success(), "train: {}", stderr(&out));
+    assert!(
+        stderr(&out).contains("no joint optimisation runs and no label maps are written"),
+        "{}",
+        stderr(&out)
+    );
+}
