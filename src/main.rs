@@ -1,11 +1,9 @@
 //! The `splatseg` command line: a thin layer over the stage crates.
-use clap::Parser;
-
 mod commands;
 mod memory;
 
 fn main() -> std::process::ExitCode {
-    let cli = commands::Cli::parse();
+    let cli = commands::parse();
     commands::logging::init(cli.quiet, cli.verbose);
     // Before any thread starts: one arena, freed buffers reused (see the function's docs).
     memory::keep_freed_memory_for_reuse();

@@ -244,3 +244,77 @@ fn train_scales_images_wider_than_1600_px_unless_told() {
     assert_eq!(render_width(&[]), 850, "1700 px → 1/2");
     assert_eq!(render_width(&["--resolution", "1"]), 1700);
 }
+
+#[test]
+fn negative_numbers_get_the_options_own_message() {
+    for (args, expected) in [
+        (&["merge", "s", "--masks", "m", "--out", "o", "--shard", "-1/2"][..], "expected K/N with 0 ≤ K < N"),
+        (&["train", "s", "--out", "o", "--iterations", "-5"][..], "invalid value '-5' for '--iterations"),
+        (&["synth", "--out", "o", "--views", "-3"][..], "invalid value '-3' for '--views"),
+    ] {
+        let out = splatseg(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: a usage error");
+        assert!(stderr(&out).contains(expected), "{args:?}: {}", stderr(&out));
+        assert!(!stderr(&out).contains("unexpected argument"), "{args:?}: {}", stderr(&out));
+    }
+}
+
+#[test]
+fn a_ply_without_gaussians_is_refused_by_render_train_and_run() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let mut header = String::from("ply\nformat binary_little_endian 1.0\nelement vertex 0\n");
+    for name in ["x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity", "scale_0", "scale_1", "scale_2"] {
+        header += &format!("property float {name}\n");
+    }
+    header += "property float rot_0\nproperty float rot_1\nproperty float rot_2\nproperty float rot_3\nend_header\n";
+    let empty = tmp.path().join("empty.ply");
+    std::fs::write(&empty, header).expect("write");
+    let (s, e) = (scene.to_str().expect("utf-8"), empty.to_str().expect("utf-8"));
+    let out = |name: &str| tmp.path().join(name).to_str().expect("utf-8").to_string();
+    let masks = scene.join("sam");
+    for args in [
+        vec!["render", s, "--gaussians", e, "--out", &out("render")],
+        vec!["train", s, "--gaussians", e, "--out", &out("train"), "--iterations", "10"],
+        vec!["run", s, "--gaussians", e, "--masks", masks.to_str().expect("utf-8"), "--out", &out("run")],
+    ] {
+        let result = splatseg(&args);
+        assert_eq!(result.status.code(), Some(1), "{args:?}: {}", stderr(&result));
+        assert!(
+            stderr(&result).contains("holds no Gaussians") && stderr(&result).contains("empty.ply"),
+            "{args:?}: {}",
+            stderr(&result)
+        );
+    }
+}
+
+#[test]
+fn train_says_when_a_labelled_ply_gets_no_joint_stage() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let path = |p: &Path| p.to_str().expect("utf-8").to_string();
+    let run = tmp.path().join("run");
+    let masks = scene.join("sam");
+    let out = splatseg(&["run", &path(&scene), "--masks", &path(&masks), "--out", &path(&run)]);
+    assert!(out.status.success(), "run: {}", stderr(&out));
+    let labelled = run.join("gaussians.ply");
+    let train = tmp.path().join("train");
+    let out = splatseg(&[
+        "train",
+        &path(&scene),
+        "--gaussians",
+        &path(&labelled),
+        "--out",
+        &path(&train),
+        "--iterations",
+        "20",
+    ]);
+    assert!(out.status.success(), "train: {}", stderr(&out));
+    assert!(
+        stderr(&out).contains("no joint optimisation runs and no label maps are written"),
+        "{}",
+        stderr(&out)
+    );
+}

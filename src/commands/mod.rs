@@ -1,7 +1,7 @@
 //! Subcommands. Their arguments are the libraries' structs (clap's `Args` with each crate's `cli`
 //! feature); each file here calls the library and prints.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use splatseg_pipeline::args as pipeline;
 
 pub mod bench;
@@ -40,6 +40,19 @@ pub fn run_options() -> splatseg_pipeline::RunOptions {
 ///
 /// Logs go to stderr, coloured only on a terminal (never with NO_COLOR set). Without -q/-v the
 /// level comes from RUST_LOG (e.g. RUST_LOG=debug or RUST_LOG=splatseg_lift=debug), else info.
+/// Parses the command line. A negative number is read as the value of the option before it
+/// (`--iterations -5` gets the option's own message, not clap's "unexpected argument '-5'").
+pub fn parse() -> Cli {
+    let matches = negative_numbers_as_values(Cli::command()).get_matches();
+    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+}
+
+fn negative_numbers_as_values(command: clap::Command) -> clap::Command {
+    command
+        .mut_args(|arg| if arg.get_action().takes_values() { arg.allow_negative_numbers(true) } else { arg })
+        .mut_subcommands(negative_numbers_as_values)
+}
+
 #[derive(Debug, Parser)]
 #[command(name = "splatseg", version, about, long_about = None)]
 pub struct Cli {

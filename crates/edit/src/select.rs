@@ -17,9 +17,16 @@ pub fn object_ids(g: &Gaussians) -> Result<&[i32], EditError> {
     Ok(ids)
 }
 
-/// Distinct object ids present in `g`, sorted (−1 = unlabelled is included when present).
+/// The id a Gaussian's stored id stands for: every negative id means unlabelled, written −1 (as
+/// `splatseg objects` counts them; PLYs of other tools may store other negative values).
+fn canonical(id: i32) -> i32 {
+    id.max(-1)
+}
+
+/// Distinct object ids present in `g`, sorted (−1 = unlabelled, any negative stored id, is
+/// included when present).
 pub fn ids_present(g: &Gaussians) -> Result<Vec<i32>, EditError> {
-    let mut ids = object_ids(g)?.to_vec();
+    let mut ids: Vec<i32> = object_ids(g)?.iter().map(|&id| canonical(id)).collect();
     ids.sort_unstable();
     ids.dedup();
     Ok(ids)
@@ -50,7 +57,7 @@ fn indices_where(g: &Gaussians, ids: &[i32], in_ids: bool) -> Result<Vec<usize>,
     Ok(object_ids(g)?
         .iter()
         .enumerate()
-        .filter(|(_, id)| wanted.binary_search(id).is_ok() == in_ids)
+        .filter(|(_, &id)| wanted.binary_search(&canonical(id)).is_ok() == in_ids)
         .map(|(i, _)| i)
         .collect())
 }
@@ -71,6 +78,16 @@ pub fn remove(g: &Gaussians, ids: &[i32]) -> Result<Gaussians, EditError> {
 mod tests {
     use super::*;
     use crate::testing::labelled_gaussians;
+
+    #[test]
+    fn every_negative_id_is_unlabelled_as_objects_counts_it() {
+        let g = labelled_gaussians(&[3, -5, 7, -1, -2]);
+        assert_eq!(ids_present(&g).unwrap(), vec![-1, 3, 7]);
+        assert_eq!(extract(&g, &[-1]).unwrap(), g.select(&[1, 3, 4]));
+        assert_eq!(remove(&g, &[-1]).unwrap(), g.select(&[0, 2]));
+        let err = extract(&g, &[-5]).expect_err("−5 is not an object id");
+        assert!(matches!(&err, EditError::UnknownIds { missing, .. } if missing == &vec![-5]), "{err}");
+    }
 
     #[test]
     fn extract_and_remove_partition() {

@@ -1,6 +1,6 @@
 //! Speed of the photometric metrics on one 1 MP RGB pair (1000×1000×3): PSNR, SSIM and SSIM with
 //! its gradient (what a training step calls). Target: SSIM well under 100 ms on 2 threads
-//! (`RAYON_NUM_THREADS=2 cargo bench -p splatseg-eval --bench photometric`).
+//! (`RAYON_NUM_THREADS=2 cargo bench -p splatseg-eval --features bench --bench photometric`).
 //!
 //! Measured 2026-11-22 on the idle 2-core AMD EPYC dev VM (AVX path): 2 threads: PSNR 1.0 ms,
 //! SSIM 13.7 ms, SSIM + gradient 29.7 ms; 1 thread: 2.0 ms, 25.2 ms, 56.9 ms.

@@ -113,6 +113,78 @@ const KEY_DOCS: &[(&str, &str, &str)] = &[
     ("train.joint", "readback", "how ids are read back: \"rendered\", \"classifier\" or \"nearest-code\" (ours)"),
 ];
 
+/// The values a numeric key of the file may take, inclusive: (table, key, min, max); every value
+/// must also be finite (no NaN or infinity), and each number of an array is checked. Values of the
+/// wrong type are left to the tables' own parsing.
+const RANGES: &[(&str, &str, f64, f64)] = &[
+    ("merge", "tau_merge", 0.0, 1.0),
+    ("merge", "tau_depth", 0.0, 1.0),
+    ("merge", "w_sem", 0.0, 10.0),
+    ("merge", "w_depth", 0.0, 10.0),
+    ("merge", "w_dbound", 0.0, 10.0),
+    ("merge", "w_edge", 0.0, 10.0),
+    ("merge", "sigma_d_sq", 1e-6, 10.0),
+    ("merge", "relative_depth_gate", 0.0, 10.0),
+    ("merge", "max_depth_boundary", 0.0, 1.0),
+    ("merge", "max_concave_crease_deg", 0.0, 180.0),
+    ("match", "tau_match", -1.0, 1.0),
+    ("match", "tau_overlap", 0.0, 1.0),
+    ("match", "tau_match_with_3d", -1.0, 1.0),
+    ("match", "fragment_majority", 0.0, f64::MAX),
+    ("match", "max_pair_samples", 1.0, f64::MAX),
+    ("match", "max_candidate_edges", 1.0, f64::MAX),
+    ("lift", "tau_var", 0.0, f64::MAX),
+    ("lift", "min_views", 1.0, f64::MAX),
+    ("objects", "tau_touching", -1.0, f64::MAX),
+    ("objects", "tau_seam", -1.0, f64::MAX),
+    ("objects", "tau_part", -1.0, f64::MAX),
+    ("objects", "min_object_px", 0.0, f64::MAX),
+    ("final_maps", "refine_window_px", 0.0, 64.0),
+    ("final_maps", "refine_passes", 0.0, 1000.0),
+    ("eval", "band_radius_px", 0.0, 1000.0),
+    ("train", "iterations", 1.0, f64::MAX),
+    ("train", "lambda_dssim", 0.0, 1.0),
+    ("train", "seed", 0.0, f64::MAX),
+    ("train", "test_every", 0.0, f64::MAX),
+    ("train", "background", 0.0, 1.0),
+    ("train", "save_iterations", 1.0, f64::MAX),
+    ("train.densify", "from", 0.0, f64::MAX),
+    ("train.densify", "until", 0.0, f64::MAX),
+    ("train.densify", "grad_threshold", 1e-12, f64::MAX),
+    ("train.joint", "feature_dim", 1.0, 1024.0),
+    ("train.joint", "lambda_semantic", 0.0, f64::MAX),
+    ("train.joint", "lambda_reg", 0.0, f64::MAX),
+    ("train.joint", "knn", 1.0, 1024.0),
+    ("train.joint", "lambda_identity", 0.0, f64::MAX),
+];
+
+/// The first numeric value of a parsed file outside [`RANGES`], as a message.
+fn out_of_range(root: &toml::Table) -> Option<String> {
+    for &(table, key, min, max) in RANGES {
+        let Some(value) = table_at(root, table).and_then(|t| t.get(key)) else { continue };
+        let numbers: Vec<f64> = match value {
+            toml::Value::Array(items) => items.iter().filter_map(number).collect(),
+            other => number(other).into_iter().collect(),
+        };
+        if let Some(x) = numbers.into_iter().find(|x| !(x.is_finite() && (min..=max).contains(x))) {
+            let bounds = match (min, max) {
+                (min, f64::MAX) => format!("a finite number ≥ {min}"),
+                (min, max) => format!("a number from {min} to {max}"),
+            };
+            return Some(format!("[{table}] {key} = {x} is out of range: expected {bounds}"));
+        }
+    }
+    None
+}
+
+fn number(value: &toml::Value) -> Option<f64> {
+    match value {
+        toml::Value::Integer(i) => Some(*i as f64),
+        toml::Value::Float(f) => Some(*f),
+        _ => None,
+    }
+}
+
 /// Keys and tables of earlier versions and what became of them: (table, key, message). A key of
 /// `""` stands for the whole table.
 const RETIRED: &[(&str, &str, &str)] = &[
@@ -206,6 +278,12 @@ impl PipelineConfig {
         if let Some(message) = retired_setting(&root) {
             return Err(crate::error::PipelineError::Invalid(format!(
                 "{message}; remove it from the file (`splatseg config` prints the current keys): {}",
+                path.display()
+            )));
+        }
+        if let Some(message) = out_of_range(&root) {
+            return Err(crate::error::PipelineError::Invalid(format!(
+                "{message} (`splatseg config` describes every key): {}",
                 path.display()
             )));
         }
@@ -314,6 +392,41 @@ mod tests {
             "the seed is `splatseg config`"
         );
         PipelineConfig::from_toml(&seed, Path::new("seed_defaults.toml")).expect("the defaults parse");
+    }
+
+    #[test]
+    fn every_numeric_key_has_a_range_holding_its_default() {
+        let text = PipelineConfig::default().to_file_text().expect("prints");
+        let root: toml::Table = toml::from_str(&text).expect("parses");
+        for &(table, key, _) in KEY_DOCS {
+            let value = table_at(&root, table).and_then(|t| t.get(key)).expect("printed");
+            let numeric = match value {
+                toml::Value::Array(items) => items.iter().all(|v| number(v).is_some()),
+                other => number(other).is_some(),
+            };
+            let ranged = RANGES.iter().any(|&(t, k, _, _)| (t, k) == (table, key));
+            assert_eq!(numeric, ranged, "[{table}] {key}: a numeric key has a range, and only those");
+        }
+        assert_eq!(out_of_range(&root), None, "the defaults are in range");
+    }
+
+    #[test]
+    fn out_of_range_values_are_refused_with_the_key_and_the_file() {
+        for (text, key) in [
+            ("[merge]\ntau_merge = -0.5\n", "[merge] tau_merge = -0.5"),
+            ("[match]\ntau_match = nan\n", "[match] tau_match = NaN"),
+            ("[lift]\ntau_var = inf\n", "[lift] tau_var = inf"),
+            ("[train]\nbackground = [0.0, 2.0, 0.0]\n", "[train] background = 2"),
+            ("[train.joint]\nknn = 0\n", "[train.joint] knn = 0"),
+            ("[final_maps]\nrefine_window_px = 100000\n", "[final_maps] refine_window_px = 100000"),
+        ] {
+            let err = parse(text).expect_err(text).to_string();
+            assert!(
+                err.contains(key) && err.contains("out of range") && err.contains("test.toml"),
+                "{text}: {err}"
+            );
+        }
+        parse("[merge]\ntau_merge = 0.7\n[match]\ntau_match = -0.2\n").expect("in range");
     }
 
     #[test]

@@ -68,9 +68,7 @@ pub fn gaussians_path(scene_dir: &Path, explicit: Option<&Path>) -> Option<PathB
 /// warning, or refused with `--strict`).
 pub fn read_gaussians(path: &Path, strict: bool) -> crate::Result<PlyRows> {
     let rows = crate::ply_input::read_rows(path, "they are labelled -1 in gaussians.ply", strict)?;
-    if rows.gaussians.len() == rows.non_finite.len() {
-        bail!("the PLY holds no Gaussians with finite values: {}", path.display());
-    }
+    crate::ply_input::refuse_empty(rows.gaussians.len() - rows.non_finite.len(), path)?;
     Ok(rows)
 }
 

@@ -22,9 +22,15 @@
 //! OUT/metrics.json          the same as data
 //! OUT/cache/                per-stage results keyed by inputs + config (a rerun resumes)
 //! ```
+//!
+//! The outputs above the cache are written into `OUT/.staging/` and moved in together when all
+//! are complete, with `cache/run.json` (the manifest "up to date" checks) written last: a run
+//! killed at any moment leaves the earlier outputs or none that count as up to date, and the
+//! next run leaves no file of an earlier run it would not write (`commit.rs`).
 
 pub mod args;
 mod cache;
+mod commit;
 pub mod config;
 pub mod demo;
 pub mod digest;
@@ -170,6 +176,7 @@ struct RunCache {
 /// Runs the whole pipeline (see the module docs for the outputs).
 pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let _lock = lock::lock_output(&config.out, "run")?;
+    commit::remove_leftover_staging(&config.out)?;
     let mut profiler = Profiler::start("load inputs");
     let load = LoadOptions::default();
     let mut inputs = RunInputs::load(config, &load)?;
@@ -230,12 +237,15 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     profiler.next("outputs and eval");
     let results = run_outputs::StageResults { views: &views, matching: &matching, lifted };
     let ply_rows = inputs.ply_rows.take();
-    let written = run_outputs::write_outputs(config, &inputs, ply_rows, &load, results)?;
+    let staging = commit::Staging::begin(&config.out)?;
+    let written = run_outputs::write_outputs(config, staging.dir(), &inputs, ply_rows, &load, results)?;
     remove_spills(&cache_dir.join("views"))?;
     let summary = summary(config, &inputs, prepared.as_ref(), regions, &matching, written);
-    write_json(&config.out.join("metrics.json"), &summary)?;
-    outputs::write_report(&config.out, &inputs.scene, &summary)?;
-    write_json(&cache_dir.join("run.json"), &RunCache { key: run_key, summary: summary.clone() })?;
+    write_json(&staging.dir().join("metrics.json"), &summary)?;
+    outputs::write_report(staging.dir(), &inputs.scene, &summary)?;
+    let manifest = cache_dir.join("run.json");
+    staging.commit(&manifest)?;
+    write_json(&manifest, &RunCache { key: run_key, summary: summary.clone() })?;
     Ok(RunSummary { stages: profiler.finish(), ..summary })
 }
 

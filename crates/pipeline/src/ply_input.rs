@@ -22,5 +22,18 @@ pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<
 /// The finite Gaussians of the PLY at `path`, in file order (see [`read_rows`]); the skipped
 /// rows are left out of whatever the command writes.
 pub fn read_finite(path: &Path, strict: bool) -> crate::Result<Gaussians> {
-    Ok(read_rows(path, "they are left out", strict)?.into_finite())
+    let gaussians = read_rows(path, "they are left out", strict)?.into_finite();
+    refuse_empty(gaussians.len(), path)?;
+    Ok(gaussians)
+}
+
+/// An error when a PLY has no Gaussian to render or label (`finite`: its finite rows).
+pub fn refuse_empty(finite: usize, path: &Path) -> crate::Result<()> {
+    if finite == 0 {
+        crate::error::bail!(
+            "the PLY holds no Gaussians with finite values (nothing to render or label): {}",
+            path.display()
+        );
+    }
+    Ok(())
 }

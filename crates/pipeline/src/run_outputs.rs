@@ -40,10 +40,12 @@ pub struct Written {
 /// scores (with ground truth).
 type ViewOutputs = (Vec<u32>, Option<Vec<ViewCounts>>);
 
-/// Writes every view's maps and `gaussians.ply` (with Gaussians), and scores the stages (with
-/// ground truth). `ply_rows`: the input PLY's rows (taken out of `inputs`), moved into the PLY.
+/// Writes every view's maps and `gaussians.ply` (with Gaussians) into `dest` (the staging
+/// folder), and scores the stages (with ground truth). `ply_rows`: the input PLY's rows (taken
+/// out of `inputs`), moved into the PLY.
 pub fn write_outputs(
     config: &RunConfig,
+    dest: &std::path::Path,
     inputs: &RunInputs,
     ply_rows: Option<PlyRows>,
     load: &LoadOptions,
@@ -73,7 +75,7 @@ pub fn write_outputs(
     // copying bytes, on one thread).
     let write_ply = || -> crate::Result<()> {
         if let (Some(rows), Some(ids), Some(_), Some(p)) = (ply_rows, &row_ids, lifted, &inputs.ply_path) {
-            let out_ply = config.out.join("gaussians.ply");
+            let out_ply = dest.join("gaussians.ply");
             splatseg_lift::write_labelled_ply(&out_ply, rows, ids, fused)
                 .with_context(|| format!("writing the labelled Gaussians of {}", p.display()))?;
         }
@@ -103,7 +105,7 @@ pub fn write_outputs(
                     Some(d) => (Some(d.rgb), Some((d.raw, d.merged))),
                     None => (None, None),
                 };
-                outputs::write_view_maps(&config.out, scene, load, v, &final_map, rgb)?;
+                outputs::write_view_maps(dest, scene, load, v, &final_map, rgb)?;
                 let ids = distinct_ids(&final_map);
                 let counts = match &eval {
                     Some(e) => {

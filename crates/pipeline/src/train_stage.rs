@@ -210,6 +210,16 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> crate::Result<Inputs> {
             )
         }
     };
+    let c = &run.config;
+    if c.joint.enabled && gaussians.object_ids.is_some() && c.iterations <= c.densify.until {
+        tracing::warn!(
+            "the PLY carries object ids, but the joint stage starts after densification (iteration {}) \
+             and this run stops at {}: no joint optimisation runs and no label maps are written (raise \
+             --iterations or lower [train.densify] until in --config)",
+            c.densify.until,
+            c.iterations
+        );
+    }
     let mut views = views;
     if let Some(dir) = label_map_folder(run, &gaussians) {
         for view in &mut views {

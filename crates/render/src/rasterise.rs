@@ -91,6 +91,22 @@ pub(crate) struct PixelAlpha {
     clamped: bool,
 }
 
+/// [`RowTerms::lanes_avx2`]'s 8 lanes.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct AlphaLanes {
+    /// Mean − pixel centre, x.
+    pub(crate) dx: std::arch::x86_64::__m256,
+    /// σ.
+    pub(crate) sigma: std::arch::x86_64::__m256,
+    /// `exp(−σ)`.
+    pub(crate) vis: std::arch::x86_64::__m256,
+    /// `opacity · exp(−σ)` before the clamp.
+    pub(crate) raw: std::arch::x86_64::__m256,
+    /// `min(raw, alpha_max)`.
+    pub(crate) alpha: std::arch::x86_64::__m256,
+}
+
 /// Per-row constants of a splat: `σ(dx) = ½a·dx² + (b·dy)·dx + ½c·dy²`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RowTerms {
@@ -132,6 +148,38 @@ impl RowTerms {
         keep
     }
 
+    /// The arithmetic of [`Self::alpha`] on the 8 pixel columns `first_column + lane` with AVX2
+    /// intrinsics: the same operations in the same order on every lane (no fused multiply-adds),
+    /// so the same bits. The one home of the lane arithmetic of every AVX2 kernel.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn lanes_avx2(&self, first_column: usize, opacity: f32, alpha_max: f32) -> AlphaLanes {
+        use std::arch::x86_64::*;
+        let set = _mm256_set1_ps;
+        // `(first_column + lane) as i32 as f32` is the same correctly rounded integer as `px as f32`.
+        let columns = _mm256_add_epi32(
+            _mm256_set1_epi32(first_column as i32),
+            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+        );
+        let dx = _mm256_sub_ps(set(self.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
+        let sigma = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(_mm256_mul_ps(set(self.half_a), dx), dx),
+                _mm256_mul_ps(set(self.b_dy), dx),
+            ),
+            set(self.half_c_dy2),
+        );
+        let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
+        let raw = _mm256_mul_ps(set(opacity), vis);
+        // `f32::min`: the other operand where `raw` is NaN, as `min_ps(raw, max)` gives.
+        let alpha = _mm256_min_ps(raw, set(alpha_max));
+        AlphaLanes { dx, sigma, vis, raw, alpha }
+    }
+
     /// [`Self::alphas_row`] with AVX2 intrinsics, 8 columns at a time from `first` (one step
     /// when `end − first ≤ 8`, else two; the extra columns are computed too): the same operations
     /// in the same order on every lane (no fused multiply-adds), so the same bits.
@@ -156,23 +204,7 @@ impl RowTerms {
         let steps = if end - first <= 8 { 1 } else { 2 };
         for step in 0..steps {
             let k = first + 8 * step;
-            // `(x0 + k) as i32 as f32` is the same correctly rounded integer as `px as f32`.
-            let columns = _mm256_add_epi32(
-                _mm256_set1_epi32((x0 + k) as i32),
-                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-            );
-            let dx = _mm256_sub_ps(set(self.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
-            let sigma = _mm256_add_ps(
-                _mm256_add_ps(
-                    _mm256_mul_ps(_mm256_mul_ps(set(self.half_a), dx), dx),
-                    _mm256_mul_ps(set(self.b_dy), dx),
-                ),
-                set(self.half_c_dy2),
-            );
-            let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
-            let raw = _mm256_mul_ps(set(opacity), vis);
-            // `f32::min`: the other operand where `raw` is NaN, as `min_ps(raw, max)` gives.
-            let alpha = _mm256_min_ps(raw, set(settings.alpha_max));
+            let AlphaLanes { sigma, alpha, .. } = self.lanes_avx2(x0 + k, opacity, settings.alpha_max);
             _mm256_storeu_ps(out.as_mut_ptr().add(k), alpha);
             let skip = _mm256_or_ps(
                 _mm256_cmp_ps::<_CMP_LT_OQ>(sigma, _mm256_setzero_ps()),
@@ -462,19 +494,8 @@ unsafe fn blend_row_avx2(
         let walked_ptr = st.walked.as_mut_ptr().add(i) as *mut i32;
         let best_w_ptr = st.best_w.as_mut_ptr().add(i);
         let best_id_ptr = st.best_id.as_mut_ptr().add(i);
-        // `(px0 + step + lane) as f32` is the portable loop's `centre − 0.5` (exact integers).
-        let columns = _mm256_add_epi32(_mm256_set1_epi32((px0 + step) as i32), lane);
-        let dx = _mm256_sub_ps(set(row.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
-        let sigma = _mm256_add_ps(
-            _mm256_add_ps(
-                _mm256_mul_ps(_mm256_mul_ps(set(row.half_a), dx), dx),
-                _mm256_mul_ps(set(row.b_dy), dx),
-            ),
-            set(row.half_c_dy2),
-        );
-        let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
-        // `f32::min` gives `alpha_max` where the product is NaN, as `min_ps(product, max)` does.
-        let alpha = _mm256_min_ps(_mm256_mul_ps(set(opacity), vis), set(settings.alpha_max));
+        // Column `px0 + step + lane` is the portable loop's `centre − 0.5` (exact integers).
+        let AlphaLanes { sigma, alpha, .. } = row.lanes_avx2(px0 + step, opacity, settings.alpha_max);
         let t = _mm256_maskload_ps(t_ptr, valid);
         let next_t = _mm256_mul_ps(t, _mm256_sub_ps(set(1.0), alpha));
         let not_done = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
@@ -868,18 +889,8 @@ unsafe fn bwd_row_avx2<const C: usize>(
         // Pixels that blended this splat: `k < walked` (walks are below 2³¹).
         let walked = _mm256_maskload_epi32(st.walked.as_ptr().add(i) as *const i32, valid);
         let in_walk = _mm256_cmpgt_epi32(walked, _mm256_set1_epi32(k as i32));
-        let columns = _mm256_add_epi32(_mm256_set1_epi32((px0 + step) as i32), lane);
-        let dx = _mm256_sub_ps(set(row.mx), _mm256_add_ps(_mm256_cvtepi32_ps(columns), set(0.5)));
-        let sigma = _mm256_add_ps(
-            _mm256_add_ps(
-                _mm256_mul_ps(_mm256_mul_ps(set(row.half_a), dx), dx),
-                _mm256_mul_ps(set(row.b_dy), dx),
-            ),
-            set(row.half_c_dy2),
-        );
-        let vis = fast_exp_avx2(_mm256_xor_ps(sigma, set(-0.0)));
-        let raw = _mm256_mul_ps(set(s.opacity), vis);
-        let alpha = _mm256_min_ps(raw, set(settings.alpha_max));
+        let AlphaLanes { dx, sigma, vis, raw, alpha } =
+            row.lanes_avx2(px0 + step, s.opacity, settings.alpha_max);
         // `RowTerms::alpha` skips `σ < 0 || α < alpha_min` (so NaN σ is not skipped there).
         let keep = _mm256_and_ps(
             _mm256_and_ps(_mm256_castsi256_ps(valid), _mm256_castsi256_ps(in_walk)),

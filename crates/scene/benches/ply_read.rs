@@ -1,7 +1,7 @@
 //! PLY read/write speed on a 1M-Gaussian, SH-degree-3 file (62 floats per Gaussian, the INRIA
 //! layout) generated in a temporary folder. Target: read under 1 s.
 //!
-//! `cargo bench -p splatseg-scene --bench ply_read`
+//! `cargo bench -p splatseg-scene --features bench --bench ply_read`
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};

@@ -1,7 +1,7 @@
 //! COCO RLE speed on a 1-megapixel (1000×1000) mask with a few hundred runs per column.
 //! Target: encode and decode well under 10 ms.
 //!
-//! `cargo bench -p splatseg-scene --bench rle_codec`
+//! `cargo bench -p splatseg-scene --features bench --bench rle_codec`
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use splatseg_scene::rle::Rle;

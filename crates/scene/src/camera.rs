@@ -221,6 +221,21 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// Why these intrinsics cannot project anything, if so: a zero width or height, a focal
+    /// length that is not a positive finite number, a non-finite principal point or distortion.
+    pub fn defect(&self) -> Option<String> {
+        let d = self.distortion;
+        if self.width == 0 || self.height == 0 {
+            Some(format!("image size {}×{} has no pixels", self.width, self.height))
+        } else if !(self.fx.is_finite() && self.fy.is_finite() && self.fx > 0.0 && self.fy > 0.0) {
+            Some(format!("focal lengths fx {}, fy {} must be positive pixels", self.fx, self.fy))
+        } else if ![self.cx, self.cy, d.k1, d.k2, d.p1, d.p2].iter().all(|v| v.is_finite()) {
+            Some(format!("the principal point ({}, {}) or the distortion is not finite", self.cx, self.cy))
+        } else {
+            None
+        }
+    }
+
     /// A distortion-free pinhole camera.
     pub fn pinhole(id: u32, width: u32, height: u32, fx: f64, fy: f64, cx: f64, cy: f64) -> Self {
         Camera {

@@ -15,11 +15,14 @@ const EXTENSIONS: [&str; 6] = ["png", "jpg", "jpeg", "PNG", "JPG", "JPEG"];
 /// Validates `options.resolution` and returns it. `root` is named in the error.
 pub(crate) fn check_resolution(options: &LoadOptions, root: &Path) -> SceneResult<u32> {
     match options.resolution {
-        0 => Err(SceneError::Unsupported {
-            what: "resolution factor 0 (use 1, 2, 4 or 8)".into(),
+        f @ (1 | 2 | 4 | 8) => Ok(f),
+        f => Err(SceneError::Unsupported {
+            what: format!(
+                "resolution {f}: the down-scaling factor must be 1, 2, 4 or 8 (3DGS reads other values \
+                 of --resolution as a target width; resize the images yourself for other sizes)"
+            ),
             path: root.to_path_buf(),
         }),
-        f => Ok(f),
     }
 }
 

@@ -263,12 +263,8 @@ impl Builder<'_> {
             cy: intr.cy.unwrap_or(height as f64 / 2.0),
             distortion,
         };
-        let finite = [camera.fx, camera.fy, camera.cx, camera.cy].iter().all(|v| v.is_finite());
-        if !finite || camera.fx <= 0.0 || camera.fy <= 0.0 {
-            return Err(self.invalid(format!(
-                "{what}: invalid intrinsics (fx {}, fy {}, cx {}, cy {})",
-                camera.fx, camera.fy, camera.cx, camera.cy
-            )));
+        if let Some(why) = camera.defect() {
+            return Err(self.invalid(format!("{what}: invalid intrinsics: {why}")));
         }
         Ok(camera)
     }

@@ -99,6 +99,12 @@ fn malformed_headers_are_rejected() {
     assert_has(&read_error(dir.path(), "count.ply", &count), &["invalid count '-3'"]);
     let dup = with_head(head.replace("property float x\n", "property float x\nproperty float x\n"));
     assert_has(&read_error(dir.path(), "dup.ply", &dup), &["'x' appears twice"]);
+    // Same row size, another convention: opacity 0–255 as uchar (plus 3 bytes of padding).
+    let uchar = with_head(head.replace(
+        "property float opacity\n",
+        "property uchar opacity\nproperty uchar pad_0\nproperty uchar pad_1\nproperty uchar pad_2\n",
+    ));
+    assert_has(&read_error(dir.path(), "uchar.ply", &uchar), &["'opacity' is uchar", "stores it as float"]);
     let no_vertex = with_head(head.replace("element vertex", "element point"));
     assert_has(&read_error(dir.path(), "novertex.ply", &no_vertex), &["no 'vertex' element"]);
     let face = with_head(

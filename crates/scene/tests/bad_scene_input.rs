@@ -136,9 +136,39 @@ fn inconsistent_models_are_rejected_when_building_the_scene() {
     let err = load_scene(root.path(), &LoadOptions::default()).expect_err("no image exists");
     assert!(matches!(err, SceneError::Missing { .. }), "{err}");
     assert_message(&err, &["none of the 1 images", "nowhere.png"]);
+    write_scene(root.path());
+    let cameras_txt = root.path().join("sparse/0/cameras.txt");
+    let cameras = std::fs::read_to_string(&cameras_txt).expect("read");
+    for (bad, needles) in [
+        ("1 PINHOLE 100 80 0 0 50 40", &["camera 1", "fx 0, fy 0", "cameras.txt"][..]),
+        ("1 PINHOLE 100 80 100 nan 50 40", &["camera 1", "non-finite", "cameras.txt"][..]),
+        ("1 PINHOLE 0 80 100 100 50 40", &["camera 1", "0x80", "cameras.txt"][..]),
+    ] {
+        std::fs::write(&cameras_txt, cameras.replace("1 PINHOLE 100 80 100 100 50 40", bad)).expect("write");
+        let err = load_scene(root.path(), &LoadOptions::default()).expect_err(bad);
+        assert_message(&err, needles);
+    }
+    std::fs::write(&cameras_txt, &cameras).expect("write");
+    std::fs::write(&images_txt, "1 1 0 0 0 0 0 5 1 a_front.png\n\n1 1 0 0 0 0 0 5 1 b_side.png\n\n")
+        .expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("image id 1 twice");
+    assert_message(&err, &["image id 1 appears twice", "a_front.png", "b_side.png", "images.txt"]);
+    std::fs::write(&images_txt, "# no images\n").expect("write");
+    let err = load_scene(root.path(), &LoadOptions::default()).expect_err("no images");
+    assert_message(&err, &["lists no images", "images.txt"]);
     let zero = LoadOptions { resolution: 0, ..LoadOptions::default() };
     write_scene(root.path());
-    assert_message(&load_scene(root.path(), &zero).expect_err("resolution 0"), &["resolution factor 0"]);
+    assert_message(
+        &load_scene(root.path(), &zero).expect_err("resolution 0"),
+        &["resolution 0", "1, 2, 4 or 8"],
+    );
+    for factor in [3, 16, 1600] {
+        let odd = LoadOptions { resolution: factor, ..LoadOptions::default() };
+        let err = load_scene(root.path(), &odd).expect_err("a factor 3DGS does not take");
+        assert_message(&err, &[&format!("resolution {factor}"), "1, 2, 4 or 8", "target width"]);
+    }
+    let two = LoadOptions { resolution: 2, ..LoadOptions::default() };
+    load_scene(root.path(), &two).expect("factor 2 loads");
 }
 
 #[test]

@@ -62,7 +62,7 @@ pub struct MergeArgs {
     pub out: PathBuf,
     /// Shard `K/N` (0 ≤ K < N) of `run`'s merge stage: only the views `v` with `v mod N = K`, into
     /// OUT/cache/merge for a later `splatseg run --out OUT` (e.g. `--shard $SLURM_ARRAY_TASK_ID/8`).
-    #[cfg_attr(feature = "cli", arg(long))]
+    #[cfg_attr(feature = "cli", arg(long, allow_hyphen_values = true))]
     pub shard: Option<Shard>,
 }
 

@@ -82,13 +82,38 @@ fn model_to_scene(
     options: &LoadOptions,
 ) -> SceneResult<Scene> {
     let factor = check_resolution(options, images_dir)?;
+    let cameras_file = images_file.with_file_name(match format {
+        SceneFormat::ColmapBinary => "cameras.bin",
+        _ => "cameras.txt",
+    });
     let mut cameras_by_id = BTreeMap::new();
     for camera in &model.cameras {
-        if cameras_by_id.insert(camera.id, camera.to_camera()).is_some() {
+        let full = camera.to_camera();
+        if let Some(why) = full.defect() {
             return Err(SceneError::invalid(
                 "COLMAP cameras",
-                images_file,
+                &cameras_file,
+                format!("camera {}: {why}", camera.id),
+            ));
+        }
+        if cameras_by_id.insert(camera.id, full).is_some() {
+            return Err(SceneError::invalid(
+                "COLMAP cameras",
+                &cameras_file,
                 format!("camera id {} appears twice", camera.id),
+            ));
+        }
+    }
+    if model.images.is_empty() {
+        return Err(SceneError::invalid("COLMAP images", images_file, "the model lists no images"));
+    }
+    let mut seen_ids = BTreeMap::new();
+    for image in &model.images {
+        if let Some(first) = seen_ids.insert(image.id, image.name.as_str()) {
+            return Err(SceneError::invalid(
+                "COLMAP images",
+                images_file,
+                format!("image id {} appears twice ({first} and {})", image.id, image.name),
             ));
         }
     }

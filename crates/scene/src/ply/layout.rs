@@ -162,7 +162,25 @@ impl VertexLayout {
         for p in props {
             let source = Source { offset, ty: p.ty };
             offset += p.ty.size();
-            match role_of(&p.name) {
+            let role = role_of(&p.name);
+            let stored_as_float = matches!(
+                role,
+                Role::Mean(_)
+                    | Role::ShDc(_)
+                    | Role::ShRest(_)
+                    | Role::Opacity
+                    | Role::Scale(_)
+                    | Role::Rotation(_)
+                    | Role::Feature(_)
+            );
+            if stored_as_float && !matches!(p.ty, ScalarType::F32 | ScalarType::F64) {
+                return Err(format!(
+                    "property '{}' is {}, but a 3D Gaussian Splatting PLY stores it as float (opacity as \
+                     a logit, scales as logs): this file follows another convention",
+                    p.name, p.type_name
+                ));
+            }
+            match role {
                 Role::Mean(k) => means[k] = Some(source),
                 Role::Normal(k) => normals[k] = Some(source),
                 Role::ShDc(k) => sh_dc[k] = Some(source),

@@ -1,0 +1,127 @@
+//! `run`'s outputs committed as a whole. They are written into `OUT/.staging/` and moved in by
+//! renames, in a fixed order, once all of them are complete; the manifest (`cache/run.json`: the
+//! digest of the inputs and settings that made them) is removed before the first rename and
+//! written after the last, and "up to date" needs it. So a run killed at any moment leaves
+//! either the earlier outputs with their manifest, or outputs without a manifest that the next
+//! run replaces; never a mixture called up to date. Outputs of an earlier run that this run
+//! does not write (the label map of a view the scene no longer has, a `gaussians.ply` of a run
+//! with Gaussians) are removed, and a killed run's staging folder with its temporary files is
+//! removed by the next run.
+
+use crate::error::Context;
+use std::path::{Path, PathBuf};
+
+/// Name of the staging folder inside `OUT`.
+pub const STAGING: &str = ".staging";
+
+/// Everything `run` writes besides its cache, in the order it is moved in.
+pub const OUTPUTS: [&str; 5] = ["masks", "overlays", "gaussians.ply", "metrics.json", "report.md"];
+
+/// An empty staging folder for one run's outputs.
+#[derive(Debug)]
+pub struct Staging {
+    out: PathBuf,
+    dir: PathBuf,
+}
+
+impl Staging {
+    /// Empties `OUT/.staging/` (what a killed run left there included).
+    pub fn begin(out: &Path) -> crate::Result<Self> {
+        let dir = out.join(STAGING);
+        remove_path(&dir)?;
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        Ok(Staging { out: out.to_path_buf(), dir })
+    }
+
+    /// Where the outputs are written before the commit.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Removes `manifest`, then replaces each of [`OUTPUTS`] in `OUT` by the staged one (or
+    /// removes it when this run did not write it), then removes the staging folder. The caller
+    /// writes the new manifest afterwards.
+    pub fn commit(self, manifest: &Path) -> crate::Result<()> {
+        remove_path(manifest)?;
+        for name in OUTPUTS {
+            let (staged, target) = (self.dir.join(name), self.out.join(name));
+            remove_path(&target)?;
+            if staged.exists() {
+                std::fs::rename(&staged, &target)
+                    .with_context(|| format!("moving {} to {}", staged.display(), target.display()))?;
+            }
+        }
+        remove_path(&self.dir)
+    }
+}
+
+/// Removes the staging folder an interrupted run left (its temporary files included; the
+/// output lock removes the others, `lock.rs`), also when the outputs turn out to be up to date.
+pub fn remove_leftover_staging(out: &Path) -> crate::Result<()> {
+    remove_path(&out.join(STAGING))
+}
+
+/// Removes a file or a folder with its contents; nothing to do when it does not exist.
+fn remove_path(path: &Path) -> crate::Result<()> {
+    let removed = match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => Err(e),
+        Ok(meta) if meta.is_dir() => std::fs::remove_dir_all(path),
+        Ok(_) => std::fs::remove_file(path),
+    };
+    removed.with_context(|| format!("removing the earlier output {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commit_replaces_every_output_and_removes_the_ones_not_written() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let out = tmp.path();
+        for (path, text) in [
+            ("masks/a.png", "old a"),
+            ("masks/stale.png", "old stale"),
+            ("gaussians.ply", "old ply"),
+            ("report.md", "old report"),
+            ("cache/run.json", "old manifest"),
+            ("notes.txt", "the user's"),
+            (".staging/masks/.tmp123", "a killed run's temp file"),
+        ] {
+            let p = out.join(path);
+            std::fs::create_dir_all(p.parent().expect("parent")).expect("mkdir");
+            std::fs::write(p, text).expect("write");
+        }
+        let staging = Staging::begin(out).expect("begin");
+        assert!(!staging.dir().join("masks").exists(), "begin empties the staging folder");
+        for (path, text) in [("masks/a.png", "new a"), ("report.md", "new report"), ("metrics.json", "{}")] {
+            let p = staging.dir().join(path);
+            std::fs::create_dir_all(p.parent().expect("parent")).expect("mkdir");
+            std::fs::write(p, text).expect("write");
+        }
+        let untouched = std::fs::read_to_string(out.join("masks/a.png")).expect("read");
+        assert_eq!(untouched, "old a", "nothing in OUT changes before the commit");
+        staging.commit(&out.join("cache/run.json")).expect("commit");
+        let read = |p: &str| std::fs::read_to_string(out.join(p)).ok();
+        assert_eq!(read("masks/a.png").as_deref(), Some("new a"));
+        assert_eq!(read("masks/stale.png"), None, "a map this run did not write is gone");
+        assert_eq!(read("gaussians.ply"), None, "a PLY this run did not write is gone");
+        assert_eq!(read("report.md").as_deref(), Some("new report"));
+        assert_eq!(read("metrics.json").as_deref(), Some("{}"));
+        assert_eq!(read("cache/run.json"), None, "the caller writes the new manifest");
+        assert_eq!(read("notes.txt").as_deref(), Some("the user's"), "other files are kept");
+        assert!(!out.join(STAGING).exists());
+    }
+
+    #[test]
+    fn a_leftover_staging_folder_is_removed() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let staged = tmp.path().join(STAGING).join("masks/.tmpAbC");
+        std::fs::create_dir_all(staged.parent().expect("parent")).expect("mkdir");
+        std::fs::write(&staged, "x").expect("write");
+        remove_leftover_staging(tmp.path()).expect("remove");
+        assert!(!tmp.path().join(STAGING).exists());
+        remove_leftover_staging(tmp.path()).expect("nothing to remove is fine");
+    }
+}
