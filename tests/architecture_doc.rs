@@ -66,11 +66,11 @@ fn a_document_without_the_block_or_with_a_malformed_line_is_refused() {
     assert!(documented_graph(&twice).is_err());
 }
 
-fn read(path: &Path) -> String {
+pub(crate) fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
 }
 
-fn parse_toml(path: &Path) -> toml::Table {
+pub(crate) fn parse_toml(path: &Path) -> toml::Table {
     read(path).parse().unwrap_or_else(|e| panic!("cannot parse {}: {e}", path.display()))
 }
 

@@ -5,7 +5,7 @@
 //!
 //! CI runs until 3 kills per command have landed while the command ran (kills that come after it
 //! finished are retried, and counted apart). The harness mode asks for more and prints a table:
-//! `SPLATSEG_KILLS=20 cargo test --release --test kill_harness -- --nocapture`.
+//! `SPLATSEG_KILLS=20 cargo test --release --test integration kill_harness -- --nocapture`.
 #![cfg(unix)]
 
 use std::path::{Path, PathBuf};

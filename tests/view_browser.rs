@@ -9,7 +9,7 @@
 //! - the exported selection is byte-identical to `splatseg extract --ids …`.
 //!
 //! Skips (with a message) only when Chromium or chromedriver is not installed; `.ci/run` installs
-//! both. `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test view_browser` also writes the
+//! both. `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test integration view_browser` also writes the
 //! README's screenshot, `docs/viewer.png`.
 
 use splatseg_scene::Plane;

@@ -1,8 +1,7 @@
 //! Majority vote, fusion, variance filter, render-back, renumbering, and the whole stage
 //! ([`LiftStage::run`]) on an in-memory [`ViewStore`].
 
-mod common;
-use common::{camera, gaussians, look_at, sphere};
+use crate::common::{camera, gaussians, look_at, sphere};
 use glam::DVec3;
 use splatseg_lift::{
     render_label_map, render_votes, renumber, view_visibility, FinalMaps, GaussianStatus, LiftConfig,

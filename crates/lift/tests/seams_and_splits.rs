@@ -1,8 +1,7 @@
 //! Objects joined where one surface continues across a smooth seam, and objects split where
 //! their Gaussians lie apart in 3D.
 
-mod common;
-use common::{gaussians, lifted};
+use crate::common::{gaussians, lifted};
 use splatseg_lift::{
     join_touching_objects, split_disconnected_objects, Facing, LiftConfig, Lifted, ObjectFeatures,
     PreparedGaussians, ViewCounts,

@@ -1,7 +1,6 @@
 //! Joining touching look-alike objects.
 
-mod common;
-use common::{gaussians, lifted};
+use crate::common::{gaussians, lifted};
 use splatseg_lift::{
     join_touching_objects, Facing, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians, ViewCounts,
 };

@@ -1,7 +1,6 @@
 //! Visibility: the depth test against composited footprints.
 
-mod common;
-use common::{camera, gaussians, look_at};
+use crate::common::{camera, gaussians, look_at};
 use glam::DVec3;
 use splatseg_lift::{view_visibility, LiftConfig, PreparedGaussians};
 use splatseg_scene::Pose;

@@ -4,9 +4,7 @@
 //! reaches ~80, and float32 rounding alone (PyTorch's own f32 run) moves it by ~3e-4, so the
 //! tolerance is |ours − reference| ≤ 2e-5·max|reference| + 1e-4·|reference|.
 
-mod common;
-
-use common::{assert_close, fixture, read_io};
+use crate::common::{assert_close, fixture, read_io};
 use splatseg_models::depth_anything::{model_input_size, normalise_inverse_depth, DepthAnything};
 
 #[test]

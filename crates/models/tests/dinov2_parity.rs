@@ -2,9 +2,7 @@
 //!
 //! Tolerance: |ours − reference| ≤ 1e-4 + 1e-4·|reference| (both sides f32; observed max ≈ 1e-6).
 
-mod common;
-
-use common::{assert_close, fixture, read_io};
+use crate::common::{assert_close, fixture, read_io};
 use splatseg_models::dinov2::{Dinov2, Layout, PosEmbedResize};
 use splatseg_models::weights::Weights;
 use splatseg_models::ModelKind;

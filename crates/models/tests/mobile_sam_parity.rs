@@ -7,9 +7,7 @@
 //! logits ≤ 1e-3 + 1e-4·|reference| (the decoder's ×100 hypernetwork scale amplifies rounding), IoU
 //! predictions ≤ 1e-4 + 1e-4·|reference|.
 
-mod common;
-
-use common::{assert_close, fixture, read_io};
+use crate::common::{assert_close, fixture, read_io};
 use splatseg_models::sam::{ImageEncoder, Sam};
 
 fn load() -> Sam {

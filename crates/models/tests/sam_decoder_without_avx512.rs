@@ -5,23 +5,30 @@
 //! predictions within 1e-4 (relative to max(1, |value|)), as `sam_shared_decoder.rs` checks for the
 //! default path.
 
-mod common;
-
-use common::{check_shared_decoder_over_tiles, fixture, random, worst_difference};
+use crate::common::{check_shared_decoder_over_tiles, fixture, random, worst_difference};
 use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
 use splatseg_models::skinny::{has_avx512, DISABLE_AVX512_ENV};
 use splatseg_models::weights::Weights;
 use splatseg_models::ModelKind;
 
-const TEST_NAME: &str = "gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder";
+/// This test's name as the test binary knows it: its module path without the binary's name.
+fn test_name() -> String {
+    let module = module_path!().split_once("::").map_or("", |(_, rest)| rest);
+    let test = "gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder";
+    if module.is_empty() {
+        test.to_string()
+    } else {
+        format!("{module}::{test}")
+    }
+}
 
 #[test]
 fn gemm_paths_of_the_shared_decoder_match_the_per_prompt_decoder() {
     if std::env::var_os(DISABLE_AVX512_ENV).is_none() {
         let exe = std::env::current_exe().expect("the test binary's path");
         let output = std::process::Command::new(exe)
-            .args(["--exact", TEST_NAME, "--nocapture", "--test-threads", "1"])
+            .args(["--exact", &test_name(), "--nocapture", "--test-threads", "1"])
             .env(DISABLE_AVX512_ENV, "1")
             .output()
             .expect("run this test again with the AVX-512 kernels off");

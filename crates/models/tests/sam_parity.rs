@@ -4,9 +4,7 @@
 //! Tolerances: image embedding and low-res logits |ours − reference| ≤ 1e-4 + 1e-4·|reference|
 //! (f32 both sides); automatic masks matched one-to-one with IoU ≥ 0.98.
 
-mod common;
-
-use common::{assert_close, fixture, read_io};
+use crate::common::{assert_close, fixture, read_io};
 use splatseg_models::sam::{generate_masks, AmgConfig, Sam};
 use splatseg_scene::rle::Rle;
 

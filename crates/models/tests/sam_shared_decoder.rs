@@ -3,10 +3,8 @@
 //! automatic mask generator keeps exactly the same masks (stability scores equal up to one pixel of
 //! each count flipping by rounding).
 
-mod common;
-
+use crate::common::{check_shared_decoder_over_tiles, fixture, random, read_io, worst_difference};
 use candle_core::DType;
-use common::{check_shared_decoder_over_tiles, fixture, random, read_io, worst_difference};
 use rand::SeedableRng;
 use splatseg_models::sam::mask_decoder::MaskDecoder;
 use splatseg_models::sam::{generate_masks_using, AmgConfig, DecoderPath, Sam};

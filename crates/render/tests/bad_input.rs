@@ -1,8 +1,6 @@
 //! Bad input gives clear errors, never panics; extreme but finite values render finite images.
 
-mod common;
-
-use common::{random_gaussians, test_camera};
+use crate::common::{random_gaussians, test_camera};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use splatseg_render::{render, render_bwd, render_with_state, OutputGrads, RenderError, RenderRequest};

@@ -1,9 +1,7 @@
 //! Outputs and gradients are bit-identical on 1 and 2 threads (per-pixel work is independent and
 //! per-Gaussian sums are combined in a fixed order).
 
-mod common;
-
-use common::{random_gaussians, test_camera};
+use crate::common::{random_gaussians, test_camera};
 use splatseg_render::{
     render_bwd, render_with_state, FeatureInput, GaussianGrads, OutputGrads, RenderOutput, RenderRequest,
 };

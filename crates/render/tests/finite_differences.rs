@@ -7,9 +7,7 @@
 //! Two scenes: every output with 2 feature channels, and 16 feature channels alone (the identity
 //! maps of the joint stage), whose loss reaches opacity, means, scales and rotations only through α.
 
-mod common;
-
-use common::{random_gaussians, test_camera};
+use crate::common::{random_gaussians, test_camera};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use splatseg_render::{

@@ -1,9 +1,7 @@
 //! Proof that the gradients train: from perturbed Gaussians, 200 Adam steps on an L1 image loss
 //! bring a rendered 64×64 target back to PSNR ≥ 30 dB.
 
-mod common;
-
-use common::{random_gaussians, test_camera};
+use crate::common::{random_gaussians, test_camera};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use splatseg_render::{render, render_bwd, render_with_state, OutputGrads, RenderCamera, RenderRequest};

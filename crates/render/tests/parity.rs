@@ -7,9 +7,7 @@
 //! reference we follow on purpose: none in the math; the reference's per-pixel enumeration replaces
 //! gsplat's CUDA-only `rasterize_to_indices_in_range` with the same rules.
 
-mod common;
-
-use common::{assert_close, Fixture};
+use crate::common::{assert_close, Fixture};
 use splatseg_render::project::project;
 use splatseg_render::{
     render_bwd, render_with_state, FeatureInput, OutputGrads, RasterSettings, RenderCamera, RenderRequest,

@@ -1,8 +1,6 @@
 //! Bad scene input: every case is a clear error naming the file and the problem, never a panic.
 
-mod colmap_fixture;
-
-use colmap_fixture::{write_png, write_scene, write_text_model};
+use crate::colmap_fixture::{write_png, write_scene, write_text_model};
 use splatseg_scene::colmap::{read_model_binary, read_model_text, write_model_binary};
 use splatseg_scene::load::{load_image_rgb, LoadOptions};
 use splatseg_scene::npy::{read_npy, read_npz};

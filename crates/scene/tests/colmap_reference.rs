@@ -2,9 +2,7 @@
 //! 4.2.1, `tools/fixtures/colmap_pycolmap.py`) reads to the same model, and our binary writer
 //! reproduces COLMAP's files byte for byte.
 
-mod colmap_fixture;
-
-use colmap_fixture::write_text_model;
+use crate::colmap_fixture::write_text_model;
 use splatseg_scene::colmap::{read_model_binary, read_model_text, write_model_binary, ColmapModel};
 use std::path::PathBuf;
 

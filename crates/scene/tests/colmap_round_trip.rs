@@ -1,9 +1,7 @@
 //! COLMAP models: parsing (text and binary), byte-exact text ↔ binary round trips, the
 //! cam_from_world → world_from_cam inversion, image lookup and resolution handling.
 
-mod colmap_fixture;
-
-use colmap_fixture::{write_png, write_scene, write_text_model};
+use crate::colmap_fixture::{write_png, write_scene, write_text_model};
 use glam::{DVec2, DVec3};
 use splatseg_scene::colmap::{
     read_colmap, read_model, read_model_binary, read_model_text, write_colmap_binary, write_colmap_text,

@@ -2,7 +2,7 @@
 //! that size is allocated, `area` / `bbox` are recomputed from the masks (one warning per
 //! file), and COLMAP keypoints follow the cameras to `--resolution N`.
 
-mod colmap_fixture;
+use crate::colmap_fixture;
 
 use glam::DVec2;
 use splatseg_scene::image_io::write_png_luma8;

@@ -4,7 +4,7 @@
 //! reaches its rim, so the 3D terms keep it wrong; the cross-entropy of the rendered identity maps
 //! against the label maps pulls it back.
 
-mod common;
+use crate::common;
 
 use splatseg_synth::{generate, SynthConfig, SynthScene};
 use splatseg_train::{train, ReadBack, TrainConfig, TrainView, Trained};

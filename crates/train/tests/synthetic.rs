@@ -1,7 +1,7 @@
 //! Training on the synthetic scene (ground truth known): the photometric stage recovers appearance
 //! that was wiped, and the joint stage turns noisy, partly missing lifted ids into a cleaner labelling.
 
-mod common;
+use crate::common;
 
 use splatseg_synth::{generate, SynthConfig, SynthScene};
 use splatseg_train::{evaluate_views, train, TrainConfig, TrainView};
