@@ -1,7 +1,8 @@
 //! `splatseg view`'s server against hostile clients (issue 28): a `Content-Length` far over the
 //! limit is refused and the server keeps answering; a foreign `Host` (DNS rebinding) gets 403; an
 //! export without the page's token or from another origin gets 403 and writes nothing, while the
-//! page's own export (token from the served page, its `Origin`) works.
+//! page's own export (token from the served page, its `Origin`) works; connections that send
+//! nothing (browsers open them ahead of need) do not keep a request waiting.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::Path;
@@ -163,4 +164,31 @@ fn exports_need_the_pages_token_and_origin() {
     assert_eq!(status, 200, "{answer}");
     let written = splatseg_scene::ply::read_ply(&out.join("extract_1.ply")).expect("the export");
     assert_eq!(written.len(), 2);
+}
+
+#[test]
+fn idle_connections_do_not_keep_a_request_waiting() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let ply = tmp.path().join("labelled.ply");
+    labelled_ply(&ply);
+    let server = serve(&ply, &tmp.path().join("exports"));
+    let addr = &server.addr;
+    // Browsers open connections before they need them; these send nothing for the whole test.
+    let idle: Vec<std::net::TcpStream> =
+        (0..16).map(|_| std::net::TcpStream::connect(addr).expect("connect")).collect();
+    // Answered at once: a server with a thread per idle connection's time would make this wait
+    // until the idle ones time out (30 s), past this read timeout.
+    let mut stream = std::net::TcpStream::connect(addr).expect("connect");
+    stream.set_read_timeout(Some(Duration::from_secs(10))).expect("timeout");
+    stream
+        .write_all(format!("GET /api/scene.json HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes())
+        .expect("send");
+    let mut answer = Vec::new();
+    let read = stream.read_to_end(&mut answer);
+    let answer = String::from_utf8_lossy(&answer);
+    assert!(
+        read.is_ok() && answer.starts_with("HTTP/1.1 200"),
+        "with {} idle connections: {read:?} {answer}",
+        idle.len()
+    );
 }

@@ -198,11 +198,17 @@ export class SplatRenderer {
     gl.bindFramebuffer(gl.FRAMEBUFFER, this.pickTarget.fb);
     gl.viewport(0, 0, w, h);
     gl.disable(gl.BLEND);
+    // Only the clicked pixel is cleared and shaded: a whole id frame costs seconds where WebGL
+    // runs on the CPU (SwiftShader), one pixel nothing.
+    const [px0, py0] = [Math.floor(x), h - 1 - Math.floor(y)];
+    gl.enable(gl.SCISSOR_TEST);
+    gl.scissor(px0, py0, 1, 1);
     gl.clearColor(0, 0, 0, 0);
     gl.clear(gl.COLOR_BUFFER_BIT);
     this.drawSplats(camera, false, true);
+    gl.disable(gl.SCISSOR_TEST);
     const px = new Uint8Array(4);
-    gl.readPixels(Math.floor(x), h - 1 - Math.floor(y), 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    gl.readPixels(px0, py0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
     const id = px[0] | (px[1] << 8) | (px[2] << 16);
     return id - 1;

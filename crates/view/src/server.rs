@@ -1,5 +1,9 @@
-//! The HTTP server: a std `TcpListener` and a few threads, each taking one connection at a time
-//! and running [`exchange`] on it (one request per connection). Every read is bounded: a head
+//! The HTTP server: a std `TcpListener`, one thread accepting and one thread per connection
+//! (at most [`MAX_CONNECTIONS`] at once) running [`exchange`] on it (one request per
+//! connection). A connection that sends nothing holds only its own thread: browsers open
+//! connections ahead of need, and with a fixed pool of threads such idle sockets kept the page's
+//! real requests waiting until they timed out (the viewer took 30–60 s to show its first frame
+//! in headless Chromium). Every read is bounded: a head
 //! within [`crate::wire::MAX_HEAD_BYTES`], a body within [`crate::routes::MAX_BODY_BYTES`]
 //! whatever its `Content-Length` claims, and a connection gets [`CONNECTION_SECS`] in all.
 
@@ -9,13 +13,14 @@ use crate::routes::Site;
 use crate::wire::exchange;
 use std::io::{BufReader, BufWriter, Read};
 use std::net::{Ipv4Addr, Ipv6Addr, Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-/// Threads answering requests (the page fetches chunks while the strip loads images).
-const THREADS: usize = 8;
+/// Connections answered at once, each on its own thread; a further connection waits in the
+/// listener's backlog until one ends (each ends within [`CONNECTION_SECS`] and a second).
+pub const MAX_CONNECTIONS: usize = 64;
 
 /// Longest a connection may take to send its request, seconds.
 pub const CONNECTION_SECS: u64 = 30;
@@ -30,7 +35,7 @@ pub struct ViewServer {
     site: Arc<Site>,
     url: String,
     stopping: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<()>>,
+    acceptor: Option<JoinHandle<()>>,
 }
 
 impl ViewServer {
@@ -52,13 +57,11 @@ impl ViewServer {
         let url = format!("http://{url_host}:{}/", bound.port());
         let site = Arc::new(site);
         let stopping = Arc::new(AtomicBool::new(false));
-        let mut threads = Vec::with_capacity(THREADS);
-        for _ in 0..THREADS {
-            let listener = listener.try_clone().map_err(|e| ViewError::bind(&addr, &e))?;
-            let (site, access, stopping) = (Arc::clone(&site), Arc::clone(&access), Arc::clone(&stopping));
-            threads.push(std::thread::spawn(move || accept_loop(&listener, &site, &access, &stopping)));
-        }
-        Ok(ViewServer { bound, site, url, stopping, threads })
+        let acceptor = {
+            let (site, stopping) = (Arc::clone(&site), Arc::clone(&stopping));
+            std::thread::spawn(move || accept_loop(&listener, &site, &access, &stopping))
+        };
+        Ok(ViewServer { bound, site, url, stopping, acceptor: Some(acceptor) })
     }
 
     /// The page's URL.
@@ -73,38 +76,62 @@ impl ViewServer {
 
     /// Blocks until the server stops (it does not on its own: the command runs until Ctrl-C).
     pub fn wait(mut self) {
-        for t in self.threads.drain(..) {
-            let _ = t.join();
+        if let Some(acceptor) = self.acceptor.take() {
+            let _ = acceptor.join();
         }
     }
 
-    /// Stops answering and joins the threads.
+    /// Stops accepting connections and joins the accepting thread; a connection being answered
+    /// finishes on its own thread (within [`CONNECTION_SECS`] and a second).
     pub fn stop(mut self) {
         self.stopping.store(true, Ordering::SeqCst);
         let mut wake = self.bound;
         if wake.ip().is_unspecified() {
             wake.set_ip(if wake.is_ipv4() { Ipv4Addr::LOCALHOST.into() } else { Ipv6Addr::LOCALHOST.into() });
         }
-        for _ in 0..self.threads.len() {
-            let _ = TcpStream::connect_timeout(&wake, Duration::from_secs(1));
-        }
-        for t in self.threads.drain(..) {
-            let _ = t.join();
+        let _ = TcpStream::connect_timeout(&wake, Duration::from_secs(1));
+        if let Some(acceptor) = self.acceptor.take() {
+            let _ = acceptor.join();
         }
     }
 }
 
-fn accept_loop(listener: &TcpListener, site: &Site, access: &Access, stopping: &AtomicBool) {
+fn accept_loop(listener: &TcpListener, site: &Arc<Site>, access: &Arc<Access>, stopping: &AtomicBool) {
+    let open = Arc::new(AtomicUsize::new(0));
     loop {
+        while open.load(Ordering::SeqCst) >= MAX_CONNECTIONS && !stopping.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
         let accepted = listener.accept();
         if stopping.load(Ordering::SeqCst) {
             return;
         }
         match accepted {
-            Ok((stream, _)) => serve_connection(stream, site, access),
+            Ok((stream, _)) => {
+                open.fetch_add(1, Ordering::SeqCst);
+                let slot = Slot(Arc::clone(&open));
+                let (site, access) = (Arc::clone(site), Arc::clone(access));
+                let spawned = std::thread::Builder::new().spawn(move || {
+                    let _slot = slot;
+                    serve_connection(stream, &site, &access);
+                });
+                // Out of threads: the connection is closed (its slot freed with the closure).
+                if spawned.is_err() {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+            }
             // e.g. out of file descriptors: wait instead of spinning
             Err(_) => std::thread::sleep(Duration::from_millis(50)),
         }
+    }
+}
+
+/// One of the [`MAX_CONNECTIONS`], given back when the connection's thread ends (or never starts).
+struct Slot(Arc<AtomicUsize>);
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
     }
 }
 
