@@ -4,6 +4,7 @@
 //! checks that none is left out).
 
 mod architecture_doc;
+mod bad_inputs;
 mod bench_scale;
 mod cli;
 mod cues_models;

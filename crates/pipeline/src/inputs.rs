@@ -64,10 +64,31 @@ pub fn gaussians_path(scene_dir: &Path, explicit: Option<&Path>) -> Option<PathB
     }
 }
 
+/// What `run` does with a PLY's non-finite rows.
+const NON_FINITE_CONSEQUENCE: &str = "they are labelled -1 in gaussians.ply";
+
+/// One sentence naming the views of `scene` without a masks file in `dir` (`has_masks`:
+/// `[n_views]`), or `None` when every view has one.
+fn missing_masks_warning(scene: &Scene, has_masks: &[bool], dir: &Path) -> Option<String> {
+    let missing: Vec<&str> =
+        scene.views.iter().zip(has_masks).filter(|(_, &m)| !m).map(|(v, _)| v.stem.as_str()).collect();
+    (!missing.is_empty()).then(|| {
+        let more = if missing.len() > 5 { format!(" and {} more", missing.len() - 5) } else { String::new() };
+        format!(
+            "{} of {} views have no masks in {} (expected a regular file <stem>.json, or a folder <stem>/ with metadata.csv, per image): {}{more}; \
+             they get no label of their own and count only through the other views",
+            missing.len(),
+            scene.views.len(),
+            dir.display(),
+            missing.iter().take(5).copied().collect::<Vec<_>>().join(", ")
+        )
+    })
+}
+
 /// Reads the PLY at `path`: every row, with the non-finite ones listed (skipped with one
-/// warning, or refused with `--strict`).
+/// warning, which the caller reports, or refused with `--strict`).
 pub fn read_gaussians(path: &Path, strict: bool) -> crate::Result<PlyRows> {
-    let rows = crate::ply_input::read_rows(path, "they are labelled -1 in gaussians.ply", strict)?;
+    let rows = crate::ply_input::read_rows_quietly(path, strict)?;
     crate::ply_input::refuse_empty(rows.gaussians.len() - rows.non_finite.len(), path)?;
     Ok(rows)
 }
@@ -144,26 +165,34 @@ pub struct RunInputs {
     pub ply_rows: Option<PlyRows>,
     /// The ground truth, when given.
     pub gt: Option<GroundTruth>,
+    /// What makes a view or a Gaussian count for less than the user gave, one sentence each with
+    /// its count (logged once when read, listed in `report.md`).
+    pub warnings: Vec<String>,
 }
 
 impl RunInputs {
     /// Reads the inputs `config` names.
     pub fn load(config: &RunConfig, load: &LoadOptions) -> crate::Result<Self> {
         let scene = splatseg_scene::load_scene(&config.scene, load)?;
-        for w in &scene.warnings {
-            tracing::warn!("{w}");
-        }
+        let mut warnings = scene.warnings.clone();
         // Every camera against its image on disk, before anything of a camera's size is allocated.
         splatseg_scene::load::check_image_sizes(&scene, load)?;
         let has_masks = views_with_masks(&scene, &config.masks)?;
+        warnings.extend(missing_masks_warning(&scene, &has_masks, &config.masks));
         let ply_path = gaussians_path(&config.scene, config.gaussians.as_deref());
         let ply_rows = match &ply_path {
             Some(p) => {
                 tracing::info!("reading Gaussians from {}", p.display());
-                Some(read_gaussians(p, config.options.strict)?)
+                let rows = read_gaussians(p, config.options.strict)?;
+                let skipped = rows.skip_warning(p, NON_FINITE_CONSEQUENCE);
+                warnings.extend(skipped.map(|w| format!("{w} (--strict refuses such files)")));
+                Some(rows)
             }
             None => None,
         };
+        for w in &warnings {
+            tracing::warn!("{w}");
+        }
         if ply_rows.is_none() && config.depth.is_none() {
             bail!("no depth: give --depth DIR or a PLY (--gaussians, or gaussians.ply in the scene folder)");
         }
@@ -173,7 +202,7 @@ impl RunInputs {
             }
             None => None,
         };
-        Ok(RunInputs { scene, has_masks, ply_path, ply_rows, gt })
+        Ok(RunInputs { scene, has_masks, ply_path, ply_rows, gt, warnings })
     }
 
     /// The key of every input file and every setting of `config`.

@@ -18,7 +18,7 @@
 //! OUT/masks/<stem>.png      final per-view label maps, 16-bit global ids, 0 = none
 //! OUT/overlays/<stem>.png   the label maps over the images
 //! OUT/gaussians.ply         the input PLY + `object_id` (+ fused `feat_*`), same Gaussian order
-//! OUT/report.md             stage summary, metrics table (raw → merged → matched → lifted)
+//! OUT/report.md             stage summary, warnings (what counted for less than given), metrics table
 //! OUT/metrics.json          the same as data
 //! OUT/cache/                per-stage results keyed by inputs + config (a rerun resumes)
 //! ```
@@ -131,6 +131,10 @@ pub struct RunSummary {
     pub lift_stats: Option<LiftStats>,
     /// Metrics per stage (with ground truth).
     pub report: Option<EvalReport>,
+    /// What made a view or a Gaussian count for less than the user gave, one sentence each with
+    /// its count (also in `report.md`; left out of `metrics.json` when there is none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// Views whose merge came from the cache. Not written to `metrics.json`: it describes this
     /// invocation, not the outputs, which are byte-identical however often a run was resumed.
     #[serde(skip)]
@@ -320,6 +324,7 @@ fn summary(
         match_stats: matching.stats.clone(),
         lift_stats: written.lift_stats,
         report: written.report,
+        warnings: inputs.warnings.clone(),
         cached_views: regions.cached_views,
         resumed: false,
         stages: Vec::new(),

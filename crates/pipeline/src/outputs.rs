@@ -66,6 +66,12 @@ pub fn write_report(out: &Path, scene: &Scene, summary: &RunSummary) -> crate::R
             summary.final_objects, stats.labelled, stats.unreliable, stats.no_object, stats.unseen
         );
     }
+    if !summary.warnings.is_empty() {
+        let _ = writeln!(md, "\n## Warnings ({})\n", summary.warnings.len());
+        for warning in &summary.warnings {
+            let _ = writeln!(md, "- {warning}");
+        }
+    }
     if let Some(report) = &summary.report {
         md.push_str("\n## Metrics\n\n");
         md.push_str(&report.to_markdown());

@@ -10,11 +10,19 @@ use std::path::Path;
 /// file with non-finite values is an error naming the first one; otherwise one warning says how
 /// many rows are skipped and `consequence` (what happens to them in the outputs).
 pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<PlyRows> {
+    let rows = read_rows_quietly(path, strict)?;
+    if let Some(warning) = rows.skip_warning(path, consequence) {
+        tracing::warn!("{warning} (--strict refuses such files)");
+    }
+    Ok(rows)
+}
+
+/// [`read_rows`] without the warning, for a caller that reports it itself
+/// ([`PlyRows::skip_warning`]).
+pub fn read_rows_quietly(path: &Path, strict: bool) -> crate::Result<PlyRows> {
     let rows = read_ply_rows(path)?;
     if strict {
         rows.refuse_non_finite(path)?;
-    } else if let Some(warning) = rows.skip_warning(path, consequence) {
-        tracing::warn!("{warning} (--strict refuses such files)");
     }
     Ok(rows)
 }

@@ -44,6 +44,9 @@ impl crate::RunSummary {
         if let Some(table) = self.table() {
             text += &format!("\n{table}\n");
         }
+        if !self.warnings.is_empty() {
+            text += &format!("{} warning(s), listed in the report\n", self.warnings.len());
+        }
         text + &format!("report: {}\n", self.out.join("report.md").display())
     }
 }

@@ -1,0 +1,342 @@
+//! Issue 28's cases as one table: each row damages a copy of a small synthetic scene (or misuses
+//! the command line), runs the binary, and checks what a user sees — the exit status, the file the
+//! message names and the words that say what was expected (an error), or the warning on stderr
+//! and in `report.md` (a run that goes on with less) — and that no input changed (every file of
+//! the scene folder has the bytes it had before the command).
+
+use splatseg_pipeline::digest::folder_digests;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// What a case must give.
+enum Expect {
+    /// A non-zero exit; stderr contains every string.
+    Error(&'static [&'static str]),
+    /// Exit 0; stderr and `OUT/report.md` contain every string.
+    Warning(&'static [&'static str]),
+}
+
+/// One row: a name, what it does to the scene folder, the command (`SCENE` and `OUT` are replaced
+/// by the paths), and what it must give.
+struct Case {
+    name: &'static str,
+    damage: fn(&Path),
+    args: &'static [&'static str],
+    expect: Expect,
+}
+
+fn nothing(_: &Path) {}
+
+fn first_view_json(scene: &Path) -> PathBuf {
+    scene.join("sam/view_000.json")
+}
+
+fn remove_first_masks(scene: &Path) {
+    std::fs::remove_file(first_view_json(scene)).expect("remove the masks");
+}
+
+#[cfg(unix)]
+fn first_masks_a_fifo(scene: &Path) {
+    let path = first_view_json(scene);
+    std::fs::remove_file(&path).expect("remove the masks");
+    let c = std::ffi::CString::new(path.to_str().expect("utf-8 path")).expect("path");
+    // SAFETY: `c` is a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0, "mkfifo");
+}
+
+#[cfg(unix)]
+fn first_masks_dev_zero(scene: &Path) {
+    let path = first_view_json(scene);
+    std::fs::remove_file(&path).expect("remove the masks");
+    std::os::unix::fs::symlink("/dev/zero", &path).expect("symlink");
+}
+
+fn edit(path: &Path, change: impl Fn(&str) -> String) {
+    let text = std::fs::read_to_string(path).expect("read");
+    std::fs::write(path, change(&text)).expect("write");
+}
+
+/// `cameras.txt` with a focal length of 0.
+fn zero_focal_length(scene: &Path) {
+    edit(&scene.join("sparse/0/cameras.txt"), |t| {
+        t.lines()
+            .map(|l| {
+                if l.starts_with('#') {
+                    return l.to_string();
+                }
+                let mut f: Vec<&str> = l.split_whitespace().collect();
+                if f.len() >= 6 {
+                    f[4] = "0";
+                    f[5] = "0";
+                }
+                f.join(" ")
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    });
+}
+
+/// `images.txt` with its comments and no image.
+fn no_images(scene: &Path) {
+    edit(&scene.join("sparse/0/images.txt"), |t| {
+        t.lines().filter(|l| l.starts_with('#')).map(|l| format!("{l}\n")).collect()
+    });
+}
+
+/// `images.txt` whose second image repeats the first one's IMAGE_ID.
+fn duplicate_image_id(scene: &Path) {
+    edit(&scene.join("sparse/0/images.txt"), |t| {
+        let mut data = 0;
+        t.lines()
+            .map(|l| {
+                if l.starts_with('#') {
+                    return format!("{l}\n");
+                }
+                data += 1;
+                // Lines 1, 3, 5 … are the images; the third data line is the second image.
+                if data == 3 {
+                    let rest = l.split_once(' ').map_or("", |(_, r)| r);
+                    return format!("1 {rest}\n");
+                }
+                format!("{l}\n")
+            })
+            .collect()
+    });
+}
+
+/// Three Gaussians of the scene's PLY given a NaN position.
+fn non_finite_gaussians(scene: &Path) {
+    let path = scene.join("gaussians.ply");
+    let mut g = splatseg_scene::ply::read_ply(&path).expect("the scene's PLY");
+    for i in [0, 10, 20] {
+        g.means[i][0] = f32::NAN;
+    }
+    splatseg_scene::ply::write_ply_rows(&path, &g).expect("write the PLY");
+}
+
+/// `SCENE/empty.ply`: a valid header and no vertex.
+fn empty_ply(scene: &Path) {
+    let props: String = [
+        "x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity", "scale_0", "scale_1", "scale_2", "rot_0",
+        "rot_1", "rot_2", "rot_3",
+    ]
+    .iter()
+    .map(|p| format!("property float {p}\n"))
+    .collect();
+    let text = format!("ply\nformat ascii 1.0\nelement vertex 0\n{props}end_header\n");
+    std::fs::write(scene.join("empty.ply"), text).expect("write");
+}
+
+/// `SCENE/uchar.ply`: one Gaussian whose opacity is stored as `uchar` 200.
+fn uchar_opacity_ply(scene: &Path) {
+    let floats: String = ["x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2"]
+        .iter()
+        .map(|p| format!("property float {p}\n"))
+        .collect();
+    let rest: String = ["scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
+        .iter()
+        .map(|p| format!("property float {p}\n"))
+        .collect();
+    let text = format!(
+        "ply\nformat ascii 1.0\nelement vertex 1\n{floats}property uchar opacity\n{rest}end_header\n\
+         0 0 1 0.5 0.5 0.5 200 -3 -3 -3 1 0 0 0\n"
+    );
+    std::fs::write(scene.join("uchar.ply"), text).expect("write");
+}
+
+fn config_tau_merge_negative(scene: &Path) {
+    std::fs::write(scene.join("bad.toml"), "[merge]\ntau_merge = -0.5\n").expect("write");
+}
+
+fn config_tau_match_nan(scene: &Path) {
+    std::fs::write(scene.join("bad.toml"), "[match]\ntau_match = nan\n").expect("write");
+}
+
+const RUN: &[&str] = &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT"];
+
+fn cases() -> Vec<Case> {
+    let mut cases = vec![
+        Case {
+            name: "a view without its masks file",
+            damage: remove_first_masks,
+            args: RUN,
+            expect: Expect::Warning(&["1 of 3 views have no masks", "view_000"]),
+        },
+        Case {
+            name: "fx = fy = 0",
+            damage: zero_focal_length,
+            args: RUN,
+            expect: Expect::Error(&["cameras.txt"]),
+        },
+        Case {
+            name: "images.txt without images",
+            damage: no_images,
+            args: RUN,
+            expect: Expect::Error(&["images.txt"]),
+        },
+        Case {
+            name: "a repeated IMAGE_ID",
+            damage: duplicate_image_id,
+            args: RUN,
+            expect: Expect::Error(&["images.txt", "image id 1 appears twice"]),
+        },
+        Case {
+            name: "tau_merge = -0.5",
+            damage: config_tau_merge_negative,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--config", "SCENE/bad.toml"],
+            expect: Expect::Error(&["bad.toml", "tau_merge"]),
+        },
+        Case {
+            name: "tau_match = nan",
+            damage: config_tau_match_nan,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--config", "SCENE/bad.toml"],
+            expect: Expect::Error(&["bad.toml", "tau_match"]),
+        },
+        Case {
+            name: "--resolution 3",
+            damage: nothing,
+            args: &[
+                "render",
+                "SCENE",
+                "--gaussians",
+                "SCENE/gaussians.ply",
+                "--out",
+                "OUT",
+                "--resolution",
+                "3",
+            ],
+            expect: Expect::Error(&["1, 2, 4 or 8"]),
+        },
+        Case {
+            name: "run --out SCENE",
+            damage: nothing,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "SCENE"],
+            expect: Expect::Error(&["SCENE"]),
+        },
+        Case {
+            name: "extract --out equal to its input",
+            damage: nothing,
+            args: &["extract", "SCENE/gaussians.ply", "--ids", "1", "--out", "SCENE/gaussians.ply"],
+            expect: Expect::Error(&["gaussians.ply"]),
+        },
+        Case {
+            name: "--shard -1/2",
+            damage: nothing,
+            args: &["merge", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--shard", "-1/2"],
+            expect: Expect::Error(&["-1/2"]),
+        },
+        Case {
+            name: "Gaussians with NaN positions",
+            damage: non_finite_gaussians,
+            args: RUN,
+            expect: Expect::Warning(&["skipping 3 of", "non-finite"]),
+        },
+        Case {
+            name: "a PLY without Gaussians",
+            damage: empty_ply,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--gaussians", "SCENE/empty.ply", "--out", "OUT"],
+            expect: Expect::Error(&["empty.ply"]),
+        },
+        Case {
+            name: "opacity stored as uchar",
+            damage: uchar_opacity_ply,
+            args: &["render", "SCENE", "--gaussians", "SCENE/uchar.ply", "--out", "OUT"],
+            expect: Expect::Error(&["uchar.ply", "opacity"]),
+        },
+    ];
+    #[cfg(unix)]
+    cases.extend([
+        Case {
+            name: "a masks file that is a FIFO",
+            damage: first_masks_a_fifo,
+            args: RUN,
+            expect: Expect::Warning(&["1 of 3 views have no masks", "view_000"]),
+        },
+        Case {
+            name: "a masks file linked to /dev/zero",
+            damage: first_masks_dev_zero,
+            args: RUN,
+            expect: Expect::Warning(&["1 of 3 views have no masks", "view_000"]),
+        },
+    ]);
+    cases
+}
+
+fn splatseg(args: &[String]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args).output().expect("the splatseg binary runs")
+}
+
+/// Every file's digest under `dir`, FIFOs and links to devices left out (read, they would block
+/// or never end).
+fn inputs_digest(dir: &Path) -> Vec<(String, String)> {
+    let special =
+        |rel: &str| std::fs::metadata(dir.join(rel)).map(|m| !m.is_file() && !m.is_dir()).unwrap_or(false);
+    folder_digests(dir, special).expect("digests of the scene folder")
+}
+
+#[test]
+fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let pristine = tmp.path().join("pristine");
+    let out = splatseg(
+        &["synth", "--out", pristine.to_str().expect("utf-8"), "--views", "3", "--size", "64x48"]
+            .map(String::from),
+    );
+    assert!(out.status.success(), "synth: {}", String::from_utf8_lossy(&out.stderr));
+    let mut failures = Vec::new();
+    for (i, case) in cases().into_iter().enumerate() {
+        let scene = tmp.path().join(format!("case_{i}"));
+        let copied = Command::new("cp").arg("-r").arg(&pristine).arg(&scene).status().expect("cp");
+        assert!(copied.success(), "copying the scene");
+        (case.damage)(&scene);
+        let before = inputs_digest(&scene);
+        let out_dir = tmp.path().join(format!("out_{i}"));
+        let args: Vec<String> = case
+            .args
+            .iter()
+            .map(|a| {
+                a.replace("SCENE", scene.to_str().expect("utf-8"))
+                    .replace("OUT", out_dir.to_str().expect("utf-8"))
+            })
+            .collect();
+        let output = splatseg(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        let mut problems = Vec::new();
+        match case.expect {
+            Expect::Error(words) => {
+                if output.status.success() {
+                    problems.push("exit 0, expected an error".to_string());
+                }
+                if stderr.contains("panicked") {
+                    problems.push("a panic".to_string());
+                }
+                let wanted = words.iter().map(|w| w.replace("SCENE", scene.to_str().unwrap_or_default()));
+                problems.extend(wanted.filter(|w| !stderr.contains(w.as_str())).map(|w| format!("no `{w}`")));
+            }
+            Expect::Warning(words) => {
+                if !output.status.success() {
+                    problems.push(format!("exit {:?}, expected a warning", output.status.code()));
+                }
+                let report = std::fs::read_to_string(out_dir.join("report.md")).unwrap_or_default();
+                if !report.contains("## Warnings") {
+                    problems.push("report.md lists no warnings".to_string());
+                }
+                for w in words {
+                    if !stderr.contains(w) {
+                        problems.push(format!("stderr lacks `{w}`"));
+                    }
+                    if !report.contains(w) {
+                        problems.push(format!("report.md lacks `{w}`"));
+                    }
+                }
+            }
+        }
+        if inputs_digest(&scene) != before {
+            problems.push("an input changed".to_string());
+        }
+        if !problems.is_empty() {
+            failures.push(format!("{}: {}\n  stderr: {}", case.name, problems.join("; "), stderr.trim()));
+        }
+    }
+    assert!(failures.is_empty(), "{} case(s) failed:\n{}", failures.len(), failures.join("\n"));
+}
