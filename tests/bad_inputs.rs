@@ -114,6 +114,16 @@ fn non_finite_gaussians(scene: &Path) {
     splatseg_scene::ply::write_ply_rows(&path, &g).expect("write the PLY");
 }
 
+/// The scene's Gaussians moved 1,000 units away: a reconstruction of nothing the views show.
+fn gaussians_elsewhere(scene: &Path) {
+    let path = scene.join("gaussians.ply");
+    let mut g = splatseg_scene::ply::read_ply(&path).expect("the scene's PLY");
+    for m in &mut g.means {
+        m[0] += 1000.0;
+    }
+    splatseg_scene::ply::write_ply(&path, &g).expect("write the PLY");
+}
+
 /// `SCENE/empty.ply`: a valid header and no vertex.
 fn empty_ply(scene: &Path) {
     let props: String = [
@@ -142,6 +152,15 @@ fn uchar_opacity_ply(scene: &Path) {
          0 0 1 0.5 0.5 0.5 200 -3 -3 -3 1 0 0 0\n"
     );
     std::fs::write(scene.join("uchar.ply"), text).expect("write");
+}
+
+/// The second view's features with half their channels (as from another model).
+fn features_of_another_width(scene: &Path) {
+    let path = scene.join("features/view_001.npy");
+    let a = splatseg_scene::npy::read_npy(&path).expect("the features");
+    let (h, w, c) = a.hwc().expect("[h, w, C] features");
+    let half: Vec<f32> = a.data.chunks(c).flat_map(|px| px[..c / 2].iter().copied()).collect();
+    splatseg_scene::npy::write_npy_f32(&path, &[h, w, c / 2], &half).expect("write the features");
 }
 
 fn config_tau_merge_negative(scene: &Path) {
@@ -232,6 +251,18 @@ fn cases() -> Vec<Case> {
             expect: Expect::Warning(&["skipping 3 of", "non-finite"]),
         },
         Case {
+            name: "features of two channel counts",
+            damage: features_of_another_width,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--features", "SCENE/features", "--out", "OUT"],
+            expect: Expect::Error(&["view_001", "view_000", "features", "channel count"]),
+        },
+        Case {
+            name: "Gaussians that reconstruct nothing the views show",
+            damage: gaussians_elsewhere,
+            args: RUN,
+            expect: Expect::Warning(&["the final label maps label", "reconstruct the scene poorly"]),
+        },
+        Case {
             name: "a PLY without Gaussians",
             damage: empty_ply,
             args: &["run", "SCENE", "--masks", "SCENE/sam", "--gaussians", "SCENE/empty.ply", "--out", "OUT"],
@@ -246,6 +277,12 @@ fn cases() -> Vec<Case> {
     ];
     #[cfg(unix)]
     cases.extend([
+        Case {
+            name: "an --out that is not UTF-8",
+            damage: nothing,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "NON_UTF8_OUT"],
+            expect: Expect::Error(&["not valid UTF-8"]),
+        },
         Case {
             name: "a masks file that is a FIFO",
             damage: first_masks_a_fifo,
@@ -262,8 +299,22 @@ fn cases() -> Vec<Case> {
     cases
 }
 
-fn splatseg(args: &[String]) -> Output {
+fn splatseg<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args).output().expect("the splatseg binary runs")
+}
+
+/// `arg` with `SCENE` and `OUT` replaced by the case's paths; `NON_UTF8_OUT` is `OUT` with a byte
+/// that is not UTF-8 appended.
+fn argument(arg: &str, scene: &Path, out: &Path) -> std::ffi::OsString {
+    #[cfg(unix)]
+    if arg == "NON_UTF8_OUT" {
+        use std::os::unix::ffi::OsStringExt;
+        let mut bytes = out.as_os_str().to_os_string().into_vec();
+        bytes.push(0xff);
+        return std::ffi::OsString::from_vec(bytes);
+    }
+    let utf8 = |p: &Path| p.to_str().expect("utf-8 temp path").to_string();
+    arg.replace("SCENE", &utf8(scene)).replace("OUT", &utf8(out)).into()
 }
 
 /// Every file's digest under `dir`, FIFOs and links to devices left out (read, they would block
@@ -278,10 +329,8 @@ fn inputs_digest(dir: &Path) -> Vec<(String, String)> {
 fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let pristine = tmp.path().join("pristine");
-    let out = splatseg(
-        &["synth", "--out", pristine.to_str().expect("utf-8"), "--views", "3", "--size", "64x48"]
-            .map(String::from),
-    );
+    let out =
+        splatseg(&["synth", "--out", pristine.to_str().expect("utf-8"), "--views", "3", "--size", "64x48"]);
     assert!(out.status.success(), "synth: {}", String::from_utf8_lossy(&out.stderr));
     let mut failures = Vec::new();
     for (i, case) in cases().into_iter().enumerate() {
@@ -291,14 +340,7 @@ fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
         (case.damage)(&scene);
         let before = inputs_digest(&scene);
         let out_dir = tmp.path().join(format!("out_{i}"));
-        let args: Vec<String> = case
-            .args
-            .iter()
-            .map(|a| {
-                a.replace("SCENE", scene.to_str().expect("utf-8"))
-                    .replace("OUT", out_dir.to_str().expect("utf-8"))
-            })
-            .collect();
+        let args: Vec<std::ffi::OsString> = case.args.iter().map(|a| argument(a, &scene, &out_dir)).collect();
         let output = splatseg(&args);
         let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
         let mut problems = Vec::new();

@@ -61,6 +61,7 @@ mod visible;
 
 use cache::{read_json, write_json};
 pub use config::PipelineConfig;
+use error::bail;
 pub use error::{Context, PipelineError, Result};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 use inputs::RunInputs;
@@ -179,6 +180,11 @@ struct RunCache {
 
 /// Runs the whole pipeline (see the module docs for the outputs).
 pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
+    // `metrics.json` and the cache record the output folder as text: refused before anything is
+    // written rather than failing once the outputs are staged.
+    if config.out.to_str().is_none() {
+        bail!("the output folder's path is not valid UTF-8 (choose another --out): {}", config.out.display());
+    }
     let _lock = lock::lock_output(&config.out, "run")?;
     commit::remove_leftover_staging(&config.out)?;
     let mut profiler = Profiler::start("load inputs");
@@ -227,6 +233,8 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     profiler.parts(times.take());
 
     profiler.next("match");
+    let stems: Vec<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
+    lift_stage::check_descriptor_lengths(&views, &stems, config.features.as_deref())?;
     let matching = lift_stage::match_views(&mut views, prepared.is_some(), &config.pipeline.matching)?;
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
 
@@ -324,7 +332,7 @@ fn summary(
         match_stats: matching.stats.clone(),
         lift_stats: written.lift_stats,
         report: written.report,
-        warnings: inputs.warnings.clone(),
+        warnings: inputs.warnings.iter().chain(&written.warnings).cloned().collect(),
         cached_views: regions.cached_views,
         resumed: false,
         stages: Vec::new(),

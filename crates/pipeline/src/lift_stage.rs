@@ -92,6 +92,40 @@ pub fn match_views(
     Ok(match_masks_owned(input, config)?)
 }
 
+/// An error naming the first view whose region descriptors are not as long as the first view's
+/// (`views`: `[n_views]`, `stems` their image stems): feature files of different channel counts,
+/// e.g. from two models, reach here as descriptors of different lengths. `features`: the
+/// `--features` folder, named in the message.
+pub fn check_descriptor_lengths(
+    views: &[Option<ViewResult>],
+    stems: &[&str],
+    features: Option<&Path>,
+) -> crate::Result<()> {
+    let mut first: Option<(usize, usize)> = None;
+    for (v, view) in views.iter().enumerate() {
+        let Some(len) = view.as_ref().and_then(|m| m.regions.first()).map(|r| r.descriptor.len()) else {
+            continue;
+        };
+        match first {
+            None => first = Some((v, len)),
+            Some((f, expected)) if len != expected => {
+                let source = features.map_or_else(
+                    || "the model-free descriptors".to_string(),
+                    |dir| format!("the features in {}", dir.display()),
+                );
+                bail!(
+                    "view `{}` has region descriptors of {len} values where view `{}` has {expected}: \
+                     {source} must have one channel count for every view (one model, one layer)",
+                    stems[v],
+                    stems[f]
+                );
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
+
 /// The lift stage on `run`'s per-view results (views with masks vote and are snapped; every
 /// view is rendered back): the Gaussians labelled and every view's final map. With model-free
 /// descriptors (no `features`), the lift settings for them.

@@ -34,11 +34,37 @@ pub struct Written {
     pub report: Option<EvalReport>,
     /// What lifting decided, with Gaussians.
     pub lift_stats: Option<splatseg_lift::LiftStats>,
+    /// Results far from what the inputs promised, one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// The final maps label less than this fraction of the pixels SAM's masks cover (over the views
+/// with masks): warned, as the Gaussians then say little about the scene (a poor or partial
+/// reconstruction; on a real capture with a failed reconstruction `run` labelled 0.26 % of the
+/// pixels and said nothing).
+const LOW_COVERAGE: f64 = 0.5;
+
+/// The warning when the final maps label much less than the masks cover: `labelled` and
+/// `masked` pixels summed over the views with masks, out of `pixels`.
+fn coverage_warning(labelled: usize, masked: usize, pixels: usize) -> Option<String> {
+    let share = |n: usize| 100.0 * n as f64 / pixels.max(1) as f64;
+    ((labelled as f64) < LOW_COVERAGE * masked as f64).then(|| {
+        format!(
+            "the final label maps label {:.1} % of the pixels of the views with masks, where SAM's masks \
+             cover {:.1} %: the Gaussians may reconstruct the scene poorly (check the PLY's held-out \
+             PSNR, e.g. with `splatseg train`)",
+            share(labelled),
+            share(masked)
+        )
+    })
 }
 
 /// What writing one view's outputs gives back: its distinct final ids, and its counts for the
 /// scores (with ground truth).
-type ViewOutputs = (Vec<u32>, Option<Vec<ViewCounts>>);
+type ViewOutputs = (Vec<u32>, Option<Vec<ViewCounts>>, Coverage);
+
+/// Of a view with masks: pixels labelled in its final map, pixels SAM's masks cover, pixels.
+type Coverage = Option<(usize, usize, usize)>;
 
 /// Writes every view's maps and `gaussians.ply` (with Gaussians) into `dest` (the staging
 /// folder), and scores the stages (with ground truth). `ply_rows`: the input PLY's rows (taken
@@ -107,6 +133,10 @@ pub fn write_outputs(
                 };
                 outputs::write_view_maps(dest, scene, load, v, &final_map, rgb)?;
                 let ids = distinct_ids(&final_map);
+                let coverage = maps.as_ref().map(|(raw, _)| {
+                    let nonzero = |m: &Plane<u32>| m.data.iter().filter(|&&l| l != 0).count();
+                    (nonzero(&final_map), nonzero(raw), raw.data.len())
+                });
                 let counts = match &eval {
                     Some(e) => {
                         let (raw, merged) = match &maps {
@@ -124,7 +154,7 @@ pub fn write_outputs(
                     }
                     None => None,
                 };
-                Ok((ids, counts))
+                Ok((ids, counts, coverage))
             })
             .collect::<crate::Result<_>>()
     };
@@ -132,16 +162,24 @@ pub fn write_outputs(
     let per_view = per_view?;
     ply_written?;
     bar.finish_and_clear();
-    let final_ids: BTreeSet<u32> = per_view.iter().flat_map(|(ids, _)| ids.iter().copied()).collect();
+    let final_ids: BTreeSet<u32> = per_view.iter().flat_map(|(ids, _, _)| ids.iter().copied()).collect();
+    let (labelled, masked, pixels) = per_view
+        .iter()
+        .filter_map(|(_, _, c)| *c)
+        .fold((0, 0, 0), |(a, b, c), (l, m, p)| (a + l, b + m, c + p));
+    let warnings: Vec<String> = coverage_warning(labelled, masked, pixels).into_iter().collect();
     let report = match &inputs.gt {
         Some(gt) => {
-            let counts: Vec<Vec<ViewCounts>> = per_view.into_iter().filter_map(|(_, c)| c).collect();
+            let counts: Vec<Vec<ViewCounts>> = per_view.into_iter().filter_map(|(_, c, _)| c).collect();
             Some(evaluate(stage_names, &counts, gt, row_ids.as_deref(), &pc.eval)?)
         }
         None => None,
     };
     let lift_stats = lifted.as_ref().map(|l| l.lifted.stats.clone());
-    Ok(Written { final_objects: final_ids.len(), report, lift_stats })
+    for w in &warnings {
+        tracing::warn!("{w}");
+    }
+    Ok(Written { final_objects: final_ids.len(), report, lift_stats, warnings })
 }
 
 /// The distinct ids (> 0) of a map (kept for every view: a few, not a pixel's worth each); a
@@ -158,4 +196,18 @@ fn distinct_ids(map: &Plane<u32>) -> Vec<u32> {
         }
     }
     distinct.into_iter().collect()
+}
+
+#[cfg(test)]
+mod coverage_tests {
+    use super::coverage_warning;
+
+    #[test]
+    fn final_maps_labelling_under_half_of_what_the_masks_cover_are_warned() {
+        assert!(coverage_warning(90, 100, 200).is_none());
+        assert!(coverage_warning(50, 100, 200).is_none());
+        let w = coverage_warning(1, 100, 400).expect("a warning");
+        assert!(w.contains("0.2 %") && w.contains("25.0 %"), "{w}");
+        assert!(coverage_warning(0, 0, 0).is_none(), "no masks: nothing promised");
+    }
 }
