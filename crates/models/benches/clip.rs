@@ -3,6 +3,10 @@
 //! one 224² image, five 224² crops in one batch (an object's views), and one short text query
 //! tokenized and embedded. Threads: rayon's default (every core).
 //!
+//! Before criterion's wall times it prints the process CPU time per call (all threads, from
+//! `/proc/self/stat`), which a loaded machine inflates far less than the wall time: on idle cores the
+//! wall time is at least CPU time / cores.
+//!
 //! `cargo bench -p splatseg-models --features bench --bench clip`
 
 use std::collections::HashMap;
@@ -73,6 +77,32 @@ fn vit_b16() -> Clip {
     Clip::from_weights(&weights, hints).expect("the ViT-B/16 shapes")
 }
 
+/// User + system CPU seconds of this process so far (Linux; `None` elsewhere). `/proc` counts in
+/// USER_HZ ticks, 100 per second on Linux.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// Prints the CPU time per call of `f` over `calls` calls.
+fn print_cpu_time(label: &str, calls: usize, mut f: impl FnMut()) {
+    f(); // warm-up
+    let (start, wall) = (cpu_seconds(), std::time::Instant::now());
+    for _ in 0..calls {
+        f();
+    }
+    let wall = wall.elapsed().as_secs_f64() / calls as f64;
+    match (start, cpu_seconds()) {
+        (Some(a), Some(b)) => eprintln!(
+            "{label}: {:.3} s CPU per call ({wall:.3} s wall), {calls} calls",
+            (b - a) / calls as f64
+        ),
+        _ => eprintln!("{label}: no /proc/self/stat, CPU time not measured ({wall:.3} s wall)"),
+    }
+}
+
 fn bench_clip(c: &mut Criterion) {
     let model = vit_b16();
     let image = model.image_tower().expect("image tower");
@@ -82,6 +112,11 @@ fn bench_clip(c: &mut Criterion) {
     // the OpenAI merges the fixtures keep (ids below 49,408); a short query's tokens are what matter
     let merges = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/clip_bpe_openai_subset.txt.gz");
     let tokenizer = ClipTokenizer::load(&merges).expect("committed merges fixture");
+    print_cpu_time("image_224_one", 5, || drop(image.embed(&one).expect("embeds")));
+    print_cpu_time("image_224_batch_of_5", 2, || drop(image.embed(&five).expect("embeds")));
+    print_cpu_time("text_query", 10, || {
+        drop(model.embed_texts(&tokenizer, &["a red mug on the table"]).expect("embeds"))
+    });
     let mut group = c.benchmark_group("clip_vit_b16");
     group.sample_size(10);
     group.bench_function("image_224_one", |b| b.iter(|| image.embed(&one).expect("embeds")));
