@@ -19,26 +19,31 @@ const WEIGHT_NAMES: [&str; 3] = ["model.safetensors", "pytorch_model.bin", "mode
 /// Resolves `path`: a weights file, a folder with `model.safetensors` (a snapshot), a cache folder
 /// `models--org--name`, or a model id `org/name` looked up in the Hugging Face cache.
 pub fn resolve(path: &Path, kind: ModelKind) -> ModelsResult<CheckpointFiles> {
+    resolve_named(path, kind, &WEIGHT_NAMES)
+}
+
+/// [`resolve`] with the weight file names a folder or snapshot may hold, in order of preference.
+pub fn resolve_named(path: &Path, kind: ModelKind, names: &[&str]) -> ModelsResult<CheckpointFiles> {
     if path.is_file() {
         let config = path.parent().map(|d| d.join("config.json")).filter(|c| c.is_file());
         return Ok(CheckpointFiles { weights: path.to_path_buf(), config });
     }
     if path.is_dir() {
-        if let Some(found) = in_snapshot(path) {
+        if let Some(found) = in_snapshot(path, names) {
             return Ok(found);
         }
-        if let Some(found) = in_cache_repo(path) {
+        if let Some(found) = in_cache_repo(path, names) {
             return Ok(found);
         }
         return Err(ModelsError::NotFound {
             kind,
-            reason: format!("the folder holds none of {WEIGHT_NAMES:?} and no `snapshots/*/` with one"),
+            reason: format!("the folder holds none of {names:?} and no `snapshots/*/` with one"),
             path: path.to_path_buf(),
         });
     }
     let text = path.to_string_lossy();
     if !path.exists() && text.matches('/').count() == 1 && !text.starts_with('.') {
-        return from_hf_cache(&text, kind);
+        return from_hf_cache_named(&text, kind, names);
     }
     Err(ModelsError::NotFound { kind, reason: "no such file or folder".into(), path: path.to_path_buf() })
 }
@@ -46,9 +51,13 @@ pub fn resolve(path: &Path, kind: ModelKind) -> ModelsResult<CheckpointFiles> {
 /// Looks a model id (`facebook/dinov2-small`) up in the Hugging Face cache (`$HF_HUB_CACHE`,
 /// `$HF_HOME/hub`, or `~/.cache/huggingface/hub`).
 pub fn from_hf_cache(model_id: &str, kind: ModelKind) -> ModelsResult<CheckpointFiles> {
+    from_hf_cache_named(model_id, kind, &WEIGHT_NAMES)
+}
+
+fn from_hf_cache_named(model_id: &str, kind: ModelKind, names: &[&str]) -> ModelsResult<CheckpointFiles> {
     let cache = hf_cache_dir();
     let repo = cache.join(format!("models--{}", model_id.replace('/', "--")));
-    in_cache_repo(&repo).ok_or_else(|| ModelsError::NotFound {
+    in_cache_repo(&repo, names).ok_or_else(|| ModelsError::NotFound {
         kind,
         reason: format!(
             "no such file or folder, and no model `{model_id}` in the Hugging Face cache (looked in {})",
@@ -70,17 +79,17 @@ pub fn hf_cache_dir() -> PathBuf {
     home.join(".cache").join("huggingface").join("hub")
 }
 
-fn in_snapshot(dir: &Path) -> Option<CheckpointFiles> {
-    let weights = WEIGHT_NAMES.iter().map(|n| dir.join(n)).find(|p| p.is_file())?;
+fn in_snapshot(dir: &Path, names: &[&str]) -> Option<CheckpointFiles> {
+    let weights = names.iter().map(|n| dir.join(n)).find(|p| p.is_file())?;
     let config = Some(dir.join("config.json")).filter(|c| c.is_file());
     Some(CheckpointFiles { weights, config })
 }
 
 /// `models--org--name/`: the snapshot named by `refs/main`, else the only/newest snapshot.
-fn in_cache_repo(repo: &Path) -> Option<CheckpointFiles> {
+fn in_cache_repo(repo: &Path, names: &[&str]) -> Option<CheckpointFiles> {
     let snapshots = repo.join("snapshots");
     if let Ok(hash) = std::fs::read_to_string(repo.join("refs").join("main")) {
-        if let Some(found) = in_snapshot(&snapshots.join(hash.trim())) {
+        if let Some(found) = in_snapshot(&snapshots.join(hash.trim()), names) {
             return Some(found);
         }
     }
@@ -92,7 +101,7 @@ fn in_cache_repo(repo: &Path) -> Option<CheckpointFiles> {
         .map(|p| (p.metadata().and_then(|m| m.modified()).unwrap_or(std::time::UNIX_EPOCH), p))
         .collect();
     dirs.sort();
-    dirs.iter().rev().find_map(|(_, d)| in_snapshot(d))
+    dirs.iter().rev().find_map(|(_, d)| in_snapshot(d, names))
 }
 
 /// Reads `config.json` when there is one.

@@ -11,6 +11,8 @@ pub enum ModelKind {
     DepthAnythingV2,
     /// Segment Anything (image encoder, prompt encoder, mask decoder).
     Sam,
+    /// CLIP (image and text towers), OpenAI's or OpenCLIP's.
+    Clip,
 }
 
 impl ModelKind {
@@ -20,6 +22,7 @@ impl ModelKind {
             ModelKind::Dinov2 => "DINOv2",
             ModelKind::DepthAnythingV2 => "Depth Anything V2",
             ModelKind::Sam => "Segment Anything",
+            ModelKind::Clip => "CLIP",
         }
     }
 
@@ -41,6 +44,12 @@ impl ModelKind {
                 "a Segment Anything checkpoint: `sam_vit_b_01ec64.pth`, `sam_vit_l_0b3195.pth` or \
                  `sam_vit_h_4b8939.pth` from the facebookresearch/segment-anything release, or MobileSAM's \
                  `mobile_sam.pt`"
+            }
+            ModelKind::Clip => {
+                "a CLIP checkpoint as a state dict with OpenAI's names (`visual.conv1.weight`, \
+                 `transformer.resblocks.N...`): OpenCLIP's `open_clip_model.safetensors` or \
+                 `open_clip_pytorch_model.bin` (+ `open_clip_config.json`) from a Hugging Face repository such as \
+                 `laion/CLIP-ViT-B-16-laion2B-s34B-b88K` or `timm/vit_base_patch16_clip_224.openai`"
             }
         }
     }
@@ -98,6 +107,15 @@ pub enum ModelsError {
     /// A `config.json` beside the weights is malformed.
     #[error("invalid model config ({reason}): {}", path.display())]
     Config {
+        /// What is wrong.
+        reason: String,
+        /// The file.
+        path: PathBuf,
+    },
+    /// A CLIP tokenizer's merges file is unreadable or malformed.
+    #[error("cannot read the CLIP tokenizer's merges file ({reason}); expected the `bpe_simple_vocab_16e6.txt.gz` \
+             that comes with the checkpoint (OpenAI's CLIP, open_clip): {}", path.display())]
+    Tokenizer {
         /// What is wrong.
         reason: String,
         /// The file.

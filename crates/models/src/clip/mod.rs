@@ -1,0 +1,132 @@
+//! CLIP (Radford et al. 2021, "Learning Transferable Visual Models From Natural Language Supervision"):
+//! the ViT image tower and the text tower, read from OpenAI-layout state dicts (OpenAI's CLIPs as
+//! open_clip stores them, and OpenCLIP's own ViTs), with the BPE tokenizer and the LERF relevancy
+//! ranking of object embeddings against a text query.
+//!
+//! ViT-B/32, B/16 and L/14 are configurations of one implementation: width, depth, patch size and image
+//! size come from the tensors' shapes, the heads from `open_clip_config.json` (or width / 64), the
+//! activation (QuickGELU or GELU) from that file or the caller ([`ClipHints`]).
+
+mod block;
+pub mod clean;
+pub mod config;
+mod image_tower;
+pub mod relevancy;
+mod text_tower;
+pub mod tokenizer;
+
+use std::path::{Path, PathBuf};
+
+pub use block::{l2_normalise_rows, quick_gelu};
+pub use config::{Activation, ClipConfig, ClipHints, TextConfig, VisionConfig};
+pub use image_tower::{ClipImageTower, CLIP_MEAN, CLIP_STD};
+pub use text_tower::ClipTextTower;
+pub use tokenizer::{ClipTokenizer, CONTEXT_LENGTH};
+
+use crate::checkpoint;
+use crate::error::{ModelKind, ModelsError, ModelsResult};
+use crate::weights::Weights;
+
+/// Weight files a CLIP folder or Hugging Face snapshot may hold, in order of preference (open_clip's
+/// hub names; the repositories' `model.safetensors` is Hugging Face's own layout, not read here).
+pub const CLIP_WEIGHT_NAMES: [&str; 3] =
+    ["open_clip_model.safetensors", "open_clip_pytorch_model.bin", "open_clip_model.pth"];
+/// The config open_clip's hub repositories hold beside the weights.
+pub const OPEN_CLIP_CONFIG: &str = "open_clip_config.json";
+/// The merges file OpenAI's CLIP and open_clip ship.
+pub const MERGES_FILE: &str = "bpe_simple_vocab_16e6.txt.gz";
+
+/// A loaded CLIP: whichever towers the checkpoint has.
+#[derive(Debug, Clone)]
+pub struct Clip {
+    config: ClipConfig,
+    image: Option<ClipImageTower>,
+    text: Option<ClipTextTower>,
+}
+
+impl Clip {
+    /// Loads a checkpoint: a `.safetensors` / `.bin` / `.pt` state dict, a folder or Hugging Face
+    /// snapshot holding one of [`CLIP_WEIGHT_NAMES`], or an `org/name` in the local Hugging Face cache.
+    /// `hints` complete (and take precedence over) the `open_clip_config.json` beside the weights.
+    pub fn load(path: &Path, hints: ClipHints) -> ModelsResult<Self> {
+        let files = checkpoint::resolve_named(path, ModelKind::Clip, &CLIP_WEIGHT_NAMES)?;
+        let weights = Weights::load(&files.weights, ModelKind::Clip)?;
+        let beside = files.weights.parent().map(|dir| dir.join(OPEN_CLIP_CONFIG)).filter(|p| p.is_file());
+        let from_file = match beside {
+            Some(config) => ClipHints::from_open_clip_config(&read_json(&config)?),
+            None => ClipHints::default(),
+        };
+        Self::from_weights(&weights, hints.or(from_file))
+    }
+
+    /// Builds the model from already-read tensors (OpenAI names, possibly under a prefix such as `module.`).
+    pub fn from_weights(weights: &Weights, hints: ClipHints) -> ModelsResult<Self> {
+        let weights = without_prefix(weights)?;
+        let config = ClipConfig::infer(&weights, hints)?;
+        let image = match config.vision {
+            Some(_) => Some(ClipImageTower::new(&weights, &config)?),
+            None => None,
+        };
+        let text = match config.text {
+            Some(_) => Some(ClipTextTower::new(&weights, &config)?),
+            None => None,
+        };
+        Ok(Self { config, image, text })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ClipConfig {
+        &self.config
+    }
+
+    /// The image tower, or an error naming the file's lack of one.
+    pub fn image_tower(&self) -> ModelsResult<&ClipImageTower> {
+        self.image.as_ref().ok_or_else(|| ModelsError::Input("the CLIP checkpoint has no image tower".into()))
+    }
+
+    /// The text tower, or an error naming the file's lack of one.
+    pub fn text_tower(&self) -> ModelsResult<&ClipTextTower> {
+        self.text.as_ref().ok_or_else(|| ModelsError::Input("the CLIP checkpoint has no text tower".into()))
+    }
+
+    /// L2-normalised embeddings `[B, E]` of `texts`, tokenized with `tokenizer` to the tower's context.
+    pub fn embed_texts(
+        &self,
+        tokenizer: &ClipTokenizer,
+        texts: &[&str],
+    ) -> ModelsResult<candle_core::Tensor> {
+        let tower = self.text_tower()?;
+        let context = tower.config().context_length;
+        let rows = texts.iter().map(|t| tokenizer.tokenize(t, context)).collect::<ModelsResult<Vec<_>>>()?;
+        l2_normalise_rows(&tower.embed(&rows)?)
+    }
+}
+
+/// The merges file beside a checkpoint (or in its folder), when there is one.
+pub fn merges_beside(checkpoint: &Path) -> Option<PathBuf> {
+    let dir = if checkpoint.is_dir() { checkpoint } else { checkpoint.parent()? };
+    Some(dir.join(MERGES_FILE)).filter(|p| p.is_file())
+}
+
+fn read_json(path: &Path) -> ModelsResult<serde_json::Value> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| ModelsError::Config { reason: e.to_string(), path: path.to_path_buf() })?;
+    serde_json::from_str(&text)
+        .map_err(|e| ModelsError::Config { reason: e.to_string(), path: path.to_path_buf() })
+}
+
+/// The tensors with the prefix before `visual.class_embedding` / `token_embedding.weight` removed.
+fn without_prefix(weights: &Weights) -> ModelsResult<Weights> {
+    let names = weights.names();
+    let prefix = names
+        .iter()
+        .filter_map(|n| {
+            n.strip_suffix("visual.class_embedding").or_else(|| n.strip_suffix("token_embedding.weight"))
+        })
+        .min_by_key(|p| p.len());
+    match prefix {
+        Some("") => Ok(weights.clone()),
+        Some(prefix) => Ok(weights.sub(prefix)),
+        None => Err(weights.missing("visual.class_embedding (or token_embedding.weight)", &[])),
+    }
+}
