@@ -108,3 +108,42 @@ def test_run_refuses_to_overwrite_an_input(scene):
     with pytest.raises(ValueError, match="masks"):
         splatseg.run(scene, masks=scene / "sam", out=scene / "sam")
     assert (scene / "gaussians.ply").read_bytes() == before
+
+
+def test_run_releases_the_gil_while_it_works(scene):
+    """Another Python thread keeps running during a call (it would stand still if the GIL were held)."""
+    import threading
+    import time
+
+    def spin(seconds: float) -> float:
+        """Loop iterations per second of this thread alone."""
+        count, end = 0, time.perf_counter() + seconds
+        while time.perf_counter() < end:
+            count += 1
+        return count / seconds
+
+    alone = spin(0.2)
+    done = threading.Event()
+    failure: list = []
+
+    def call():
+        try:
+            splatseg.run(scene, masks=scene / "sam", config={"merge": {"tau_merge": 0.9}})
+        except Exception as e:  # noqa: BLE001 (reported below)
+            failure.append(e)
+        finally:
+            done.set()
+
+    worker = threading.Thread(target=call)
+    started = time.perf_counter()
+    worker.start()
+    count = 0
+    while not done.is_set():
+        time.perf_counter()
+        count += 1
+    seconds = time.perf_counter() - started
+    worker.join()
+    assert not failure, failure
+    assert seconds > 0.05, "the call was too short to tell"
+    rate = count / seconds
+    assert rate > 0.05 * alone, f"this thread ran {rate:.0f} loops/s during the call, {alone:.0f} alone"
