@@ -2,7 +2,8 @@
 //! notebook sees each stage start and end, warnings about the inputs, and what each stage decided.
 //!
 //! The extension is the application here (as the `splatseg` binary is for the command line), so
-//! it installs the process's `tracing` subscriber once, at import. Events of any thread are
+//! it installs the process's `tracing` subscriber once, at import; the level threshold lives in
+//! that subscriber's layer (no static of ours). Events of any thread are
 //! forwarded: a worker thread takes the GIL for the call to `logging`, which is why every call
 //! into the pipeline releases the GIL while it runs. Which levels are forwarded follows the
 //! logger's effective level, read at the start of every call ([`follow_python_level`]), so events
@@ -12,7 +13,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::Arc;
 use tracing::field::{Field, Visit};
 use tracing::{Event, Level, Subscriber};
 use tracing_subscriber::layer::{Context, Layer, SubscriberExt};
@@ -39,7 +39,7 @@ fn python_level(level: &Level) -> u8 {
 /// Forwards events at or above a Python level.
 struct PythonLogging {
     /// The `splatseg` logger's effective level when a call started.
-    threshold: Arc<AtomicU8>,
+    threshold: AtomicU8,
 }
 
 /// The message and the other fields of an event, as one line.
@@ -114,25 +114,25 @@ impl<S: Subscriber> Layer<S> for PythonLogging {
     }
 }
 
-/// The threshold the installed layer reads (set once at import).
-static THRESHOLD: std::sync::OnceLock<Arc<AtomicU8>> = std::sync::OnceLock::new();
-
-/// Installs the forwarding subscriber (once per process; a subscriber some other code set first
-/// is left in place).
+/// Installs the forwarding subscriber as the process's default (once per process; a subscriber
+/// some other code set first is left in place, and then nothing is forwarded).
 pub fn install() {
-    let threshold = THRESHOLD.get_or_init(|| Arc::new(AtomicU8::new(PY_WARNING))).clone();
-    let subscriber = tracing_subscriber::registry().with(PythonLogging { threshold });
-    let _ = tracing::subscriber::set_global_default(subscriber);
+    let layer = PythonLogging { threshold: AtomicU8::new(PY_WARNING) };
+    let _ = tracing::subscriber::set_global_default(tracing_subscriber::registry().with(layer));
 }
 
-/// Reads the `splatseg` logger's effective level, so events below it are not forwarded.
+/// Reads the `splatseg` logger's effective level into the installed layer (found through the
+/// default dispatcher, no state of our own), so events below it are not forwarded.
 pub fn follow_python_level(py: Python<'_>) {
-    let Some(threshold) = THRESHOLD.get() else { return };
     let level = py
         .import("logging")
         .and_then(|l| l.call_method1("getLogger", (LOGGER,)))
         .and_then(|l| l.call_method0("getEffectiveLevel"))
         .and_then(|l| l.extract::<i64>());
     let level = level.map_or(PY_WARNING, |l| l.clamp(0, 255) as u8);
-    threshold.store(level, Ordering::Relaxed);
+    tracing::dispatcher::get_default(|dispatch| {
+        if let Some(layer) = dispatch.downcast_ref::<PythonLogging>() {
+            layer.threshold.store(level, Ordering::Relaxed);
+        }
+    });
 }
