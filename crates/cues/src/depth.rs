@@ -40,6 +40,21 @@ pub struct DepthMap {
 }
 
 impl DepthMap {
+    /// A depth map read at any size (`[h, w]`, e.g. a model's output) resampled bilinearly to
+    /// the `width × height` image, as the `--depth` folder's maps are; an error when `values` is
+    /// empty.
+    pub fn at_image_size(
+        values: &Plane<f32>,
+        kind: DepthKind,
+        width: usize,
+        height: usize,
+    ) -> Result<Self, String> {
+        if values.width == 0 || values.height == 0 {
+            return Err("empty array".to_string());
+        }
+        Ok(DepthMap { values: resize_bilinear(values, width, height), kind })
+    }
+
     /// Metric z when the map holds it (pixels without a surface are 0 / non-finite).
     pub fn metric(&self) -> Option<&Plane<f32>> {
         (self.kind == DepthKind::MetricZ).then_some(&self.values)
@@ -133,10 +148,7 @@ impl DepthSource for NpyDepthSource {
         let plane = array
             .to_plane()
             .ok_or_else(|| file_err(format!("shape {:?} is not [H, W] or [H, W, 1]", array.shape)))?;
-        if plane.width == 0 || plane.height == 0 {
-            return Err(file_err("empty array".to_string()));
-        }
-        Ok(DepthMap { values: resize_bilinear(&plane, width, height), kind: self.kind })
+        DepthMap::at_image_size(&plane, self.kind, width, height).map_err(file_err)
     }
 }
 

@@ -90,6 +90,15 @@ impl FeatureGrid {
             .then_some(FeatureGrid { height, width, channels, data })
     }
 
+    /// Wraps `data` (`[height, width, channels]`) as [`read_feature_grid`] accepts a file's:
+    /// an error when a value is non-finite or the grid is empty or of another length.
+    pub fn checked(height: usize, width: usize, channels: usize, data: Vec<f32>) -> Result<Self, String> {
+        if data.iter().any(|v| !v.is_finite()) {
+            return Err("non-finite values".to_string());
+        }
+        FeatureGrid::new(height, width, channels, data).ok_or_else(|| "empty feature grid".to_string())
+    }
+
     /// The feature vector `[C]` of cell `(x, y)`.
     pub fn cell(&self, x: usize, y: usize) -> &[f32] {
         let i = (y * self.width + x) * self.channels;
@@ -252,10 +261,7 @@ pub fn read_feature_grid(dir: &std::path::Path, stem: &str) -> CuesResult<Featur
     let [h, w, c] = array.shape[..] else {
         return Err(file_err(format!("shape {:?} is not [h, w, C]", array.shape)));
     };
-    if array.data.iter().any(|v| !v.is_finite()) {
-        return Err(file_err("non-finite values".to_string()));
-    }
-    FeatureGrid::new(h, w, c, array.data).ok_or_else(|| file_err("empty feature grid".to_string()))
+    FeatureGrid::checked(h, w, c, array.data).map_err(file_err)
 }
 
 impl DescriptorSource for DenseFeatureDescriptors {

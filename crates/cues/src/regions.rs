@@ -40,9 +40,14 @@ pub struct MaskInput {
 impl MaskInput {
     /// From a dense boolean mask (`[H, W]`).
     pub fn from_plane(mask: &Plane<bool>, predicted_iou: f32, stability_score: f32) -> Self {
+        Self::from_row_major(&mask.data, mask.width, predicted_iou, stability_score)
+    }
+
+    /// From a dense boolean mask held as `[H · W]` row-major values, `width` per row (a NumPy
+    /// `bool[H, W]` read in place); equal to [`MaskInput::from_plane`] of the same mask.
+    pub fn from_row_major(mask: &[bool], width: usize, predicted_iou: f32, stability_score: f32) -> Self {
         let mut runs = Vec::new();
-        for y in 0..mask.height {
-            let row = mask.row(y);
+        for (y, row) in mask.chunks_exact(width.max(1)).enumerate() {
             let mut x = 0;
             while x < row.len() {
                 if row[x] {
@@ -50,7 +55,7 @@ impl MaskInput {
                     while x < row.len() && row[x] {
                         x += 1;
                     }
-                    runs.push(((y * mask.width + start) as u32, (x - start) as u32));
+                    runs.push(((y * width + start) as u32, (x - start) as u32));
                 } else {
                     x += 1;
                 }

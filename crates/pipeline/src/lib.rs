@@ -6,6 +6,8 @@
 //! - [`merge_views`] runs `run`'s per-view merge stage alone (`splatseg merge`), over every view
 //!   or one [`Shard`] `K/N` of them (any number of shards at once, as separate processes), with
 //!   `run`'s inputs and cache keys; a later [`run_pipeline`] on the same output folder reuses it;
+//! - [`merge_view_arrays`] merges one view from cues held in memory (the step both of the
+//!   above take per view; a binding's entry point);
 //! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids);
 //! - [`scene_info`] (what a scene folder holds), [`demo`], [`render_views`], [`train_stage`]: the
 //!   other commands' work;
@@ -57,6 +59,7 @@ pub mod shard;
 mod tests;
 pub mod train_stage;
 mod view_data;
+mod view_merge;
 mod visible;
 
 use cache::{read_json, write_json};
@@ -81,6 +84,7 @@ use splatseg_lift::{LiftStats, PosedCamera, PreparedGaussians};
 use splatseg_match::{MatchStats, Matching};
 use splatseg_scene::load::LoadOptions;
 use std::path::{Path, PathBuf};
+pub use view_merge::{merge_view_arrays, ViewArrays, ViewMerge};
 
 /// What to run on.
 #[derive(Clone, Debug)]

@@ -4,11 +4,11 @@
 
 use super::cache::{read_json, write_json, KeyHasher};
 use super::read_view_mask_inputs;
-use crate::error::Context;
 use crate::view_data::ViewImage;
+use crate::view_merge::{merge_view_arrays, ViewArrays};
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions, RegionSource};
-use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, MergeLog, RegionSummary};
+use splatseg_merge::{MergeConfig, MergeLog, RegionSummary};
 use splatseg_scene::labels::{read_label_png, write_label_png};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene, View};
@@ -153,32 +153,23 @@ pub fn merge_one(
         return Ok(hit);
     }
     let image = image.rgb()?;
-    let rgb = Plane {
+    let masks = read_masks(ctx, view, camera.width, camera.height)?;
+    let result = merge_view_arrays(&ViewArrays {
+        stem: &view.stem,
+        rgb: &image.data,
         width: size.0,
         height: size.1,
-        data: image.data.chunks_exact(3).map(|p| [0, 1, 2].map(|c| p[c] as f32 / 255.0)).collect(),
-    };
-    let masks = read_masks(ctx, view, camera.width, camera.height)?;
-    let inputs = build_view_inputs(&CueRequest {
-        stem: &view.stem,
-        rgb: &rgb,
         masks: &masks,
         depth: depth.depth,
-        metric_depth: depth.metric,
+        metric: depth.metric,
         descriptors: ctx.descriptors,
+        config: ctx.config,
         region_options: ctx.region_options,
         intrinsics: Some(splatseg_cues::Intrinsics::of_camera(camera, size.0, size.1)),
-    })
-    .with_context(|| format!("preparing the merge cues of view `{}`", view.stem))?;
-    let result = merge_view(&inputs, ctx.config).with_context(|| format!("merging view `{}`", view.stem))?;
-    let log = ctx.keep_log.then_some(ViewMergeLog { input_regions: inputs.regions.sources, log: result.log });
-    let merged = MergedView {
-        raw: inputs.regions.labels,
-        merged: result.labels,
-        regions: result.regions,
-        cached: false,
-        log,
-    };
+    })?;
+    let log = ctx.keep_log.then_some(ViewMergeLog { input_regions: result.input_regions, log: result.log });
+    let merged =
+        MergedView { raw: result.raw, merged: result.merged, regions: result.regions, cached: false, log };
     write_label_png(&ctx.cache_dir.join(format!("{}.raw.png", view.stem)), &merged.raw)?;
     write_label_png(&ctx.cache_dir.join(format!("{}.merged.png", view.stem)), &merged.merged)?;
     write_json(

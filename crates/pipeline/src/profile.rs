@@ -51,6 +51,10 @@ impl PartTimes {
     }
 }
 
+/// The `tracing` target of the events marking each stage's start and end (debug level; the
+/// Python binding shows them at INFO as the run's progress).
+pub const STAGE_TARGET: &str = "splatseg_pipeline::stage";
+
 /// Times stages one after another.
 pub struct Profiler {
     stages: Vec<StageProfile>,
@@ -71,6 +75,7 @@ impl Profiler {
         self.end();
         release_freed_memory();
         reset_peak_rss();
+        tracing::debug!(target: STAGE_TARGET, "stage {name}: started");
         self.current = Some((name.to_string(), Instant::now()));
     }
 
@@ -84,6 +89,7 @@ impl Profiler {
             let seconds = started.elapsed().as_secs_f64();
             let peak_rss_bytes = peak_rss_bytes();
             tracing::debug!(
+                target: STAGE_TARGET,
                 "stage {stage}: {seconds:.2} s, peak {} MB",
                 peak_rss_bytes.map_or("?".to_string(), |b| (b >> 20).to_string())
             );

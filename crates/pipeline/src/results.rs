@@ -35,10 +35,11 @@ impl RunOutputs {
         Ok(splatseg_scene::labels::read_label_png(&self.out.join("masks").join(format!("{stem}.png")))?)
     }
 
-    /// `[N]` object id of every row of the input PLY (−1 = none), from `gaussians.ply`.
+    /// `[N]` object id of every row of the input PLY (−1 = none), from `gaussians.ply` (whose
+    /// rows with non-finite values, kept in place with id −1, are read too).
     pub fn object_ids(&self) -> crate::Result<Vec<i32>> {
         let path = self.out.join("gaussians.ply");
-        let g = splatseg_scene::ply::read_ply(&path)?;
+        let g = splatseg_scene::ply::read_ply_rows(&path)?.gaussians;
         g.object_ids.with_context(|| format!("no object_id in {}", path.display()))
     }
 }
