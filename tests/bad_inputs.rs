@@ -239,6 +239,20 @@ fn cases() -> Vec<Case> {
             expect: Expect::Error(&["gaussians.ply"]),
         },
         Case {
+            name: "view --out naming a file",
+            damage: nothing,
+            // A host that does not resolve: were the check gone, the command would fail on it, not serve forever.
+            args: &[
+                "view",
+                "SCENE/gaussians.ply",
+                "--out",
+                "SCENE/sparse/0/cameras.txt",
+                "--listen",
+                "no-such-host.invalid:0",
+            ],
+            expect: Expect::Error(&["cameras.txt", "must be a folder"]),
+        },
+        Case {
             name: "--shard -1/2",
             damage: nothing,
             args: &["merge", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--shard", "-1/2"],

@@ -15,6 +15,9 @@ pub enum ViewError {
          or point_cloud.ply); give the folder of a run or a .ply file: {0}"
     )]
     NoPly(PathBuf),
+    /// `--out` names something that is not a folder.
+    #[error("--out must be a folder for the exports (it is created when missing), not a file: {0}")]
+    OutNotAFolder(PathBuf),
     /// The PLY could not be read or is not a 3DGS PLY (the message names the file).
     #[error("cannot view the PLY: {0}")]
     BadPly(splatseg_scene::SceneError),

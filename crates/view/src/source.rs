@@ -54,6 +54,9 @@ impl ViewSource {
         if !path.exists() {
             return Err(ViewError::Missing(path.to_path_buf()));
         }
+        if let Some(out) = options.out.as_ref().filter(|o| o.exists() && !o.is_dir()) {
+            return Err(ViewError::OutNotAFolder(out.clone()));
+        }
         let (folder, ply_path) = if path.is_dir() {
             (path.to_path_buf(), find_ply(path).ok_or_else(|| ViewError::NoPly(path.to_path_buf()))?)
         } else {
