@@ -1,7 +1,7 @@
 //! Lifting benchmark at full size (too slow for criterion's repeated samples):
 //!
 //! ```sh
-//! cargo run --release -p splatseg-lift --example lift_bench -- 1000000 100 1000 1000
+//! cargo run --release -p splatseg-lift --features bench --example lift_bench -- 1000000 100 1000 1000
 //! ```
 //! Arguments: Gaussians, views, width, height (defaults: 1M, 100, 1000 × 1000). Prints the time
 //! of each step and the peak resident memory (Linux `VmHWM`).

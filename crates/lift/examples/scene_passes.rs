@@ -3,7 +3,7 @@
 //! before / after a change without the rest of the pipeline:
 //!
 //! ```sh
-//! cargo run --release -p splatseg-lift --example scene_passes -- SCENE_DIR [VIEWS]
+//! cargo run --release -p splatseg-lift --features bench --example scene_passes -- SCENE_DIR [VIEWS]
 //! ```
 //! Reads `SCENE_DIR/gaussians.ply` and the cameras, and, for the first VIEWS views (default 3),
 //! times the visibility pass (projection and binning, surface depth, visibility test) and the label

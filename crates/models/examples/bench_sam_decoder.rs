@@ -2,7 +2,7 @@
 //! random image embedding stands in; speed does not depend on the values):
 //!
 //! ```text
-//! cargo run --release -p splatseg-models --example bench_sam_decoder -- CHECKPOINT [PROMPTS] [UPSCALED] [CHUNK]
+//! cargo run --release -p splatseg-models --features bench --example bench_sam_decoder -- CHECKPOINT [PROMPTS] [UPSCALED] [CHUNK]
 //! ```
 //!
 //! Prepares the decoder's per-image work, decodes PROMPTS single-point prompts (transformer and IoU

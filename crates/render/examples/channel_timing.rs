@@ -2,7 +2,7 @@
 //! forward+backward of an RGB-only render and of RGB plus D feature channels on the same scene, side
 //! by side in one run, and prints a table with the ratio to RGB only and the cost per extra channel.
 //!
-//! `cargo run --release -p splatseg-render --example channel_timing -- [N] [WIDTH] [HEIGHT] [THREADS] [D,D,...]`
+//! `cargo run --release -p splatseg-render --features bench --example channel_timing -- [N] [WIDTH] [HEIGHT] [THREADS] [D,D,...]`
 //! (defaults: 100000 800 800, all threads, 1,2,4,8,16,32). Best of 3 runs per row; the loss of the
 //! backward is `0.001·Σ rgb + 0.001·Σ features`.
 

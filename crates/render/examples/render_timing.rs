@@ -1,7 +1,7 @@
 //! Times forward and forward+backward renders of a synthetic scene and reports blends and peak
 //! memory (what `BENCHMARKS.md` records; criterion benches in `benches/` do the routine runs).
 //!
-//! `cargo run --release -p splatseg-render --example render_timing -- N WIDTH HEIGHT [THREADS] [--gsplat] [--dump DIR]`
+//! `cargo run --release -p splatseg-render --features bench --example render_timing -- N WIDTH HEIGHT [THREADS] [--gsplat] [--dump DIR]`
 //! `--gsplat` uses gsplat 1.5's rules (as `tools/bench_gsplat_torch.py`) instead of 3DGS's.
 //! `--dump DIR` writes the scene as `.npy` files for `tools/bench_gsplat_torch.py`.
 

@@ -1,7 +1,7 @@
 //! Times training iterations on the synthetic scene (the numbers in BENCHMARKS.md):
 //!
 //! ```text
-//! cargo run --release -p splatseg-train --example train_timing -- WIDTHxHEIGHT ITERATIONS [joint|identity]
+//! cargo run --release -p splatseg-train --features bench --example train_timing -- WIDTHxHEIGHT ITERATIONS [joint|identity]
 //! ```
 //!
 //! Prints the Gaussian count, the mean wall time per iteration of the photometric stage, with `joint`

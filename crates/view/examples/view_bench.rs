@@ -3,7 +3,7 @@
 //! demo's result and for 1M random Gaussians, and the page's size. Prints a Markdown table for
 //! BENCHMARKS.md.
 //!
-//! `cargo run --release -p splatseg-view --example view_bench -- [out/demo/run]`
+//! `cargo run --release -p splatseg-view --features bench --example view_bench -- [out/demo/run]`
 
 use splatseg_scene::Gaussians;
 use splatseg_view::browser::{find_chromium, Browser};

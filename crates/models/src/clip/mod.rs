@@ -11,6 +11,7 @@ mod block;
 pub mod clean;
 pub mod config;
 mod image_tower;
+mod pretokens;
 pub mod relevancy;
 mod text_tower;
 pub mod tokenizer;

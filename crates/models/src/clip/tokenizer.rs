@@ -7,7 +7,7 @@
 //! - the vocabulary is those 256 characters, the same with `</w>` (end of word) appended, then one entry
 //!   per merge line (lines 1 ..= 48,894 of the file; line 0 is a header), then `<start_of_text>` and
 //!   `<end_of_text>`: 49,408 ids for OpenAI's file, SOT 49,406, EOT 49,407;
-//! - text is cleaned ([`clean::clean_lower`]) and split by the pattern
+//! - text is cleaned ([`clean::clean_lower`]) and split by the pattern (see `pretokens`)
 //!   `<start_of_text>|<end_of_text>|'s|'t|'re|'ve|'m|'ll|'d|\p{L}+|\p{N}|[^\s\p{L}\p{N}]+` (one digit per
 //!   piece); each piece's bytes are merged pairwise, lowest-ranked merge first, all its occurrences left
 //!   to right, the last character carrying `</w>`;
@@ -19,6 +19,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::clean;
+use super::pretokens::pretokens;
 use crate::error::{ModelsError, ModelsResult};
 
 /// Merge lines OpenAI's tokenizer reads (`49152 - 256 - 2`).
@@ -37,7 +38,6 @@ pub struct ClipTokenizer {
     ranks: HashMap<(String, String), usize>,
     /// Byte → its character.
     byte_chars: [char; 256],
-    pattern: regex::Regex,
     start: u32,
     end: u32,
     path: PathBuf,
@@ -99,11 +99,7 @@ impl ClipTokenizer {
         }
         let start = ids[START];
         let end = ids[END];
-        let pattern = regex::Regex::new(
-            r"(?i)<start_of_text>|<end_of_text>|'s|'t|'re|'ve|'m|'ll|'d|\p{L}+|\p{N}|[^\s\p{L}\p{N}]+",
-        )
-        .map_err(|e| error(format!("internal pattern: {e}")))?;
-        Ok(Self { ids, ranks, byte_chars, pattern, start, end, path: path.to_path_buf() })
+        Ok(Self { ids, ranks, byte_chars, start, end, path: path.to_path_buf() })
     }
 
     /// Vocabulary size (49,408 for OpenAI's file).
@@ -125,8 +121,7 @@ impl ClipTokenizer {
     pub fn encode(&self, text: &str) -> ModelsResult<Vec<u32>> {
         let cleaned = clean::clean_lower(text);
         let mut out = Vec::new();
-        for piece in self.pattern.find_iter(&cleaned) {
-            let piece = piece.as_str();
+        for piece in pretokens(&cleaned) {
             if piece == START || piece == END {
                 out.push(if piece == START { self.start } else { self.end });
                 continue;
