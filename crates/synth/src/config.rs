@@ -41,6 +41,9 @@ pub struct SynthConfig {
     pub room: RoomConfig,
     /// How the simulated SAM masks over-segment.
     pub sam: SamSimConfig,
+    /// How far the simulated features and monocular depth are from the truth.
+    #[serde(skip_serializing_if = "CueConfig::is_default")]
+    pub cues: CueConfig,
 }
 
 impl Default for SynthConfig {
@@ -58,7 +61,57 @@ impl Default for SynthConfig {
             family: Family::Default,
             room: RoomConfig::default(),
             sam: SamSimConfig::default(),
+            cues: CueConfig::default(),
         }
+    }
+}
+
+/// Statistics of the simulated cues (the `[cues]` table): the DINOv2-like features
+/// ([`crate::features`]) and the Depth-Anything-like relative depth ([`crate::mono_depth`]). The
+/// defaults are those every tuning family uses; the blind families ([`crate::family`]) draw
+/// harsher ones.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CueConfig {
+    /// Relative size of a texture part's perturbation of its object's embedding: two parts of
+    /// one object have cosine ≈ `1 / (1 + p²)` (0.3: ≈ 0.92).
+    pub part_perturbation: f64,
+    /// Norm of the per-patch noise vector (embeddings have unit norm).
+    pub patch_noise: f64,
+    /// Amplitude of the smooth spatial drift, per channel.
+    pub drift: f64,
+    /// Range of an instance's share of the component all instances have in common: two
+    /// instances have cosine `√(s_i · s_j)` (higher = objects less distinct).
+    pub shared_share: [f64; 2],
+    /// Peak relative size of the depth's smooth multiplicative distortion.
+    pub depth_scale_error: f64,
+    /// Peak size of the depth's smooth additive distortion, a fraction of the inverse-depth range.
+    pub depth_shift_error: f64,
+    /// Per-pixel depth noise, a fraction of the inverse-depth range.
+    pub depth_pixel_noise: f64,
+    /// Radius of the box blur applied to the relative depth, pixels (0: none).
+    pub depth_blur_px: usize,
+}
+
+impl Default for CueConfig {
+    fn default() -> Self {
+        CueConfig {
+            part_perturbation: 0.3,
+            patch_noise: 0.22,
+            drift: 0.12,
+            shared_share: [0.35, 0.6],
+            depth_scale_error: 0.12,
+            depth_shift_error: 0.05,
+            depth_pixel_noise: 0.008,
+            depth_blur_px: 0,
+        }
+    }
+}
+
+impl CueConfig {
+    /// True when every knob has its default value.
+    pub fn is_default(&self) -> bool {
+        *self == CueConfig::default()
     }
 }
 
@@ -133,6 +186,9 @@ pub struct RoomConfig {
     /// Random layout: probability that an ordinary object gets a multi-tone texture (stripes
     /// or two tones, each band its own SAM part).
     pub multi_tone_share: f64,
+    /// Random layout: factor on the stripe period and checker cell of objects (smaller = finer).
+    #[serde(skip_serializing_if = "is_one")]
+    pub pattern_scale: f64,
 }
 
 impl Default for RoomConfig {
@@ -151,8 +207,13 @@ impl Default for RoomConfig {
             stacked: 0,
             touching: 0,
             multi_tone_share: 0.3,
+            pattern_scale: 1.0,
         }
     }
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 impl RoomConfig {

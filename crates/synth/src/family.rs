@@ -12,10 +12,18 @@
 //! | `sam_noise` | rooms with heavy SAM noise: holes, wrong merges of adjacent objects, whole-object masks over their parts, 1-px dilation |
 //! | `hires` | the `rooms` scene of the same seed at 1280×960 (SAM's pixel settings scaled) |
 //! | `many_views` | the `rooms` scene of the same seed seen by 12–100 views |
+//! | `blind_cues` | **blind**: rooms with harsher cues — features noisier, parts of one object and different objects closer, depth with 3× the smooth error and a blur, more nested whole-object masks and wrong merges |
+//! | `blind_lens` | **blind**: rooms seen through lenses of 40°–75° horizontal field of view |
+//! | `blind_512` | **blind**: rooms at 512×384, harsher cues, lenses of 40°–75° |
+//! | `blind_hires` | **blind**: rooms at 1280×960 with fine stripes and checkers on most objects, harsher cues |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
+//!
+//! The **blind** families ([`Family::BLIND`]) are for judging, never for choosing a setting: their
+//! rooms have their own layouts (their own salt) and their cue statistics are ones no tuning family
+//! uses. A setting changed because of a blind result needs a new blind family afterwards.
 
-use crate::config::{FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
+use crate::config::{CueConfig, FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
 use crate::noise::{rng_for, stream};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -44,11 +52,19 @@ pub enum Family {
     Hires,
     /// The rooms with 12–100 views.
     ManyViews,
+    /// Blind: harsher cue statistics.
+    BlindCues,
+    /// Blind: other lenses.
+    BlindLens,
+    /// Blind: 512×384, harsher cues, other lenses.
+    Blind512,
+    /// Blind: 1280×960, fine patterns on objects, harsher cues.
+    BlindHires,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 9] = [
+    pub const ALL: [Family; 13] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -58,7 +74,20 @@ impl Family {
         Family::SamNoise,
         Family::Hires,
         Family::ManyViews,
+        Family::BlindCues,
+        Family::BlindLens,
+        Family::Blind512,
+        Family::BlindHires,
     ];
+
+    /// The blind families: scored and reported apart, never used to choose a setting.
+    pub const BLIND: [Family; 4] =
+        [Family::BlindCues, Family::BlindLens, Family::Blind512, Family::BlindHires];
+
+    /// True for the blind families.
+    pub fn is_blind(self) -> bool {
+        Family::BLIND.contains(&self)
+    }
 
     /// Its name (`rooms`, `multi_tone`, …).
     pub fn name(self) -> &'static str {
@@ -72,6 +101,10 @@ impl Family {
             Family::SamNoise => "sam_noise",
             Family::Hires => "hires",
             Family::ManyViews => "many_views",
+            Family::BlindCues => "blind_cues",
+            Family::BlindLens => "blind_lens",
+            Family::Blind512 => "blind_512",
+            Family::BlindHires => "blind_hires",
         }
     }
 
@@ -139,6 +172,20 @@ impl Family {
                 c.sam = c.sam.scaled(scale);
             }
             Family::ManyViews => c.views = rng.gen_range(12..=100),
+            Family::BlindCues => harsher_cues(&mut c, &mut rng),
+            Family::BlindLens => c.fov_x_deg = rng.gen_range(40.0..75.0),
+            Family::Blind512 => {
+                c.fov_x_deg = rng.gen_range(40.0..75.0);
+                resize(&mut c, 512, 384);
+                harsher_cues(&mut c, &mut rng);
+            }
+            Family::BlindHires => {
+                let r = &mut c.room;
+                r.multi_tone_share = 0.6;
+                r.pattern_scale = rng.gen_range(0.35..0.6);
+                resize(&mut c, 1280, 960);
+                harsher_cues(&mut c, &mut rng);
+            }
         }
         c
     }
@@ -148,6 +195,35 @@ impl std::fmt::Display for Family {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
+}
+
+/// `c` at `width × height` (SAM's pixel settings scaled by the width's factor).
+fn resize(c: &mut SynthConfig, width: u32, height: u32) {
+    let scale = width as f64 / c.width as f64;
+    c.width = width;
+    c.height = height;
+    c.sam = c.sam.scaled(scale);
+}
+
+/// Cue statistics nearer what real models give on real captures than the tuning families':
+/// DINOv2-like tokens whose parts of one object are ≈ 0.83–0.88 alike (the tuning families: ≈ 0.92),
+/// noisier patches, objects less distinct, a monocular depth with three times the smooth error, twice
+/// the pixel noise and a blur of 2 px per 320 px of width, SAM output with more nested whole-object
+/// masks and more wrong merges.
+fn harsher_cues(c: &mut SynthConfig, rng: &mut ChaCha8Rng) {
+    c.cues = CueConfig {
+        part_perturbation: rng.gen_range(0.37..0.45),
+        patch_noise: rng.gen_range(0.3..0.4),
+        drift: rng.gen_range(0.14..0.2),
+        shared_share: [0.45, 0.75],
+        depth_scale_error: 0.36,
+        depth_shift_error: 0.15,
+        depth_pixel_noise: 0.016,
+        depth_blur_px: (2 * c.width as usize).div_ceil(320),
+    };
+    c.sam.whole_object_probability = 0.8;
+    c.sam.wrong_merge_probability = 0.5;
+    c.sam.adjacent_merge_probability = 0.25;
 }
 
 fn wall_scale(walls: WallPaint, rng: &mut ChaCha8Rng) -> f64 {
@@ -184,6 +260,7 @@ fn rooms_config(seed: u64, rng: &mut ChaCha8Rng) -> SynthConfig {
         stacked: rng.gen_range(0..=1),
         touching: rng.gen_range(0..=1),
         multi_tone_share: 0.3,
+        pattern_scale: 1.0,
     };
     let sam = SamSimConfig {
         whole_object_probability: 0.45,
@@ -226,5 +303,30 @@ mod tests {
         let walls: std::collections::BTreeSet<String> =
             (0..20).map(|s| format!("{:?}", Family::Rooms.config(s).room.walls)).collect();
         assert_eq!(walls.len(), 3, "rooms draw every wall paint: {walls:?}");
+    }
+
+    #[test]
+    fn blind_families_use_settings_no_tuning_family_uses() {
+        let tuning: Vec<Family> = Family::ALL.into_iter().filter(|f| !f.is_blind()).collect();
+        for seed in 0..20 {
+            for f in tuning.iter() {
+                let c = f.config(seed);
+                assert!(c.cues.is_default() && c.fov_x_deg == 60.0 && c.room.pattern_scale == 1.0, "{f}");
+            }
+            let rooms = Family::Rooms.config(seed).room;
+            for f in Family::BLIND {
+                let c = f.config(seed);
+                assert_ne!(c.room, rooms, "{f} has a layout of its own");
+                let new_cues = !c.cues.is_default();
+                let new_lens = c.fov_x_deg != 60.0;
+                assert!(new_cues || new_lens, "{f} seed {seed}");
+            }
+            let hires = Family::BlindHires.config(seed);
+            assert_eq!((hires.width, hires.height), (1280, 960));
+            assert!(hires.room.pattern_scale < 0.6 && hires.cues.depth_blur_px == 8);
+            let lens = Family::BlindLens.config(seed).fov_x_deg;
+            assert!((40.0..75.0).contains(&lens));
+            assert_eq!(Family::Blind512.config(seed).width, 512);
+        }
     }
 }

@@ -15,17 +15,11 @@
 //! embeddings of the (instance, part) pairs it covers (boundary cells mix both sides), plus a
 //! smooth spatial drift and per-patch noise.
 
+use crate::config::CueConfig;
 use crate::noise::{hash, normal, rng_for, stream, value_noise2};
 use rand::Rng;
 use splatseg_scene::Plane;
 use std::collections::BTreeMap;
-
-/// Relative size of a part's perturbation of its object's embedding.
-const PART_PERTURBATION: f64 = 0.3;
-/// Norm of the per-patch noise vector (embeddings have unit norm).
-const PATCH_NOISE_NORM: f64 = 0.22;
-/// Amplitude of the smooth spatial drift, per channel.
-const DRIFT_AMPLITUDE: f64 = 0.12;
 
 /// A dense feature map on a patch grid, `[grid_h, grid_w, dim]` row-major, channels last
 /// (written as `.npy` in this shape).
@@ -55,6 +49,8 @@ pub struct Embeddings {
     dim: usize,
     seed: u64,
     base: BTreeMap<u32, Vec<f64>>,
+    /// The part perturbation, patch noise and drift used.
+    cues: CueConfig,
 }
 
 fn normalise(v: &mut [f64]) {
@@ -88,8 +84,15 @@ pub fn cosine(a: &[f64], b: &[f64]) -> f64 {
 
 impl Embeddings {
     /// Embeddings for instances `0..=max_id` (0 = no surface). `alike`: pairs `(a, b)` whose
-    /// embedding `b` is `a`'s plus a perturbation of relative size `strength`.
-    pub fn new(seed: u64, dim: usize, max_id: u32, alike: &[(u32, u32, f64)]) -> Embeddings {
+    /// embedding `b` is `a`'s plus a perturbation of relative size `strength`. `cues`: the
+    /// statistics (shared share, part perturbation, patch noise, drift).
+    pub fn new(
+        seed: u64,
+        dim: usize,
+        max_id: u32,
+        alike: &[(u32, u32, f64)],
+        cues: &CueConfig,
+    ) -> Embeddings {
         let mut rng = rng_for(seed, stream::EMBEDDINGS, 0);
         let shared = random_unit(&mut rng, dim);
         let mut basis = vec![shared.clone()];
@@ -97,7 +100,8 @@ impl Embeddings {
         for id in 0..=max_id {
             let own = orthogonalise(random_unit(&mut rng, dim), &basis);
             basis.push(own.clone());
-            let alpha: f64 = rng.gen_range(0.35f64..0.6).sqrt();
+            let [lo, hi] = cues.shared_share;
+            let alpha: f64 = rng.gen_range(lo..hi).sqrt();
             let beta = (1.0 - alpha * alpha).sqrt();
             let v: Vec<f64> = shared.iter().zip(&own).map(|(s, o)| alpha * s + beta * o).collect();
             base.insert(id, v);
@@ -109,7 +113,7 @@ impl Embeddings {
             normalise(&mut v);
             base.insert(b, v);
         }
-        Embeddings { dim, seed, base }
+        Embeddings { dim, seed, base, cues: cues.clone() }
     }
 
     /// Channels.
@@ -128,7 +132,7 @@ impl Embeddings {
         let mut v: Vec<f64> = (0..self.dim)
             .map(|c| {
                 let r = normal(hash(self.seed, &[stream::EMBEDDINGS, id as u64, part as u64, c as u64]));
-                base[c] + PART_PERTURBATION * r / (self.dim as f64).sqrt()
+                base[c] + self.cues.part_perturbation * r / (self.dim as f64).sqrt()
             })
             .collect();
         normalise(&mut v);
@@ -218,7 +222,8 @@ pub fn patch_features_with_drift(
                     embeddings.seed,
                     &[stream::FEATURE_NOISE, view as u64, i as u64, j as u64, c as u64],
                 ));
-                *value += DRIFT_AMPLITUDE * (drift - 0.5) + PATCH_NOISE_NORM * noise / (dim as f64).sqrt();
+                *value += embeddings.cues.drift * (drift - 0.5)
+                    + embeddings.cues.patch_noise * noise / (dim as f64).sqrt();
                 values.push(*value as f32);
             }
         }
@@ -232,7 +237,7 @@ mod tests {
 
     #[test]
     fn embedding_similarities_follow_the_design() {
-        let e = Embeddings::new(3, 32, 10, &[(4, 5, 0.45), (2, 3, 1.0)]);
+        let e = Embeddings::new(3, 32, 10, &[(4, 5, 0.45), (2, 3, 1.0)], &CueConfig::default());
         let b = |id| e.base(id).expect("id").to_vec();
         let white = cosine(&b(4), &b(5));
         assert!(white > 0.85, "white pair {white}");
@@ -246,6 +251,35 @@ mod tests {
         assert!(parts > 0.85, "parts {parts}");
     }
 
+    /// Mean cosines over instances 1..=40 of 384-d embeddings: (two parts of one instance, two
+    /// instances).
+    fn mean_similarities(cues: &CueConfig) -> (f64, f64) {
+        let e = Embeddings::new(5, 384, 40, &[], cues);
+        let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+        let parts = mean((1..=40).map(|id| cosine(&e.part(id, 0), &e.part(id, 1))).collect());
+        let b = |id| e.base(id).expect("id").to_vec();
+        let objects = mean((1..40).map(|id| cosine(&b(id), &b(id + 1))).collect());
+        (parts, objects)
+    }
+
+    #[test]
+    fn the_blind_families_cues_are_the_harsher_statistics_they_claim() {
+        // tuning: parts ≈ 1 / (1 + 0.3²) = 0.92, objects ≈ E√(s_i s_j) with s ∈ [0.35, 0.6]
+        let (parts, objects) = mean_similarities(&CueConfig::default());
+        assert!((0.90..0.94).contains(&parts) && (0.43..0.51).contains(&objects), "{parts} {objects}");
+        // the blind families' extremes: parts 0.83–0.88 (the real-model figure: ≈ 0.87),
+        // objects less distinct (s ∈ [0.45, 0.75])
+        for p in [0.37, 0.45] {
+            let harsh =
+                CueConfig { part_perturbation: p, shared_share: [0.45, 0.75], ..CueConfig::default() };
+            let (parts, objects) = mean_similarities(&harsh);
+            assert!(
+                (0.82..0.89).contains(&parts) && (0.55..0.63).contains(&objects),
+                "{p}: {parts} {objects}"
+            );
+        }
+    }
+
     #[test]
     fn cells_average_the_pixels_they_cover() {
         // Left half id 1, right half id 2; 28×14 image, patch 14 → 1×2 grid, each cell pure.
@@ -253,7 +287,7 @@ mod tests {
             Plane::from_vec(28, 14, (0..28 * 14).map(|i| if i % 28 < 14 { 1 } else { 2 }).collect())
                 .expect("size");
         let part = Plane::filled(28, 14, 0u8);
-        let e = Embeddings::new(1, 32, 3, &[]);
+        let e = Embeddings::new(1, 32, 3, &[], &CueConfig::default());
         let f = patch_features(&instance, &part, &e, 14, 0);
         assert_eq!((f.grid_h, f.grid_w, f.dim), (1, 2, 32));
         let cell = |c: usize| f.cell(0, c).iter().map(|&v| v as f64).collect::<Vec<_>>();

@@ -51,7 +51,7 @@ mod write;
 
 pub use args::{parse_family, parse_size, SynthArgs};
 pub use classes::FailureClass;
-pub use config::{FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
+pub use config::{CueConfig, FloorPattern, LayoutKind, RoomConfig, SamSimConfig, SynthConfig, WallPaint};
 pub use error::SynthError;
 pub use family::Family;
 pub use features::PatchFeatures;
@@ -253,6 +253,7 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
         config.feature_dim,
         max_id,
         &[(white[0], white[1], 0.45), (2, 3, 1.0)],
+        &config.cues,
     );
     let (gh, gw) =
         features::grid_size(config.width as usize, config.height as usize, config.feature_patch_px);
@@ -277,7 +278,7 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
                 v,
                 &drift,
             );
-            let relative_depth = mono_depth::relative_depth(&r.depth_z, config.seed, v);
+            let relative_depth = mono_depth::relative_depth(&r.depth_z, config.seed, v, &config.cues);
             SynthView {
                 stem: view_stem(v),
                 image: r.rgb,

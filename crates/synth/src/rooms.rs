@@ -74,18 +74,29 @@ fn colour(rng: &mut ChaCha8Rng) -> Rgb {
 }
 
 /// An ordinary object's texture; `height` is the object's height (for two tones).
-fn texture(rng: &mut ChaCha8Rng, multi_tone_share: f64, height: f64, seed: u64) -> Texture {
+/// `pattern_scale` multiplies the stripe period and checker cell.
+fn texture(
+    rng: &mut ChaCha8Rng,
+    multi_tone_share: f64,
+    pattern_scale: f64,
+    height: f64,
+    seed: u64,
+) -> Texture {
     if rng.gen_bool(multi_tone_share.clamp(0.0, 1.0)) {
         let (a, b) = (colour(rng), colour(rng));
         if rng.gen_bool(0.5) {
-            Texture::Stripes { a, b, period_m: rng.gen_range(0.1..0.3) }
+            Texture::Stripes { a, b, period_m: rng.gen_range(0.1..0.3) * pattern_scale }
         } else {
             Texture::TwoTone { bottom: a, top: b, split_m: height * rng.gen_range(0.35..0.65) }
         }
     } else {
         match rng.gen_range(0..10) {
             0..=5 => Texture::Plain { albedo: colour(rng) },
-            6 | 7 => Texture::Checkers { a: colour(rng), b: colour(rng), cell_m: rng.gen_range(0.05..0.15) },
+            6 | 7 => Texture::Checkers {
+                a: colour(rng),
+                b: colour(rng),
+                cell_m: rng.gen_range(0.05..0.15) * pattern_scale,
+            },
             _ => {
                 let base = colour(rng);
                 let blotch = base.map(|c| c * 0.7);
@@ -255,7 +266,11 @@ impl Builder<'_> {
             let base = colour(r);
             Texture::Blotches { base, blotch: base.map(|c| c * 0.65), frequency: r.gen_range(3.0..6.0), seed }
         } else {
-            Texture::Checkers { a: colour(r), b: colour(r), cell_m: r.gen_range(0.08..0.2) }
+            Texture::Checkers {
+                a: colour(r),
+                b: colour(r),
+                cell_m: r.gen_range(0.08..0.2) * self.config.room.pattern_scale,
+            }
         };
         let a = if side > 0.0 { (1.0, 1.5) } else { (-1.5, -1.0) };
         let piece = Piece {
@@ -272,6 +287,7 @@ impl Builder<'_> {
     /// A box with a smaller object standing on it.
     fn stacked(&mut self, k: usize) {
         let share = self.config.room.multi_tone_share;
+        let scale = self.config.room.pattern_scale;
         let (seed_a, seed_b) = (self.texture_seed(), self.texture_seed() ^ 1);
         let r = &mut self.rng;
         let size = DVec3::new(r.gen_range(0.45..0.75), r.gen_range(0.45..0.75), r.gen_range(0.3..0.55));
@@ -306,8 +322,8 @@ impl Builder<'_> {
                 )
             }
         };
-        let bottom_texture = texture(r, share, size.z, seed_a);
-        let top_texture = texture(r, share, top_height, seed_b);
+        let bottom_texture = texture(r, share, scale, size.z, seed_a);
+        let top_texture = texture(r, share, scale, top_height, seed_b);
         let design = vec![FailureClass::Stacked];
         let pieces = vec![
             Piece {
@@ -334,6 +350,7 @@ impl Builder<'_> {
     /// A box and another object touching one of its side faces.
     fn touching(&mut self, k: usize) {
         let share = self.config.room.multi_tone_share;
+        let scale = self.config.room.pattern_scale;
         let (seed_a, seed_b) = (self.texture_seed(), self.texture_seed() ^ 1);
         let r = &mut self.rng;
         let size = DVec3::new(r.gen_range(0.35..0.6), r.gen_range(0.35..0.6), r.gen_range(0.35..0.8));
@@ -382,8 +399,8 @@ impl Builder<'_> {
                 (ObjectKind::Box, Shape::Cuboid { base_centre: at, size: other, yaw }, reach, other.z)
             }
         };
-        let first_texture = texture(r, share, size.z, seed_a);
-        let second_texture = texture(r, share, height, seed_b);
+        let first_texture = texture(r, share, scale, size.z, seed_a);
+        let second_texture = texture(r, share, scale, height, seed_b);
         let design = vec![FailureClass::Touching];
         let pieces = vec![
             Piece {
@@ -435,9 +452,10 @@ impl Builder<'_> {
     /// An ordinary object anywhere.
     fn ordinary(&mut self, k: usize) -> bool {
         let share = self.config.room.multi_tone_share;
+        let scale = self.config.room.pattern_scale;
         let seed = self.texture_seed();
         let (kind, shape, reach, height) = random_shape(&mut self.rng, DVec3::ZERO);
-        let texture = texture(&mut self.rng, share, height, seed);
+        let texture = texture(&mut self.rng, share, scale, height, seed);
         let piece = Piece { name: format!("object_{k}"), kind, shape, texture, tags: vec![], design: vec![] };
         self.place(MAIN, &[(DVec2::ZERO, reach)], vec![piece])
     }

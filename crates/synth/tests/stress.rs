@@ -72,7 +72,7 @@ fn multi_tone_walls_are_one_instance_in_several_parts_with_agreeing_features() {
     }
     assert!(found >= 8, "two-tone walls show both tones in only {found} of 12 walls");
     // The parts' embeddings agree as DINOv2's parts of one object do.
-    let e = Embeddings::new(3, 384, 12, &[]);
+    let e = Embeddings::new(3, 384, 12, &[], &splatseg_synth::CueConfig::default());
     let c = cosine(&e.part(2, 0), &e.part(2, 1));
     assert!((0.85..0.97).contains(&c), "parts of one wall: cos {c:.3}");
     let other = cosine(&e.part(2, 0), &e.part(5, 0));
