@@ -49,12 +49,17 @@ Seed sets: tune settings on the tuning seeds 0..16 and report on the report seed
 
 Families (default: rooms multi_tone thin border clutter sam_noise): default, rooms, multi_tone, \
 thin, border, clutter, sam_noise, hires (the rooms at 1280×960), many_views (the rooms with 12–100 \
-views).
+views). Blind families, for judging and never for choosing a setting (their own rooms, cue \
+statistics no tuning family uses; report them apart): blind_cues (noisier features, parts and \
+objects closer in feature space, a worse monocular depth, more nested and wrong SAM merges), \
+blind_lens (40°–75° lenses), blind_512 (512×384, both), blind_hires (1280×960, fine stripes and \
+checkers on objects).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms
   splatseg bench quality --seeds report --out bench-report
   splatseg bench quality --seeds 100..108 --family hires --no-features
+  splatseg bench quality --seeds report --family blind_cues --family blind_lens --family blind_512
   splatseg bench quality --seeds 0..4 --config merge-off.toml --out tuning-merge-off";
 
 /// Score the pipeline over many synthetic scenes of the stress suite.

@@ -11,6 +11,8 @@
 
 pub mod ablate;
 pub mod args;
+#[cfg(test)]
+mod blind_suite_tests;
 pub mod ceiling;
 mod error;
 pub mod quality;

@@ -99,9 +99,19 @@ pub fn quality(request: &QualityRequest, progress: &mut dyn FnMut(String)) -> cr
         request.overrides.views.map_or(String::new(), |v| format!(", {v} views")),
         started.elapsed().as_secs_f64()
     );
+    // tuning and blind families are never pooled: a blind result is reported on its own
+    let groups = [("", false), (", blind families", true)];
     for d in &descriptors {
-        let of: Vec<SceneScore> = scores.iter().filter(|s| s.descriptors == *d).cloned().collect();
-        text.push_str(&format!("\n## {}\n\n{}", d.name(), markdown(&of, request.worst)));
+        for (suffix, blind) in groups {
+            let of: Vec<SceneScore> = scores
+                .iter()
+                .filter(|s| s.descriptors == *d && s.family.is_blind() == blind)
+                .cloned()
+                .collect();
+            if !of.is_empty() {
+                text.push_str(&format!("\n## {}{suffix}\n\n{}", d.name(), markdown(&of, request.worst)));
+            }
+        }
     }
     if let Some(out) = &request.out {
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
@@ -110,4 +120,31 @@ pub fn quality(request: &QualityRequest, progress: &mut dyn FnMut(String)) -> cr
         splatseg_scene::atomic::write_bytes_atomic(&out.join("quality.json"), &json)?;
     }
     Ok(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blind_families_are_reported_apart_from_the_tuning_ones() {
+        let request = QualityRequest {
+            seeds: "3".into(),
+            families: vec![Family::Rooms, Family::BlindLens],
+            overrides: SceneOverrides { size: None, views: Some(4) },
+            no_features: false,
+            out: None,
+            keep: false,
+            pipeline: PipelineConfig::default(),
+            worst: 1,
+        };
+        let text = quality(&request, &mut |_| {}).expect("report");
+        let tuning = text.find("\n## with features\n").expect("a tuning section");
+        let blind = text.find("\n## with features, blind families\n").expect("a blind section");
+        assert!(tuning < blind, "{text}");
+        // each family's row is in its own section only
+        let (first, second) = text.split_at(blind);
+        assert!(first.contains("| rooms |") && !first.contains("| blind_lens |"), "{text}");
+        assert!(second.contains("| blind_lens |") && !second.contains("| rooms |"), "{text}");
+    }
 }

@@ -1,0 +1,75 @@
+//! The reduced blind suite in CI: scenes of the blind families (`splatseg_synth::Family::BLIND`,
+//! settings no tuning family uses), 12 views each, run end to end with the default settings.
+//! Floors on the worst decile and the minimum over the scenes, never on one chosen seed.
+//!
+//! No setting is ever chosen on these scenes (issue 27): the floors are what the pipeline measured
+//! when the families were first run (commit b703467, BENCHMARKS.md "Blind families"; these six
+//! scenes: mIoU min 0.864, p10 0.918, mean 0.964; consistency min 0.971; ids / GT max 1.13; 3D
+//! accuracy min 0.942) less a margin of 0.02–0.03. Raise them as quality improves, never lower them. They sit far below issue 27's
+//! targets (mean mIoU ≥ 0.96, p10 ≥ 0.92, min ≥ 0.85, consistency ≥ 0.97, ids ≤ 1.15 × GT).
+
+use crate::suite::{score_scene, Descriptors, Distribution, SceneOverrides};
+use splatseg_synth::Family;
+
+/// The blind scenes of the reduced set: (family, seed). blind_hires is left to `bench quality`
+/// (a 1280×960 scene costs more than the whole reduced suite).
+const SCENES: [(Family, u64); 6] = [
+    (Family::BlindCues, 0),
+    (Family::BlindCues, 1),
+    (Family::BlindLens, 0),
+    (Family::BlindLens, 1),
+    (Family::Blind512, 0),
+    (Family::Blind512, 1),
+];
+/// Views per scene (the families use 24; fewer keep the CI cost down).
+const VIEWS: usize = 12;
+
+/// Worst-decile (p10) mIoU over the scenes.
+const FLOOR_P10_MIOU: f64 = 0.89;
+/// Lowest mIoU of any scene.
+const FLOOR_MIN_MIOU: f64 = 0.84;
+/// Mean mIoU.
+const FLOOR_MEAN_MIOU: f64 = 0.94;
+/// Lowest consistency.
+const FLOOR_MIN_CONSISTENCY: f64 = 0.95;
+/// Highest ids / GT instances of any scene.
+const CEILING_MAX_IDS_PER_GT: f64 = 1.2;
+/// Lowest 3D label accuracy.
+const FLOOR_MIN_ACCURACY_3D: f64 = 0.92;
+
+#[test]
+fn reduced_blind_suite_meets_its_floors_on_the_worst_decile() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let overrides = SceneOverrides { size: None, views: Some(VIEWS) };
+    let mut scores = Vec::new();
+    for (family, seed) in SCENES {
+        assert!(family.is_blind());
+        let work = tmp.path().join(format!("{family}_{seed}"));
+        scores.extend(
+            score_scene(family, seed, overrides, &[Descriptors::Features], &Default::default(), &work)
+                .expect("scene runs"),
+        );
+        std::fs::remove_dir_all(&work).expect("clean up");
+    }
+    let table = crate::suite::markdown(&scores, 4);
+    println!("{table}");
+    let dist =
+        |f: fn(&crate::suite::SceneScore) -> f64| Distribution::of(scores.iter().map(f)).expect("scores");
+    let miou = dist(|s| s.miou);
+    let mut failures = Vec::new();
+    let mut check = |ok: bool, what: String| {
+        if !ok {
+            failures.push(what);
+        }
+    };
+    check(miou.p10 >= FLOOR_P10_MIOU, format!("p10 mIoU {:.3} < {FLOOR_P10_MIOU}", miou.p10));
+    check(miou.min >= FLOOR_MIN_MIOU, format!("min mIoU {:.3} < {FLOOR_MIN_MIOU}", miou.min));
+    check(miou.mean >= FLOOR_MEAN_MIOU, format!("mean mIoU {:.3} < {FLOOR_MEAN_MIOU}", miou.mean));
+    let consistency = dist(|s| s.consistency).min;
+    check(consistency >= FLOOR_MIN_CONSISTENCY, format!("min consistency {consistency:.3}"));
+    let ids = dist(|s| s.ids_per_gt).max;
+    check(ids <= CEILING_MAX_IDS_PER_GT, format!("max ids / GT {ids:.2}"));
+    let acc = dist(|s| s.accuracy_3d).min;
+    check(acc >= FLOOR_MIN_ACCURACY_3D, format!("min 3D label accuracy {acc:.3}"));
+    assert!(failures.is_empty(), "floors not met: {}\n{table}", failures.join("; "));
+}
