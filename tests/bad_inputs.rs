@@ -14,6 +14,8 @@ enum Expect {
     Error(&'static [&'static str]),
     /// Exit 0; stderr and `OUT/report.md` contain every string.
     Warning(&'static [&'static str]),
+    /// Exit 0; stdout or stderr contains every string (a command that writes no report).
+    Notice(&'static [&'static str]),
 }
 
 /// One row: a name, what it does to the scene folder, the command (`SCENE` and `OUT` are replaced
@@ -39,9 +41,7 @@ fn remove_first_masks(scene: &Path) {
 fn first_masks_a_fifo(scene: &Path) {
     let path = first_view_json(scene);
     std::fs::remove_file(&path).expect("remove the masks");
-    let c = std::ffi::CString::new(path.to_str().expect("utf-8 path")).expect("path");
-    // SAFETY: `c` is a valid NUL-terminated path.
-    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0, "mkfifo");
+    mkfifo(&path);
 }
 
 #[cfg(unix)]
@@ -114,6 +114,17 @@ fn non_finite_gaussians(scene: &Path) {
     splatseg_scene::ply::write_ply_rows(&path, &g).expect("write the PLY");
 }
 
+/// Three Gaussians of the scene's PLY with degenerate shapes: a log-scale of 80, a zero
+/// quaternion, a log-scale of 1e30.
+fn degenerate_gaussians(scene: &Path) {
+    let path = scene.join("gaussians.ply");
+    let mut g = splatseg_scene::ply::read_ply(&path).expect("the scene's PLY");
+    g.log_scales[0] = [80.0; 3];
+    g.rotations[10] = [0.0; 4];
+    g.log_scales[20][1] = 1e30;
+    splatseg_scene::ply::write_ply_rows(&path, &g).expect("write the PLY");
+}
+
 /// The scene's Gaussians moved 1,000 units away: a reconstruction of nothing the views show.
 fn gaussians_elsewhere(scene: &Path) {
     let path = scene.join("gaussians.ply");
@@ -163,6 +174,101 @@ fn features_of_another_width(scene: &Path) {
     splatseg_scene::npy::write_npy_f32(&path, &[h, w, c / 2], &half).expect("write the features");
 }
 
+/// The second image listed as `sub/view_000.png`, a copy of `view_001.png`: two views with the
+/// stem `view_000`.
+fn two_images_with_one_stem(scene: &Path) {
+    std::fs::create_dir_all(scene.join("images/sub")).expect("mkdir");
+    std::fs::copy(scene.join("images/view_001.png"), scene.join("images/sub/view_000.png")).expect("copy");
+    edit(&scene.join("sparse/0/images.txt"), |t| t.replace("view_001.png", "sub/view_000.png"));
+}
+
+#[cfg(unix)]
+fn mkfifo(path: &Path) {
+    let c = std::ffi::CString::new(path.to_str().expect("utf-8 path")).expect("path");
+    // SAFETY: `c` is a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0, "mkfifo");
+}
+
+/// The first view's masks as SAM's PNG folder (`sam/view_000/metadata.csv` + `<i>.png`) in
+/// place of its JSON; returns the folder.
+fn first_masks_as_png_folder(scene: &Path) -> PathBuf {
+    let json = first_view_json(scene);
+    let masks = splatseg_scene::sam::read_sam_json(&json).expect("the masks");
+    assert!(masks.len() >= 2, "the synthetic view has {} masks", masks.len());
+    let dir = scene.join("sam/view_000");
+    std::fs::create_dir_all(&dir).expect("mkdir");
+    splatseg_scene::sam::write_sam_png_folder(&dir, &masks).expect("write the PNG folder");
+    std::fs::remove_file(json).expect("remove the JSON");
+    dir
+}
+
+/// A PNG folder whose mask `0.png` is all zeros.
+fn png_mask_all_zeros(scene: &Path) {
+    let dir = first_masks_as_png_folder(scene);
+    let (w, h) = splatseg_scene::image_io::image_size(&dir.join("0.png")).expect("size");
+    let zeros = splatseg_scene::Plane::filled(w as usize, h as usize, 0u8);
+    splatseg_scene::image_io::write_png_luma8(&dir.join("0.png"), &zeros).expect("write");
+}
+
+/// A PNG folder whose mask `1.png` is RGB noise (a photo, not a mask).
+fn png_mask_rgb_noise(scene: &Path) {
+    let dir = first_masks_as_png_folder(scene);
+    let (w, h) = splatseg_scene::image_io::image_size(&dir.join("1.png")).expect("size");
+    let mut state = 12345u32;
+    let data: Vec<u8> = (0..w * h * 3)
+        .map(|_| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 24) as u8
+        })
+        .collect();
+    let noise = splatseg_scene::image_io::RgbImage::from_vec(w as usize, h as usize, data).expect("image");
+    splatseg_scene::image_io::write_png_rgb8(&dir.join("1.png"), &noise).expect("write");
+}
+
+/// The first view's depth map stored `[W, H]`.
+fn transposed_depth(scene: &Path) {
+    let path = scene.join("depth/view_000.npy");
+    let a = splatseg_scene::npy::read_npy(&path).expect("the depth map");
+    let (h, w) = (a.shape[0], a.shape[1]);
+    let t: Vec<f32> =
+        (0..w).flat_map(|x| (0..h).map(move |y| (x, y))).map(|(x, y)| a.data[y * w + x]).collect();
+    splatseg_scene::npy::write_npy_f32(&path, &[w, h], &t).expect("write the depth map");
+}
+
+/// The second view's depth map all NaN and ±Inf.
+fn non_finite_depth(scene: &Path) {
+    let path = scene.join("depth/view_001.npy");
+    let a = splatseg_scene::npy::read_npy(&path).expect("the depth map");
+    let bad: Vec<f32> =
+        (0..a.data.len()).map(|i| if i % 2 == 0 { f32::NAN } else { f32::INFINITY }).collect();
+    splatseg_scene::npy::write_npy_f32(&path, &a.shape, &bad).expect("write the depth map");
+}
+
+/// `SCENE/labelled.ply`: the scene's Gaussians, every one with object id 1.
+fn labelled_ply(scene: &Path) {
+    let mut g = splatseg_scene::ply::read_ply(&scene.join("gaussians.ply")).expect("the scene's PLY");
+    g.object_ids = Some(vec![1; g.len()]);
+    splatseg_scene::ply::write_ply(&scene.join("labelled.ply"), &g).expect("write the PLY");
+}
+
+/// The training views' images (all but view 0, which `train` holds out) painted black: training
+/// fits them and the held-out view gets worse.
+fn black_training_images(scene: &Path) {
+    for v in 1..3 {
+        let path = scene.join(format!("images/view_{v:03}.png"));
+        let (w, h) = splatseg_scene::image_io::image_size(&path).expect("size");
+        let black = splatseg_scene::image_io::RgbImage::filled(w as usize, h as usize, [0; 3]);
+        splatseg_scene::image_io::write_png_rgb8(&path, &black).expect("write");
+    }
+}
+
+/// `SCENE/negative.ply`: the scene's Gaussians, the even ones with object id −5, the odd ones 1.
+fn negative_ids_ply(scene: &Path) {
+    let mut g = splatseg_scene::ply::read_ply(&scene.join("gaussians.ply")).expect("the scene's PLY");
+    g.object_ids = Some((0..g.len()).map(|i| if i % 2 == 0 { -5 } else { 1 }).collect());
+    splatseg_scene::ply::write_ply(&scene.join("negative.ply"), &g).expect("write the PLY");
+}
+
 fn config_tau_merge_negative(scene: &Path) {
     std::fs::write(scene.join("bad.toml"), "[merge]\ntau_merge = -0.5\n").expect("write");
 }
@@ -198,6 +304,77 @@ fn cases() -> Vec<Case> {
             damage: duplicate_image_id,
             args: RUN,
             expect: Expect::Error(&["images.txt", "image id 1 appears twice"]),
+        },
+        Case {
+            name: "two images with one stem in different folders",
+            damage: two_images_with_one_stem,
+            args: &["render", "SCENE", "--gaussians", "SCENE/gaussians.ply", "--out", "OUT"],
+            expect: Expect::Error(&["sub/view_000.png", "same file stem `view_000`", "images.txt"]),
+        },
+        Case {
+            name: "a PNG mask of all zeros",
+            damage: png_mask_all_zeros,
+            args: RUN,
+            expect: Expect::Warning(&["are empty (all zeros)", "view_000 (1)"]),
+        },
+        Case {
+            name: "an RGB noise PNG as a mask",
+            damage: png_mask_rgb_noise,
+            args: RUN,
+            expect: Expect::Error(&["view_000/1.png", "must be grey"]),
+        },
+        Case {
+            name: "a transposed depth map",
+            damage: transposed_depth,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--depth", "SCENE/depth", "--out", "OUT"],
+            expect: Expect::Error(&[
+                "view_000.npy",
+                "shape [64, 48] (transposed?)",
+                "[48, 64]",
+                "--resize-depth",
+            ]),
+        },
+        Case {
+            name: "a depth map of NaN and Inf",
+            damage: non_finite_depth,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--depth", "SCENE/depth", "--out", "OUT"],
+            expect: Expect::Error(&["view_001.npy", "are NaN or ±Inf"]),
+        },
+        Case {
+            name: "train a labelled PLY for fewer iterations than densification lasts",
+            damage: labelled_ply,
+            args: &[
+                "train",
+                "SCENE",
+                "--gaussians",
+                "SCENE/labelled.ply",
+                "--iterations",
+                "5",
+                "--out",
+                "OUT",
+            ],
+            expect: Expect::Notice(&["carries object ids", "stops at 5", "no label maps are written"]),
+        },
+        Case {
+            name: "training that makes the held-out view worse",
+            damage: black_training_images,
+            args: &[
+                "train",
+                "SCENE",
+                "--gaussians",
+                "SCENE/gaussians.ply",
+                "--iterations",
+                "60",
+                "--out",
+                "OUT",
+            ],
+            expect: Expect::Notice(&["held-out views worse", "dB before"]),
+        },
+        Case {
+            name: "extract --ids -5 where objects shows −5 as unlabelled",
+            damage: negative_ids_ply,
+            args: &["extract", "SCENE/negative.ply", "--ids", "-5", "--out", "OUT/x.ply"],
+            expect: Expect::Error(&["no Gaussian has object id -5", "ids present: -1, 1", "negative.ply"]),
         },
         Case {
             name: "tau_merge = -0.5",
@@ -265,6 +442,18 @@ fn cases() -> Vec<Case> {
             expect: Expect::Warning(&["skipping 3 of", "non-finite"]),
         },
         Case {
+            name: "degenerate Gaussians (log-scale 80, zero quaternion, log-scale 1e30)",
+            damage: degenerate_gaussians,
+            args: RUN,
+            expect: Expect::Warning(&["skipping 3 of", "degenerate shape", "gaussians.ply"]),
+        },
+        Case {
+            name: "degenerate Gaussians, rendered",
+            damage: degenerate_gaussians,
+            args: &["render", "SCENE", "--gaussians", "SCENE/gaussians.ply", "--out", "OUT"],
+            expect: Expect::Notice(&["skipping 3 of", "degenerate shape", "gaussians.ply"]),
+        },
+        Case {
             name: "features of two channel counts",
             damage: features_of_another_width,
             args: &["run", "SCENE", "--masks", "SCENE/sam", "--features", "SCENE/features", "--out", "OUT"],
@@ -302,6 +491,12 @@ fn cases() -> Vec<Case> {
             damage: first_masks_a_fifo,
             args: RUN,
             expect: Expect::Warning(&["1 of 3 views have no masks", "view_000"]),
+        },
+        Case {
+            name: "info on a masks file that is a FIFO",
+            damage: first_masks_a_fifo,
+            args: &["info", "SCENE"],
+            expect: Expect::Notice(&["SAM masks", "2 of 3 views", "not regular files", "view_000.json"]),
         },
         Case {
             name: "a masks file linked to /dev/zero",
@@ -385,6 +580,13 @@ fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
                         problems.push(format!("report.md lacks `{w}`"));
                     }
                 }
+            }
+            Expect::Notice(words) => {
+                if !output.status.success() {
+                    problems.push(format!("exit {:?}, expected success", output.status.code()));
+                }
+                let said = format!("{}{stderr}", String::from_utf8_lossy(&output.stdout));
+                problems.extend(words.iter().filter(|w| !said.contains(**w)).map(|w| format!("no `{w}`")));
             }
         }
         if inputs_digest(&scene) != before {

@@ -62,8 +62,8 @@ pub struct Cli {
     /// More detail in the logs: -v debug, -vv trace.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
-    /// Refuse a PLY holding any non-finite value (NaN, ±Inf). Without it such Gaussians are
-    /// skipped with one warning per file: `run` keeps their rows in its gaussians.ply with
+    /// Refuse a PLY holding any non-finite value (NaN, ±Inf) or degenerate Gaussian (zero
+    /// quaternion, log-scale above 20). Without it such Gaussians are skipped with a warning: `run` keeps their rows in its gaussians.ply with
     /// object_id -1, other commands leave them out of what they write.
     #[arg(long, global = true)]
     pub strict: bool,

@@ -141,6 +141,7 @@ pub fn score_scene(
             features: (d == Descriptors::Features).then(|| scene_dir.join("features")),
             depth: None,
             depth_kind: DepthKind::InverseRelative,
+            resize_depth: false,
             gaussians: None,
             gt: Some(scene_dir.join("gt")),
             pipeline: pipeline.clone(),

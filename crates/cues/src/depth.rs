@@ -124,14 +124,19 @@ impl DepthSource for InMemoryDepthSource {
     }
 }
 
-/// One `<stem>.npy` per view in a folder: `[H, W]` (or `[H, W, 1]`) float32/float16 on any grid,
-/// resized bilinearly (`align_corners = False`) to the image.
+/// One `<stem>.npy` per view in a folder: `[H, W]` (or `[H, W, 1]`) float32/float16 at the
+/// image's size. A map of another size (a transposed `[W, H]` one, one made for another
+/// `--resolution`) is an error naming the file and both shapes, unless `resize` asks for it to be
+/// resampled bilinearly (`align_corners = False`) to the image. A map without one finite value is
+/// an error too (it would give the view no depth).
 #[derive(Clone, Debug)]
 pub struct NpyDepthSource {
     /// The folder holding `<stem>.npy`.
     pub dir: PathBuf,
     /// What the values mean (synthetic `depth/` is inverse relative, `gt/depth/` metric z).
     pub kind: DepthKind,
+    /// Resample maps of another size to the image instead of refusing them.
+    pub resize: bool,
 }
 
 impl DepthSource for NpyDepthSource {
@@ -148,6 +153,21 @@ impl DepthSource for NpyDepthSource {
         let plane = array
             .to_plane()
             .ok_or_else(|| file_err(format!("shape {:?} is not [H, W] or [H, W, 1]", array.shape)))?;
+        if (plane.width, plane.height) != (width, height) && !self.resize {
+            let transposed =
+                if (plane.width, plane.height) == (height, width) { " (transposed?)" } else { "" };
+            return Err(file_err(format!(
+                "shape [{}, {}]{transposed} is not the image's [{height}, {width}] (H, W); write the map at \
+                 the image's size, or let `run --resize-depth` resample it",
+                plane.height, plane.width
+            )));
+        }
+        if !plane.data.iter().any(|v| v.is_finite()) {
+            return Err(file_err(format!(
+                "all {} values are NaN or ±Inf: the view would have no depth",
+                plane.data.len()
+            )));
+        }
         DepthMap::at_image_size(&plane, self.kind, width, height).map_err(file_err)
     }
 }

@@ -8,10 +8,19 @@ use splatseg_scene::rle::Rle;
 use splatseg_scene::Plane;
 
 #[test]
-fn npy_depth_is_read_and_resized_to_the_image() {
+fn npy_depth_is_read_and_resized_to_the_image_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     write_npy_f32(&dir.path().join("v0.npy"), &[2, 3], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
-    let source = NpyDepthSource { dir: dir.path().to_path_buf(), kind: DepthKind::MetricZ };
+    let source = NpyDepthSource { dir: dir.path().to_path_buf(), kind: DepthKind::MetricZ, resize: false };
+    let same = source.depth("v0", 3, 2).unwrap();
+    assert_eq!(same.values.data, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    let refused = source.depth("v0", 6, 4).unwrap_err().to_string();
+    for words in ["v0.npy", "shape [2, 3]", "image's [4, 6]", "--resize-depth"] {
+        assert!(refused.contains(words), "no `{words}` in: {refused}");
+    }
+    let transposed = source.depth("v0", 2, 3).unwrap_err().to_string();
+    assert!(transposed.contains("(transposed?)") && transposed.contains("[3, 2]"), "{transposed}");
+    let source = NpyDepthSource { resize: true, ..source };
     let map = source.depth("v0", 6, 4).unwrap();
     assert_eq!(map.values.size(), (6, 4));
     assert_eq!(map.kind, DepthKind::MetricZ);
@@ -21,13 +30,22 @@ fn npy_depth_is_read_and_resized_to_the_image() {
 #[test]
 fn bad_depth_and_feature_files_are_rejected_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    let source = NpyDepthSource { dir: dir.path().to_path_buf(), kind: DepthKind::InverseRelative };
+    let source =
+        NpyDepthSource { dir: dir.path().to_path_buf(), kind: DepthKind::InverseRelative, resize: true };
     let missing = source.depth("nope", 4, 4).unwrap_err();
     assert!(matches!(missing, CuesError::Missing { .. }));
     assert!(missing.to_string().contains("nope.npy"), "{missing}");
     write_npy_f32(&dir.path().join("cube.npy"), &[2, 2, 2], &[0.0; 8]).unwrap();
     let shape = source.depth("cube", 4, 4).unwrap_err().to_string();
     assert!(shape.contains("cube.npy") && shape.contains("[2, 2, 2]"), "{shape}");
+    write_npy_f32(
+        &dir.path().join("inf.npy"),
+        &[2, 2],
+        &[f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::NAN],
+    )
+    .unwrap();
+    let inf = source.depth("inf", 2, 2).unwrap_err().to_string();
+    assert!(inf.contains("inf.npy") && inf.contains("all 4 values are NaN or ±Inf"), "{inf}");
     std::fs::write(dir.path().join("junk.npy"), b"not a numpy file").unwrap();
     let junk = source.depth("junk", 4, 4).unwrap_err().to_string();
     assert!(junk.contains("junk.npy"), "{junk}");

@@ -1,6 +1,7 @@
 //! The labelled PLY (`gaussians.ply`): the input's rows, every one of them in file order, with
 //! the lifted `object_id` and the fused features `feat_*` (made row by row while writing).
-//! Rows with a non-finite value take no part in lifting: they get id −1 and zero features.
+//! Rows the readers skip (a non-finite value, a degenerate shape) take no part in lifting: they
+//! get id −1 and zero features.
 
 use crate::error::LiftResult;
 use crate::lifting::FusedFeatures;
@@ -8,11 +9,11 @@ use splatseg_scene::ply::{FeatureRows, PlyRows};
 use splatseg_scene::Gaussians;
 use std::path::Path;
 
-/// `[N]` object ids of every row of the input PLY: `finite_ids` (`[N - k]`, one per finite row,
-/// in order) spread back, and -1 for the `k` non-finite rows the stages skipped.
+/// `[N]` object ids of every row of the input PLY: `finite_ids` (`[N - k]`, one per usable row,
+/// in order) spread back, and -1 for the `k` rows the stages skipped ([`PlyRows::usable_rows`]).
 pub fn ids_of_every_row(rows: &PlyRows, finite_ids: &[i32]) -> Vec<i32> {
     let mut ids = vec![-1; rows.gaussians.len()];
-    for (&row, &id) in rows.finite_rows().iter().zip(finite_ids) {
+    for (&row, &id) in rows.usable_rows().iter().zip(finite_ids) {
         ids[row] = id;
     }
     ids
@@ -78,7 +79,7 @@ pub fn write_labelled_ply(
     ids: &[i32],
     fused: Option<FusedFeatures>,
 ) -> LiftResult<()> {
-    let (finite, n_rows) = (rows.finite_rows(), rows.gaussians.len());
+    let (finite, n_rows) = (rows.usable_rows(), rows.gaussians.len());
     let g = labelled_rows(rows, ids, fused.is_some());
     let fused = fused.map(|f| FusedRows::new(f, &finite, n_rows));
     let feature_rows: Option<&dyn FeatureRows> = fused.as_ref().map(|f| f as _);

@@ -103,6 +103,10 @@ pub struct RunArgs {
     /// Anything V2; larger = nearer) or `metric` (camera z, 0 = no surface), as in `splatseg merge`.
     #[cfg_attr(feature = "cli", arg(long, default_value = "inverse", value_parser = splatseg_cues::parse_depth_kind))]
     pub depth_kind: DepthKind,
+    /// Resample --depth maps whose size is not their image's (without it, such a map, e.g. a
+    /// transposed one, is an error naming the file and both shapes).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub resize_depth: bool,
     /// 3DGS PLY (default: SCENE/gaussians.ply when present).
     #[cfg_attr(feature = "cli", arg(long))]
     pub gaussians: Option<PathBuf>,
@@ -144,6 +148,7 @@ impl RunArgs {
             features: computed.features.or(self.features),
             depth_kind: if computed.depth.is_some() { DepthKind::InverseRelative } else { self.depth_kind },
             depth: computed.depth.or(self.depth),
+            resize_depth: self.resize_depth,
             scene: self.scene,
             gaussians: self.gaussians,
             gt: self.gt,

@@ -276,6 +276,8 @@ pub fn compute_cues(args: &CuesRequest) -> crate::Result<CuesSummary> {
     let bar = ProgressBar::new(views.len() as u64).with_style(style).with_prefix("cues");
     if !args.show_progress {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    } else {
+        splatseg_pipeline::progress_log::log_when_piped(&bar);
     }
     let mut computed = 0;
     std::thread::scope(|scope| -> crate::Result<()> {

@@ -53,6 +53,7 @@ pub fn run_demo(args: &DemoRequest, say: &mut dyn FnMut(&str)) -> crate::Result<
         features: Some(scene_dir.join("features")),
         depth: None, // rendered from the Gaussians (metric z)
         depth_kind: DepthKind::MetricZ,
+        resize_depth: false,
         gaussians: Some(scene_dir.join("gaussians.ply")),
         gt: Some(scene_dir.join("gt")),
         pipeline: PipelineConfig::default(),

@@ -64,8 +64,8 @@ pub fn gaussians_path(scene_dir: &Path, explicit: Option<&Path>) -> Option<PathB
     }
 }
 
-/// What `run` does with a PLY's non-finite rows.
-const NON_FINITE_CONSEQUENCE: &str = "they are labelled -1 in gaussians.ply";
+/// What `run` does with a PLY's skipped rows (non-finite, degenerate).
+const SKIPPED_CONSEQUENCE: &str = "they are labelled -1 in gaussians.ply";
 
 /// One sentence naming the views of `scene` without a masks file in `dir` (`has_masks`:
 /// `[n_views]`), or `None` when every view has one.
@@ -85,20 +85,20 @@ fn missing_masks_warning(scene: &Scene, has_masks: &[bool], dir: &Path) -> Optio
     })
 }
 
-/// Reads the PLY at `path`: every row, with the non-finite ones listed (skipped with one
+/// Reads the PLY at `path`: every row, with the skipped ones listed (non-finite or degenerate; one
 /// warning, which the caller reports, or refused with `--strict`).
 pub fn read_gaussians(path: &Path, strict: bool) -> crate::Result<PlyRows> {
     let rows = crate::ply_input::read_rows_quietly(path, strict)?;
-    crate::ply_input::refuse_empty(rows.gaussians.len() - rows.non_finite.len(), path)?;
+    crate::ply_input::refuse_empty(rows.gaussians.len() - rows.skipped(), path)?;
     Ok(rows)
 }
 
-/// The finite Gaussians of `rows`, borrowed when every row is finite.
+/// The usable Gaussians of `rows` (finite, not degenerate), borrowed when no row is skipped.
 pub fn finite_gaussians(rows: &PlyRows) -> Cow<'_, Gaussians> {
-    if rows.non_finite.is_empty() {
+    if rows.skipped() == 0 {
         Cow::Borrowed(&rows.gaussians)
     } else {
-        Cow::Owned(rows.gaussians.select(&rows.finite_rows()))
+        Cow::Owned(rows.gaussians.select(&rows.usable_rows()))
     }
 }
 
@@ -184,8 +184,8 @@ impl RunInputs {
             Some(p) => {
                 tracing::info!("reading Gaussians from {}", p.display());
                 let rows = read_gaussians(p, config.options.strict)?;
-                let skipped = rows.skip_warning(p, NON_FINITE_CONSEQUENCE);
-                warnings.extend(skipped.map(|w| format!("{w} (--strict refuses such files)")));
+                let skipped = rows.skip_warnings(p, SKIPPED_CONSEQUENCE);
+                warnings.extend(skipped.into_iter().map(|w| format!("{w} (--strict refuses such files)")));
                 Some(rows)
             }
             None => None,
@@ -209,6 +209,9 @@ impl RunInputs {
     pub fn key(&self, config: &RunConfig) -> crate::Result<String> {
         let mut key = KeyHasher::default();
         key.text("run-v1").json(&config.pipeline).text(&format!("{:?}", config.depth_kind));
+        if config.resize_depth {
+            key.text("resize-depth");
+        }
         for (view, &masked) in self.scene.views.iter().zip(&self.has_masks) {
             key.text(&view.stem).file(&view.image_path)?;
             if masked {

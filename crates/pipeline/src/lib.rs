@@ -50,6 +50,7 @@ mod outputs;
 mod per_view;
 pub mod ply_input;
 pub mod profile;
+pub mod progress_log;
 pub mod render_views;
 mod results;
 mod run_outputs;
@@ -83,6 +84,7 @@ use splatseg_eval::EvalReport;
 use splatseg_lift::{LiftStats, PosedCamera, PreparedGaussians};
 use splatseg_match::{MatchStats, Matching};
 use splatseg_scene::load::LoadOptions;
+use splatseg_scene::Scene;
 use std::path::{Path, PathBuf};
 pub use view_merge::{merge_view_arrays, ViewArrays, ViewMerge};
 
@@ -99,6 +101,9 @@ pub struct RunConfig {
     pub depth: Option<PathBuf>,
     /// What the `depth` maps hold.
     pub depth_kind: DepthKind,
+    /// Resample `depth` maps of another size than their image (`--resize-depth`); without it
+    /// such a map is an error naming the file and both shapes.
+    pub resize_depth: bool,
     /// 3DGS PLY; `SCENE/gaussians.ply` when absent and present.
     pub gaussians: Option<PathBuf>,
     /// Ground truth: a folder of `<stem>.png` instance maps, or a synthetic `gt/` folder.
@@ -163,11 +168,14 @@ impl RunSummary {
     }
 }
 
-/// A progress bar over `len` items (hidden when stderr is not a terminal, and with `--quiet`).
+/// A progress bar over `len` items: drawn on a terminal; when stderr is not one, a log line at
+/// least every 30 s while it runs ([`progress_log`]); nothing with `--quiet`.
 pub(crate) fn progress(len: usize, what: &str, options: RunOptions) -> ProgressBar {
     let bar = ProgressBar::new(len as u64);
     if options.quiet {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    } else {
+        progress_log::log_when_piped(&bar);
     }
     if let Ok(style) = ProgressStyle::with_template("{msg:>24} [{bar:30}] {pos}/{len} {elapsed}") {
         bar.set_style(style.progress_chars("=> "));
@@ -234,6 +242,10 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     };
     let mut views = every_view(&per_view, &inputs.has_masks, config.options)?;
     let regions = RegionCounts::of(&views);
+    let empty_masks = empty_masks_warning(&views, scene, &config.masks);
+    if let Some(w) = &empty_masks {
+        tracing::warn!("{w}");
+    }
     profiler.parts(times.take());
 
     profiler.next("match");
@@ -256,6 +268,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let staging = commit::Staging::begin(&config.out)?;
     let written = run_outputs::write_outputs(config, staging.dir(), &inputs, ply_rows, &load, results)?;
     remove_spills(&cache_dir.join("views"))?;
+    inputs.warnings.extend(empty_masks);
     let summary = summary(config, &inputs, prepared.as_ref(), regions, &matching, written);
     write_json(&staging.dir().join("metrics.json"), &summary)?;
     outputs::write_report(staging.dir(), &inputs.scene, &summary)?;
@@ -284,6 +297,32 @@ fn every_view(
     let c = RegionCounts::of(&views);
     tracing::info!("merged {} regions into {} ({} views from the cache)", c.raw, c.merged, c.cached_views);
     Ok(views)
+}
+
+/// One sentence with the count of empty SAM masks (all zeros: they select nothing) and the views
+/// holding them, or `None` when there is none.
+fn empty_masks_warning(views: &[Option<ViewResult>], scene: &Scene, dir: &Path) -> Option<String> {
+    let per_view: Vec<(&str, usize)> = views
+        .iter()
+        .zip(&scene.views)
+        .filter_map(|(r, v)| {
+            r.as_ref().filter(|r| r.empty_masks > 0).map(|r| (v.stem.as_str(), r.empty_masks))
+        })
+        .collect();
+    let total: usize = per_view.iter().map(|(_, n)| n).sum();
+    (total > 0).then(|| {
+        let shown: Vec<String> = per_view.iter().take(5).map(|(s, n)| format!("{s} ({n})")).collect();
+        let more =
+            if per_view.len() > 5 { format!(" and {} more", per_view.len() - 5) } else { String::new() };
+        format!(
+            "{total} SAM masks in {} of {} views are empty (all zeros) and select nothing: {}{more}; \
+             each view is segmented by its other masks only: {}",
+            per_view.len(),
+            scene.views.len(),
+            shown.join(", "),
+            dir.display()
+        )
+    })
 }
 
 /// What the per-view pass found over all views (before matching takes the regions).

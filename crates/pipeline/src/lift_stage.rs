@@ -38,6 +38,8 @@ pub struct ViewResult {
     pub merged_max: u32,
     /// True when the merge came from the cache.
     pub cached: bool,
+    /// SAM masks of the view that are empty (all zeros) ([`crate::merge_stage::MergedView::empty_masks`]).
+    pub empty_masks: usize,
     /// With Gaussians: the sampled visible Gaussians and their merged labels (matching's 3D
     /// evidence; moved into the matcher).
     pub observations: Option<ViewObservations>,

@@ -25,6 +25,8 @@ pub struct MergedView {
     pub regions: Vec<RegionSummary>,
     /// True when read from the cache.
     pub cached: bool,
+    /// SAM masks of the view that are empty (all zeros): they select nothing and add no region.
+    pub empty_masks: usize,
     /// What the merge decided, when [`MergeContext::keep_log`] asked for it.
     pub log: Option<ViewMergeLog>,
 }
@@ -43,6 +45,13 @@ pub struct ViewMergeLog {
 struct CacheEntry {
     key: String,
     regions: Vec<RegionSummary>,
+    /// [`MergedView::empty_masks`] (left out when 0, so entries of other views are unchanged).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    empty_masks: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// `<stem>.log.json`: the decisions, under the same key.
@@ -118,6 +127,7 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
         merged,
         regions: entry.regions,
         cached: true,
+        empty_masks: entry.empty_masks,
         log,
     })
 }
@@ -154,6 +164,7 @@ pub fn merge_one(
     }
     let image = image.rgb()?;
     let masks = read_masks(ctx, view, camera.width, camera.height)?;
+    let empty_masks = masks.iter().filter(|m| m.runs.is_empty()).count();
     let result = merge_view_arrays(&ViewArrays {
         stem: &view.stem,
         rgb: &image.data,
@@ -168,13 +179,19 @@ pub fn merge_one(
         intrinsics: Some(splatseg_cues::Intrinsics::of_camera(camera, size.0, size.1)),
     })?;
     let log = ctx.keep_log.then_some(ViewMergeLog { input_regions: result.input_regions, log: result.log });
-    let merged =
-        MergedView { raw: result.raw, merged: result.merged, regions: result.regions, cached: false, log };
+    let merged = MergedView {
+        raw: result.raw,
+        merged: result.merged,
+        regions: result.regions,
+        cached: false,
+        empty_masks,
+        log,
+    };
     write_label_png(&ctx.cache_dir.join(format!("{}.raw.png", view.stem)), &merged.raw)?;
     write_label_png(&ctx.cache_dir.join(format!("{}.merged.png", view.stem)), &merged.merged)?;
     write_json(
         &ctx.cache_dir.join(format!("{}.json", view.stem)),
-        &CacheEntry { key: key.clone(), regions: merged.regions.clone() },
+        &CacheEntry { key: key.clone(), regions: merged.regions.clone(), empty_masks },
     )?;
     if let Some(log) = &merged.log {
         write_json(

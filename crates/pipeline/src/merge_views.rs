@@ -80,7 +80,7 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
     let bar = crate::progress(mine.len(), if export { "merge" } else { "merge shard" }, config.options);
     let counts = mine
         .par_iter()
-        .map(|&v| -> crate::Result<(bool, usize, usize)> {
+        .map(|&v| -> crate::Result<(bool, usize, usize, usize)> {
             let view = &scene.views[v];
             let metric = prepared.as_ref().and_then(|p| {
                 let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
@@ -101,12 +101,21 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
                 write_view(view, &image, &config.out, &config.pipeline.merge, &merged)?;
             }
             bar.inc(1);
-            Ok((merged.cached, before, merged.regions.len()))
+            Ok((merged.cached, before, merged.regions.len(), merged.empty_masks))
         })
         .collect::<Vec<crate::Result<_>>>()
         .into_iter()
         .collect::<crate::Result<Vec<_>>>()?; // the first error in view order
     bar.finish_and_clear();
+    let empty: usize = counts.iter().map(|c| c.3).sum();
+    if empty > 0 {
+        tracing::warn!(
+            "{empty} SAM masks in {} of {} views merged are empty (all zeros) and select nothing: {}",
+            counts.iter().filter(|c| c.3 > 0).count(),
+            counts.len(),
+            config.masks.display()
+        );
+    }
     if let Some(shard) = request.shard {
         let views = mine.iter().map(|&v| scene.views[v].stem.clone()).collect();
         write_manifest(&config.out, &ShardManifest { stage: "merge".into(), shard, views })?;

@@ -7,8 +7,9 @@ use serde::{Deserialize, Serialize};
 /// draws progress bars (on a terminal only).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RunOptions {
-    /// Refuse a PLY holding any non-finite value (NaN, ±Inf) instead of skipping those Gaussians
-    /// with one warning per file.
+    /// Refuse a PLY holding any non-finite value (NaN, ±Inf) or degenerate Gaussian (zero
+    /// quaternion, log-scale above 20) instead of skipping those Gaussians with one warning per
+    /// kind and file.
     pub strict: bool,
     /// Draw no progress bars.
     pub quiet: bool,

@@ -47,10 +47,11 @@ impl MergeSources {
     /// The sources `config` names; `ply_key` from [`ply_key`].
     pub fn new(config: &RunConfig, ply_key: &str) -> Self {
         MergeSources {
-            npy_depth: config
-                .depth
-                .as_ref()
-                .map(|dir| NpyDepthSource { dir: dir.clone(), kind: config.depth_kind }),
+            npy_depth: config.depth.as_ref().map(|dir| NpyDepthSource {
+                dir: dir.clone(),
+                kind: config.depth_kind,
+                resize: config.resize_depth,
+            }),
             dense: config
                 .features
                 .as_ref()
@@ -220,6 +221,7 @@ impl PerView<'_> {
             merged_max: merged.merged.data.iter().copied().max().unwrap_or(0),
             regions: merged.regions,
             cached: merged.cached,
+            empty_masks: merged.empty_masks,
             observations,
             spill,
             data,

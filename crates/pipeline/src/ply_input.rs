@@ -1,36 +1,37 @@
 //! Reading a 3DGS PLY for a command: Gaussians with a non-finite value (NaN, ±Inf — 3DGS
-//! trainers leave a few behind) are skipped with one warning per file, or refused with
-//! `--strict`.
+//! trainers leave a few behind) or a degenerate shape (a zero rotation quaternion, a log-scale
+//! above 20, which the rasteriser would cull) are skipped with one warning per kind and file, or
+//! refused with `--strict`.
 
 use splatseg_scene::ply::{read_ply_rows, PlyRows};
 use splatseg_scene::Gaussians;
 use std::path::Path;
 
-/// Every row of the PLY at `path` with the non-finite ones listed. With `strict` (`--strict`) a
-/// file with non-finite values is an error naming the first one; otherwise one warning says how
-/// many rows are skipped and `consequence` (what happens to them in the outputs).
+/// Every row of the PLY at `path` with the skipped ones listed. With `strict` (`--strict`) a
+/// file with non-finite values or degenerate Gaussians is an error naming the first one;
+/// otherwise one warning per kind says how many rows are skipped and `consequence` (what happens to them in the outputs).
 pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<PlyRows> {
     let rows = read_rows_quietly(path, strict)?;
-    if let Some(warning) = rows.skip_warning(path, consequence) {
+    for warning in rows.skip_warnings(path, consequence) {
         tracing::warn!("{warning} (--strict refuses such files)");
     }
     Ok(rows)
 }
 
 /// [`read_rows`] without the warning, for a caller that reports it itself
-/// ([`PlyRows::skip_warning`]).
+/// ([`PlyRows::skip_warnings`]).
 pub fn read_rows_quietly(path: &Path, strict: bool) -> crate::Result<PlyRows> {
     let rows = read_ply_rows(path)?;
     if strict {
-        rows.refuse_non_finite(path)?;
+        rows.refuse_skipped(path)?;
     }
     Ok(rows)
 }
 
-/// The finite Gaussians of the PLY at `path`, in file order (see [`read_rows`]); the skipped
+/// The usable Gaussians of the PLY at `path` (finite, not degenerate), in file order (see [`read_rows`]); the skipped
 /// rows are left out of whatever the command writes.
 pub fn read_finite(path: &Path, strict: bool) -> crate::Result<Gaussians> {
-    let gaussians = read_rows(path, "they are left out", strict)?.into_finite();
+    let gaussians = read_rows(path, "they are left out", strict)?.into_usable();
     refuse_empty(gaussians.len(), path)?;
     Ok(gaussians)
 }

@@ -40,6 +40,8 @@ pub fn render_views(job: &RenderViews<'_>) -> crate::Result<usize> {
     let bar = ProgressBar::new(scene.views.len() as u64);
     if job.options.quiet {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    } else {
+        crate::progress_log::log_when_piped(&bar);
     }
     if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} views ({eta})") {
         bar.set_style(style.progress_chars("=> "));

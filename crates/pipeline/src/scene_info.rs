@@ -82,6 +82,9 @@ pub struct PerViewFolder {
     pub views_missing: Vec<String>,
     /// Files that match no view (first few): usually a naming mismatch.
     pub unmatched_files: Vec<String>,
+    /// Entries named like a view's file that are not regular files (a FIFO, a device, a link to
+    /// one, a folder without `metadata.csv`): not counted, as `run` does not read them.
+    pub not_regular_files: Vec<String>,
 }
 
 /// Loads the scene and everything beside it that `args` points to.
@@ -186,15 +189,22 @@ fn describe_ply(path: &Path, strict: bool) -> crate::Result<GaussiansInfo> {
 }
 
 /// Matches the files of `dir` (with one of `extensions`, or SAM PNG sub-folders) to view stems.
+/// Only regular files (through links) count, as in `run` ([`crate::inputs::mask_stems`]): an
+/// entry with a matching name that is a FIFO or a device is listed as not a regular file.
 fn per_view_folder(scene: &Scene, kind: &'static str, dir: &Path, extensions: &[&str]) -> PerViewFolder {
     let mut stems = std::collections::BTreeSet::new();
     let mut names = std::collections::BTreeMap::new();
+    let mut not_regular_files = Vec::new();
     if let Ok(entries) = std::fs::read_dir(dir) {
         for path in entries.filter_map(|e| e.ok().map(|e| e.path())) {
             let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
             let stem = if path.is_dir() && path.join("metadata.csv").is_file() {
                 Some(name.clone())
             } else if path.extension().is_some_and(|e| extensions.iter().any(|x| e == *x)) {
+                if !path.is_file() {
+                    not_regular_files.push(name);
+                    continue;
+                }
                 path.file_stem().map(|s| s.to_string_lossy().into_owned())
             } else {
                 None
@@ -205,6 +215,7 @@ fn per_view_folder(scene: &Scene, kind: &'static str, dir: &Path, extensions: &[
             }
         }
     }
+    not_regular_files.sort();
     let view_stems: std::collections::BTreeSet<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
     let views_missing: Vec<String> =
         view_stems.iter().filter(|s| !stems.contains(**s)).map(|s| s.to_string()).collect();
@@ -219,6 +230,7 @@ fn per_view_folder(scene: &Scene, kind: &'static str, dir: &Path, extensions: &[
         views_covered: view_stems.len() - views_missing.len(),
         views_missing,
         unmatched_files,
+        not_regular_files,
     }
 }
 
@@ -318,6 +330,13 @@ fn format_report(r: &Report) -> String {
                 "  {} file(s) match no view (names must be <image stem>.<ext>): {}",
                 f.unmatched_files.len(),
                 short_list(&f.unmatched_files)
+            ));
+        }
+        if !f.not_regular_files.is_empty() {
+            line(format!(
+                "  {} entr(ies) not regular files (FIFO, device; not read): {}",
+                f.not_regular_files.len(),
+                short_list(&f.not_regular_files)
             ));
         }
     }
@@ -420,5 +439,28 @@ mod tests {
         let mut with_masks = args(dir.path());
         with_masks.masks = Some(dir.path().join("no_masks_here"));
         assert!(inspect(&with_masks).is_err());
+    }
+
+    /// A FIFO (or a link to a device) named like a view's masks is not counted as its masks,
+    /// as `run` does not read it: it is listed instead.
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_or_a_device_is_not_counted_as_a_views_masks() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        scene_folder(dir.path());
+        let c =
+            std::ffi::CString::new(dir.path().join("sam/v1.json").to_str().expect("utf-8")).expect("path");
+        // SAFETY: `c` is a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0, "mkfifo");
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("sam/v2.json.tmp")).expect("link");
+        std::fs::remove_file(dir.path().join("sam/v2.json")).expect("remove");
+        std::fs::rename(dir.path().join("sam/v2.json.tmp"), dir.path().join("sam/v2.json")).expect("rename");
+        let report = inspect(&args(dir.path())).expect("inspects");
+        let masks = &report.per_view[0];
+        assert_eq!(masks.views_covered, 1);
+        assert_eq!(masks.views_missing, ["v1", "v2"]);
+        assert_eq!(masks.not_regular_files, ["v1.json", "v2.json"]);
+        let text = report.to_text();
+        assert!(text.contains("1 of 3 views") && text.contains("not regular files"), "{text}");
     }
 }

@@ -19,6 +19,7 @@ fn run_config(scene: &Path, out: &Path) -> RunConfig {
         features: Some(scene.join("features")),
         depth: None,
         depth_kind: DepthKind::InverseRelative,
+        resize_depth: false,
         gaussians: None,
         gt: Some(scene.join("gt")),
         pipeline: PipelineConfig::default(),

@@ -49,21 +49,23 @@ pub struct TrainRun {
 }
 
 /// 3DGS's initialisation when no PLY is given: one Gaussian per sparse point when the scene has them
-/// (COLMAP), otherwise `random_points` uniform in a cube of half side `cube_half_side` around the origin
-/// (3DGS's NeRF-synthetic start: 100k points, 1.3).
+/// (COLMAP), otherwise `random_points` uniform in a cube: by default centred on the cameras' centre
+/// with the cameras' extent as half side ([`random_start_cube`]), so it reaches whatever the cameras
+/// surround, whatever the scene's units (3DGS's fixed `[−1.3, 1.3]³` fits only NeRF-synthetic scenes).
 #[derive(Clone, Debug)]
 pub struct InitOptions {
     /// Points of the random cube.
     pub random_points: usize,
-    /// Half side of the cube (world units).
-    pub cube_half_side: f32,
+    /// Half side of the cube around the origin (world units), e.g. 1.3 for 3DGS's NeRF-synthetic
+    /// start; `None` = sized from the cameras ([`random_start_cube`]).
+    pub cube_half_side: Option<f32>,
     /// SH degree of the new Gaussians (3DGS: 3).
     pub sh_degree: u8,
 }
 
 impl Default for InitOptions {
     fn default() -> Self {
-        Self { random_points: 100_000, cube_half_side: 1.3, sh_degree: 3 }
+        Self { random_points: 100_000, cube_half_side: None, sh_degree: 3 }
     }
 }
 
@@ -98,6 +100,10 @@ pub struct TrainSummary {
     /// Every read-back the joint stage computed (the chosen one is in `gaussians.ply`; each one's label
     /// maps are in `readback/<kind>/masks/` when there are several).
     pub readbacks: Vec<ReadBackSummary>,
+    /// What went less well than the inputs promised, one sentence each: a labelled PLY that gets
+    /// no joint stage, held-out PSNR that fell (logged; in `quality.json` only when there is one).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// `[N]` ids of each read-back, rows as `gaussians.ply`.
     #[serde(skip)]
     pub readback_ids: Vec<(ReadBack, Vec<i32>)>,
@@ -140,6 +146,8 @@ struct Inputs {
     maps: MapViews,
     /// The starting Gaussians.
     gaussians: Gaussians,
+    /// What the inputs make count for less (logged already).
+    warnings: Vec<String>,
 }
 
 /// Every view, in scene order, as [`write_object_maps`] needs it.
@@ -196,29 +204,34 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> crate::Result<Inputs> {
             gaussians_from_points(&xyz, &rgb, init.sh_degree)
         }
         (None, _) => {
+            let centres: Vec<[f64; 3]> =
+                scene.views.iter().map(|v| v.world_from_cam.translation.to_array()).collect();
+            let (centre, half_side) = match init.cube_half_side {
+                Some(h) => ([0.0; 3], h),
+                None => random_start_cube(&centres),
+            };
             tracing::info!(
-                "no PLY and no sparse points: {} random Gaussians in [−{h}, {h}]³ (3DGS's NeRF-synthetic start)",
+                "no PLY and no sparse points: {} random Gaussians in a cube of half side {half_side:.3} around \
+                 ({:.3}, {:.3}, {:.3}), the cameras' centre and extent",
                 init.random_points,
-                h = init.cube_half_side
+                centre[0],
+                centre[1],
+                centre[2]
             );
-            random_gaussians_in_cube(
-                init.random_points,
-                [0.0; 3],
-                init.cube_half_side,
-                init.sh_degree,
-                run.config.seed,
-            )
+            random_gaussians_in_cube(init.random_points, centre, half_side, init.sh_degree, run.config.seed)
         }
     };
     let c = &run.config;
+    let mut warnings = Vec::new();
     if c.joint.enabled && gaussians.object_ids.is_some() && c.iterations <= c.densify.until {
-        tracing::warn!(
+        let w = format!(
             "the PLY carries object ids, but the joint stage starts after densification (iteration {}) \
              and this run stops at {}: no joint optimisation runs and no label maps are written (raise \
              --iterations or lower [train.densify] until in --config)",
-            c.densify.until,
-            c.iterations
+            c.densify.until, c.iterations
         );
+        tracing::warn!("{w}");
+        warnings.push(w);
     }
     let mut views = views;
     if let Some(dir) = label_map_folder(run, &gaussians) {
@@ -228,7 +241,7 @@ fn load_inputs(run: &TrainRun, options: &LoadOptions) -> crate::Result<Inputs> {
         tracing::info!("identity maps supervised by the label maps in {}", dir.display());
     }
     let names = scene.views.iter().map(|view| view.stem.clone()).collect();
-    Ok(Inputs { views, maps: MapViews { names, posed, images }, gaussians })
+    Ok(Inputs { views, maps: MapViews { names, posed, images }, gaussians, warnings })
 }
 
 /// Where the label maps of the identity maps' 2D supervision are, when that supervision will run
@@ -332,7 +345,7 @@ pub fn run_training(run: &TrainRun) -> crate::Result<TrainSummary> {
         background: run.config.background,
         ..LoadOptions::default()
     };
-    let Inputs { views, maps, gaussians } = load_inputs(run, &options)?;
+    let Inputs { views, maps, gaussians, mut warnings } = load_inputs(run, &options)?;
     // 3DGS's `--eval` split: views 0, every, 2·every, … are held out (none when there is only one view)
     let every = run.config.test_every;
     let hold_out = every > 0 && views.len() > 1;
@@ -440,20 +453,53 @@ pub fn run_training(run: &TrainRun) -> crate::Result<TrainSummary> {
         (Some(before), true) => labelled_share(&trained.gaussians).map(|after| (before, after)),
         _ => None,
     };
+    let test_after = mean(&test_views);
+    if let Some(w) = psnr_fell_warning(&test_before, &test_after) {
+        tracing::warn!("{w}");
+        warnings.push(w);
+    }
     let summary = TrainSummary {
         iterations: run.config.iterations,
         gaussians: (start_count, trained.gaussians.len()),
         test_before,
-        test_after: mean(&test_views),
+        test_after,
         train_after,
         test_views,
         labelled,
         readbacks,
+        warnings,
         readback_ids: trained.readbacks,
         out: run.out.clone(),
     };
     write_json(&run.out.join("quality.json"), &summary)?;
     Ok(summary)
+}
+
+/// The random start's cube without sparse points: centred on the mean of the camera centres
+/// (`[n_views]` world positions), with half side 3DGS's cameras' extent — 1.1 × the largest
+/// distance of a camera from that mean (at least 1e-3) — so a capture looking in at an object, or
+/// out at a room, is covered in its own units.
+pub fn random_start_cube(camera_centres: &[[f64; 3]]) -> ([f32; 3], f32) {
+    let n = camera_centres.len().max(1) as f64;
+    let mean = [0, 1, 2].map(|a| camera_centres.iter().map(|c| c[a]).sum::<f64>() / n);
+    let radius = camera_centres
+        .iter()
+        .map(|c| (0..3).map(|a| (c[a] - mean[a]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    (mean.map(|v| v as f32), (1.1 * radius.max(1e-3)) as f32)
+}
+
+/// A warning when training made the held-out views worse (mean PSNR after below before), or
+/// `None` (also without held-out views).
+fn psnr_fell_warning(before: &MeanQuality, after: &MeanQuality) -> Option<String> {
+    (after.views > 0 && before.views > 0 && after.psnr < before.psnr).then(|| {
+        format!(
+            "training made the {} held-out views worse: mean PSNR {:.2} dB before, {:.2} dB after; the \
+             Gaussians fit the training views only (too few views, a start that does not cover the scene, \
+             or too few iterations to recover from densification)",
+            after.views, before.psnr, after.psnr
+        )
+    })
 }
 
 /// The folder name of a read-back (`[train.joint] readback`'s spelling).
@@ -510,4 +556,33 @@ pub fn automatic_resolution(scene: &std::path::Path) -> crate::Result<u32> {
         );
     }
     Ok(factor)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quality(views: usize, psnr: f64) -> MeanQuality {
+        MeanQuality { views, psnr, ssim: 0.5 }
+    }
+
+    #[test]
+    fn the_random_start_covers_the_cameras_in_their_units() {
+        let (centre, half) = random_start_cube(&[[10.0, 0.0, 0.0], [14.0, 0.0, 0.0], [12.0, 2.0, 0.0]]);
+        let expected = [12.0, 2.0 / 3.0, 0.0];
+        assert!(centre.iter().zip(expected).all(|(c, e)| (c - e).abs() < 1e-6), "{centre:?}");
+        let farthest = (4.0f64 + (2.0f64 / 3.0).powi(2)).sqrt();
+        assert!((f64::from(half) - 1.1 * farthest).abs() < 1e-5, "{half}");
+        let (_, one) = random_start_cube(&[[1.0, 2.0, 3.0]]);
+        assert!(one > 0.0, "a single camera still gives a cube");
+    }
+
+    #[test]
+    fn a_fall_of_held_out_psnr_is_warned_with_both_values() {
+        let w = psnr_fell_warning(&quality(2, 8.66), &quality(2, 6.65)).expect("a warning");
+        assert!(w.contains("2 held-out views worse") && w.contains("8.66 dB before, 6.65 dB after"), "{w}");
+        assert_eq!(psnr_fell_warning(&quality(2, 8.66), &quality(2, 8.66)), None);
+        assert_eq!(psnr_fell_warning(&quality(2, 8.66), &quality(2, 20.0)), None);
+        assert_eq!(psnr_fell_warning(&quality(0, 0.0), &quality(0, 0.0)), None, "nothing held out");
+    }
 }

@@ -122,6 +122,8 @@ pub fn run<'py>(
         features,
         depth,
         depth_kind,
+        // A map of another size than its image is refused, naming the file.
+        resize_depth: false,
         gaussians,
         gt: None,
         pipeline,

@@ -32,10 +32,10 @@ pub const TARGETS: [Target; 10] = [
 const DECODE_PIXELS: u64 = 1 << 20;
 
 /// A 3DGS PLY (binary little- or big-endian, or ASCII, as its header says): read keeping
-/// non-finite rows, then the finite rows taken out and validated as `run` does.
+/// non-finite rows, then the usable rows taken out and validated as `run` does.
 pub fn ply(data: &[u8]) {
     if let Ok(rows) = crate::ply::parse_ply_bytes_rows(data) {
-        let finite = rows.into_finite();
+        let finite = rows.into_usable();
         if let Err(reason) = finite.validate() {
             panic!("the finite rows of a PLY that read must validate: {reason}");
         }

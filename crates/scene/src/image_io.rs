@@ -280,6 +280,34 @@ pub fn read_luma8(path: &Path) -> SceneResult<Plane<u8>> {
     Ok(decode_file(path)?.to_luma8())
 }
 
+/// The first pixel of a colour image whose channels differ: where a grey image was expected
+/// (a mask), what was found instead.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ColourPixel {
+    /// Column.
+    pub x: usize,
+    /// Row.
+    pub y: usize,
+    /// Its 8-bit red, green and blue.
+    pub rgb: [u8; 3],
+}
+
+/// Reads a PNG or JPEG file as 8-bit grey `[height, width]` when it is grey: a one-channel file
+/// (± alpha), or a colour file whose every pixel has R = G = B (a grey image saved as RGB, which
+/// some tools do; read as [`read_luma8`] reads it). A colour file with a colour pixel gives the
+/// first one instead, row-major (`Ok(Err(_))`), so the caller can name it.
+pub fn read_grey8(path: &Path) -> SceneResult<Result<Plane<u8>, ColourPixel>> {
+    let decoded = decode_file(path)?;
+    if decoded.channels >= 3 {
+        let rgb = decoded.to_rgb8();
+        if let Some(i) = rgb.data.chunks_exact(3).position(|p| p[0] != p[1] || p[1] != p[2]) {
+            let rgb = [rgb.data[3 * i], rgb.data[3 * i + 1], rgb.data[3 * i + 2]];
+            return Ok(Err(ColourPixel { x: i % decoded.width.max(1), y: i / decoded.width.max(1), rgb }));
+        }
+    }
+    Ok(Ok(decoded.to_luma8()))
+}
+
 /// Red, green and blue weights of grey (`f32` bits of Rec. 709's 0.2126, 0.7152, 0.0722 as
 /// image derives them from the sRGB primaries and D65 white).
 pub const LUMA_WEIGHTS: [f32; 3] =

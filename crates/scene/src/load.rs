@@ -182,21 +182,33 @@ pub fn load_scene(path: &Path, options: &LoadOptions) -> SceneResult<Scene> {
     ))
 }
 
-/// A warning when several views share an image stem (e.g. `cam1/0001.jpg` and `cam2/0001.jpg`):
-/// per-view files named `<stem>.json` / `<stem>.npy` cannot tell them apart.
-pub(crate) fn shared_stem_warning(views: &[View]) -> Option<String> {
-    let mut by_stem: std::collections::BTreeMap<&str, Vec<&str>> = std::collections::BTreeMap::new();
+/// An error when two views share an image stem (e.g. `cam1/0001.jpg` and `cam2/0001.jpg`): every
+/// per-view file, read (`<stem>.json`, `<stem>.npy`) or written (`masks/<stem>.png`,
+/// `<stem>_rgb.png`), is named by the stem, so the two views would read each other's inputs and
+/// overwrite each other's outputs. The message names both images; `listing` (the file that lists
+/// the images) is the path given.
+pub(crate) fn refuse_shared_stems(views: &[View], format: &'static str, listing: &Path) -> SceneResult<()> {
+    let mut first_of_stem: std::collections::BTreeMap<&str, &View> = std::collections::BTreeMap::new();
     for v in views {
-        by_stem.entry(v.stem.as_str()).or_default().push(v.name.as_str());
+        if let Some(first) = first_of_stem.insert(v.stem.as_str(), v) {
+            return Err(SceneError::invalid(
+                format,
+                listing,
+                format!(
+                    "the images {} and {} have the same file stem `{}`; per-view files (SAM masks \
+                     <stem>.json, features and depth <stem>.npy, label maps and renders) are named by \
+                     the stem, so one view would take the other's inputs and overwrite its outputs: \
+                     rename one of the images ({} and {})",
+                    first.name,
+                    v.name,
+                    v.stem,
+                    first.image_path.display(),
+                    v.image_path.display()
+                ),
+            ));
+        }
     }
-    let shared: Vec<(&str, Vec<&str>)> = by_stem.into_iter().filter(|(_, names)| names.len() > 1).collect();
-    let (stem, names) = shared.first()?;
-    Some(format!(
-        "{} image stems are shared by several views (e.g. {stem}: {}); per-view files named \
-         <stem>.json or <stem>.npy will be matched to the first of them only",
-        shared.len(),
-        names.join(", ")
-    ))
+    Ok(())
 }
 
 fn with_root(scene: SceneResult<Scene>, root: &Path) -> SceneResult<Scene> {

@@ -12,7 +12,7 @@ use crate::camera::{Camera, CameraModel, Distortion, Pose};
 use crate::error::{SceneError, SceneResult};
 use crate::image_io::image_size;
 use crate::images::{camera_at_resolution, check_resolution, locate_image, with_known_extension};
-use crate::load::{shared_stem_warning, LoadOptions, Scene, SceneFormat, View};
+use crate::load::{refuse_shared_stems, LoadOptions, Scene, SceneFormat, View};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -298,7 +298,8 @@ impl Builder<'_> {
                 camera_at_resolution(camera, sample, self.factor)
             })
             .collect();
-        let mut warnings: Vec<String> = shared_stem_warning(&self.views).into_iter().collect();
+        refuse_shared_stems(&self.views, FORMAT, self.file)?;
+        let mut warnings = Vec::new();
         if !self.missing.is_empty() {
             let file_name =
                 self.file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());

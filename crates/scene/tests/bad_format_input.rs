@@ -184,6 +184,39 @@ fn non_finite_values_name_the_property_and_first_index() {
 }
 
 #[test]
+fn degenerate_gaussians_are_listed_counted_once_and_refused_strictly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut g = gaussians(6, 0);
+    g.log_scales[1] = [80.0, -3.0, -3.0];
+    g.rotations[2] = [0.0; 4];
+    g.log_scales[4][2] = 1e30;
+    g.means[5][0] = f32::NAN;
+    g.rotations[5] = [0.0; 4]; // non-finite first: counted once, as non-finite
+    let path = dir.path().join("degenerate.ply");
+    splatseg_scene::ply::write_ply_rows(&path, &g).unwrap();
+    let rows = splatseg_scene::ply::read_ply_rows(&path).unwrap();
+    assert_eq!((rows.non_finite.clone(), rows.degenerate.clone()), (vec![5], vec![1, 2, 4]));
+    assert_eq!(rows.usable_rows(), vec![0, 3]);
+    let warnings = rows.skip_warnings(&path, "they are left out");
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    assert_has(
+        &warnings[1],
+        &["skipping 3 of 6 Gaussians with a degenerate shape", "Gaussian 1", "degenerate.ply"],
+    );
+    let err = rows.refuse_skipped(&path).unwrap_err().to_string();
+    assert_has(&err, &["non-finite", "degenerate.ply"]);
+    g.means[5][0] = 5.0;
+    g.rotations[5] = [1.0, 0.0, 0.0, 0.0];
+    splatseg_scene::ply::write_ply_rows(&path, &g).unwrap();
+    let rows = splatseg_scene::ply::read_ply_rows(&path).unwrap();
+    let err = rows.refuse_skipped(&path).unwrap_err().to_string();
+    assert_has(&err, &["Gaussian 1 has a log-scale above 20", "degenerate.ply"]);
+    assert_eq!(rows.into_usable().len(), 3);
+    // A small but non-zero quaternion and a log-scale of 20 are usable.
+    assert!(splatseg_scene::ply::degenerate_shape([20.0; 3], [1e-6, 0.0, 0.0, 0.0]).is_none());
+}
+
+#[test]
 fn inconsistent_gaussians_are_not_written() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.ply");

@@ -211,16 +211,18 @@ fn missing_image_files_are_skipped_with_one_warning() {
 }
 
 #[test]
-fn views_sharing_an_image_stem_are_warned_about() {
+fn views_sharing_an_image_stem_are_refused_naming_both_images() {
     let root = tempfile::tempdir().expect("tempdir");
     write_scene(root.path());
     let images_txt = root.path().join("sparse/0/images.txt");
     let text = std::fs::read_to_string(&images_txt).expect("read").replace("c_empty.png", "sub/a_front.png");
     std::fs::write(&images_txt, text).expect("write");
     write_png(&root.path().join("images/sub/a_front.png"), 64, 48);
-    let scene = load_scene(root.path(), &LoadOptions::default()).expect("loads");
-    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
-    assert!(scene.warnings[0].contains("a_front: a_front.png, sub/a_front.png"), "{}", scene.warnings[0]);
+    let err =
+        load_scene(root.path(), &LoadOptions::default()).expect_err("two views share a stem").to_string();
+    for words in ["a_front.png and sub/a_front.png", "same file stem `a_front`", "rename one", "images.txt"] {
+        assert!(err.contains(words), "no `{words}` in: {err}");
+    }
 }
 
 /// One PINHOLE 101×81 camera and one image, so down-scaling by 2 has to round.

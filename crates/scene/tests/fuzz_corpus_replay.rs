@@ -67,7 +67,7 @@ fn the_ply_seeds_read_in_all_three_encodings_and_flag_the_nan_row() {
     assert!(le.non_finite.is_empty());
     let nan = read("seed_nan_row.ply");
     assert_eq!(nan.non_finite, vec![1]);
-    assert_eq!(nan.clone().into_finite().len(), le.gaussians.len() - 1);
+    assert_eq!(nan.clone().into_usable().len(), le.gaussians.len() - 1);
     assert!(splatseg_scene::ply::parse_ply_bytes(
         &std::fs::read(dir.join("seed_nan_row.ply")).expect("seed")
     )

@@ -151,3 +151,23 @@ fn resolution_prefers_the_suffixed_image_folder() {
     assert_eq!((cam.width, cam.height, cam.fx, cam.cx), (16, 12, 10.0, 8.0));
     assert_eq!(load_image_rgb(&scene, &scene.views[0], &options).expect("loads").size(), (16, 12));
 }
+
+#[test]
+fn frames_sharing_an_image_stem_are_refused_naming_both_images() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let json = format!(
+        r#"{{"camera_angle_x": 1.0, "frames": [
+            {{"file_path": "./cam1/0001", "transform_matrix": {}}},
+            {{"file_path": "./cam2/0001", "transform_matrix": {}}}]}}"#,
+        gl_matrix([0.0, 0.0, 2.0]),
+        gl_matrix([1.0, 0.0, 2.0])
+    );
+    std::fs::write(dir.path().join("transforms.json"), json).expect("write");
+    write_rgb_png(&dir.path().join("cam1/0001.png"), 8, 6);
+    write_rgb_png(&dir.path().join("cam2/0001.png"), 8, 6);
+    let err =
+        load_scene(dir.path(), &LoadOptions::default()).expect_err("two frames share a stem").to_string();
+    for words in ["cam1/0001.png and cam2/0001.png", "same file stem `0001`", "transforms.json"] {
+        assert!(err.contains(words), "no `{words}` in: {err}");
+    }
+}

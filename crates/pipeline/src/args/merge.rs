@@ -84,6 +84,8 @@ impl MergeArgs {
                 DepthMeaning::Inverse => DepthKind::InverseRelative,
                 DepthMeaning::Metric => DepthKind::MetricZ,
             },
+            // `run --resize-depth` only (the option budget): a map of another size is an error here.
+            resize_depth: false,
             gaussians: self.gaussians,
             gt: None,
             out: self.out,

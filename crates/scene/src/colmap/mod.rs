@@ -21,7 +21,7 @@ pub use text::{parse_cameras_txt, parse_images_txt, parse_points_txt, read_model
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
 use crate::images::{camera_at_resolution, check_resolution, locate_image};
-use crate::load::{shared_stem_warning, Keypoint, LoadOptions, Scene, SceneFormat, View};
+use crate::load::{refuse_shared_stems, Keypoint, LoadOptions, Scene, SceneFormat, View};
 use glam::DVec2;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -174,8 +174,8 @@ fn model_to_scene(
         scale_keypoints(&mut view.keypoints, full_cameras[view.camera_index], &cameras[view.camera_index]);
     }
     let mut points = model.points;
+    refuse_shared_stems(&views, "COLMAP images", images_file)?;
     let mut warnings = Vec::new();
-    warnings.extend(shared_stem_warning(&views));
     if !missing.is_empty() {
         warnings.push(missing_images_warning(&missing, listed, images_file, images_dir));
         let kept: BTreeSet<u32> = views.iter().map(|v| v.image_id).collect();

@@ -4,6 +4,7 @@ use super::ascii::ascii_vertices_to_le;
 use super::header::{parse_header, BodyFormat, ElementDecl, Header, MAX_HEADER_BYTES};
 use super::layout::VertexLayout;
 use super::rows::{decode_range, decode_with, ColumnsMut};
+use super::validate::{degenerate_shape, MAX_LOG_SCALE};
 use super::FORMAT;
 use crate::error::{SceneError, SceneResult};
 use crate::gaussians::Gaussians;
@@ -26,7 +27,8 @@ pub fn read_ply(path: &Path) -> SceneResult<Gaussians> {
     Ok(g)
 }
 
-/// Every row of a 3DGS PLY, and which of them hold a non-finite value.
+/// Every row of a 3DGS PLY, and which of them are skipped: those holding a non-finite value and
+/// those with a degenerate shape ([`Gaussians::degenerate_rows`]).
 #[derive(Clone, Debug)]
 pub struct PlyRows {
     /// Every Gaussian of the file, in file order, non-finite values included.
@@ -34,55 +36,80 @@ pub struct PlyRows {
     /// `[k]` ascending indices of the Gaussians with a non-finite value
     /// ([`Gaussians::non_finite_rows`]).
     pub non_finite: Vec<usize>,
+    /// `[j]` ascending indices of the finite Gaussians with a zero rotation quaternion or a scale
+    /// too large to have a covariance ([`Gaussians::degenerate_rows`]).
+    pub degenerate: Vec<usize>,
 }
 
 impl PlyRows {
     fn new(gaussians: Gaussians) -> Self {
         let non_finite = gaussians.non_finite_rows();
-        PlyRows { gaussians, non_finite }
+        let mut degenerate = gaussians.degenerate_rows();
+        degenerate.retain(|i| non_finite.binary_search(i).is_err());
+        PlyRows { gaussians, non_finite, degenerate }
     }
 
-    /// `[N - k]` ascending indices of the finite Gaussians.
-    pub fn finite_rows(&self) -> Vec<usize> {
-        let mut skipped = self.non_finite.iter().peekable();
-        (0..self.gaussians.len())
-            .filter(|i| {
-                if skipped.peek() == Some(&i) {
-                    skipped.next();
-                    false
-                } else {
-                    true
-                }
-            })
-            .collect()
+    /// How many rows are skipped (non-finite or degenerate).
+    pub fn skipped(&self) -> usize {
+        self.non_finite.len() + self.degenerate.len()
     }
 
-    /// The finite Gaussians, in file order (the set itself when every row is finite).
-    pub fn into_finite(self) -> Gaussians {
-        if self.non_finite.is_empty() {
+    /// `[N - k - j]` ascending indices of the usable Gaussians: finite, with a usable shape.
+    pub fn usable_rows(&self) -> Vec<usize> {
+        let skipped: std::collections::BTreeSet<usize> =
+            self.non_finite.iter().chain(&self.degenerate).copied().collect();
+        (0..self.gaussians.len()).filter(|i| !skipped.contains(i)).collect()
+    }
+
+    /// The usable Gaussians, in file order (the set itself when no row is skipped).
+    pub fn into_usable(self) -> Gaussians {
+        if self.skipped() == 0 {
             self.gaussians
         } else {
-            self.gaussians.select(&self.finite_rows())
+            self.gaussians.select(&self.usable_rows())
         }
     }
 
-    /// One line for the user when some rows are non-finite: how many, the first bad value,
-    /// what is done with them (`consequence`, e.g. "they are labelled -1") and the file;
-    /// `None` when every row is finite.
-    pub fn skip_warning(&self, path: &Path, consequence: &str) -> Option<String> {
-        let first = self.gaussians.first_non_finite()?;
-        Some(format!(
-            "skipping {} of {} Gaussians with non-finite values (first: {first}); {consequence}: {}",
-            self.non_finite.len(),
-            self.gaussians.len(),
-            path.display()
-        ))
+    /// One line for the user per kind of skipped row: how many, the first bad value or shape,
+    /// what is done with them (`consequence`, e.g. "they are labelled -1") and the file; empty
+    /// when every row is usable.
+    pub fn skip_warnings(&self, path: &Path, consequence: &str) -> Vec<String> {
+        let mut warnings = Vec::new();
+        if let Some(first) = self.gaussians.first_non_finite() {
+            warnings.push(format!(
+                "skipping {} of {} Gaussians with non-finite values (first: {first}); {consequence}: {}",
+                self.non_finite.len(),
+                self.gaussians.len(),
+                path.display()
+            ));
+        }
+        if let Some(&first) = self.degenerate.first() {
+            let g = &self.gaussians;
+            let why =
+                degenerate_shape(g.log_scales[first], g.rotations[first]).unwrap_or("a degenerate shape");
+            warnings.push(format!(
+                "skipping {} of {} Gaussians with a degenerate shape, a zero rotation quaternion or a \
+                 log-scale above {MAX_LOG_SCALE} (first: Gaussian {first}, {why}); {consequence}: {}",
+                self.degenerate.len(),
+                g.len(),
+                path.display()
+            ));
+        }
+        warnings
     }
 
-    /// The error [`read_ply`] gives for a file with non-finite rows, or `Ok` when there are none.
-    pub fn refuse_non_finite(&self, path: &Path) -> SceneResult<()> {
-        match self.gaussians.first_non_finite() {
-            Some(reason) => Err(SceneError::invalid(FORMAT, path, reason)),
+    /// The error [`read_ply`] gives for a file with non-finite rows, or a degenerate one, or
+    /// `Ok` when every row is usable (what `--strict` asks for).
+    pub fn refuse_skipped(&self, path: &Path) -> SceneResult<()> {
+        if let Some(reason) = self.gaussians.first_non_finite() {
+            return Err(SceneError::invalid(FORMAT, path, reason));
+        }
+        match self.degenerate.first() {
+            Some(&i) => {
+                let g = &self.gaussians;
+                let why = degenerate_shape(g.log_scales[i], g.rotations[i]).unwrap_or("a degenerate shape");
+                Err(SceneError::invalid(FORMAT, path, format!("Gaussian {i} has {why}")))
+            }
             None => Ok(()),
         }
     }

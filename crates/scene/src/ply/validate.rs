@@ -20,6 +20,27 @@ fn check_finite(values: &[f32], width: usize, names: impl Fn(usize) -> String) -
     }
 }
 
+/// The largest log-scale a Gaussian may have: a scale above `e^20` (≈ 4.9e8 scene units) makes
+/// the rasteriser's 2D covariance and its determinant overflow `f32` for ordinary cameras, so such
+/// a Gaussian is culled however it lies; a reconstruction has none (3DGS's are below `e^5`).
+pub const MAX_LOG_SCALE: f32 = 20.0;
+
+/// A rotation quaternion shorter than this has no direction (the renderer would not normalise it).
+pub const MIN_QUATERNION_NORM: f32 = 1e-12;
+
+/// Why a Gaussian of finite `log_scales` and `rotation` (w, x, y, z) has no usable shape, or
+/// `None`: a zero quaternion ([`MIN_QUATERNION_NORM`]) or a log-scale above [`MAX_LOG_SCALE`].
+pub fn degenerate_shape(log_scales: [f32; 3], rotation: [f32; 4]) -> Option<&'static str> {
+    let norm = rotation.iter().map(|&q| f64::from(q) * f64::from(q)).sum::<f64>().sqrt();
+    if norm < f64::from(MIN_QUATERNION_NORM) {
+        Some("a zero rotation quaternion")
+    } else if log_scales.iter().any(|&s| s > MAX_LOG_SCALE) {
+        Some("a log-scale above 20 (a scale too large to have a covariance)")
+    } else {
+        None
+    }
+}
+
 fn check_len(what: &str, len: usize, expected: usize) -> Result<(), String> {
     if len == expected {
         Ok(())
@@ -97,6 +118,16 @@ impl Gaussians {
                     && finite(&self.rotations[i])
                     && self.features.as_ref().is_none_or(|f| finite(&f.values[i * f.dim..(i + 1) * f.dim])))
             })
+            .collect()
+    }
+
+    /// `[k]` ascending indices of the Gaussians that hold only finite values but have no usable
+    /// shape ([`degenerate_shape`]): a zero rotation quaternion or a scale too large to have a
+    /// covariance. The renderer culls or mis-draws them; readers skip them as they skip
+    /// non-finite rows. Needs [`Gaussians::validate_structure`] to hold.
+    pub fn degenerate_rows(&self) -> Vec<usize> {
+        (0..self.len())
+            .filter(|&i| degenerate_shape(self.log_scales[i], self.rotations[i]).is_some())
             .collect()
     }
 

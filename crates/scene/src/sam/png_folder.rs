@@ -3,7 +3,7 @@
 use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, warn_recomputed, SamMask};
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
-use crate::image_io::{image_size, read_luma8, write_png_luma8};
+use crate::image_io::{image_size, read_grey8, write_png_luma8};
 use crate::plane::Plane;
 use crate::rle::Rle;
 use std::path::Path;
@@ -123,7 +123,10 @@ pub fn parse_metadata_csv(
 
 /// Reads a mask PNG as booleans (non-zero grey = inside). Its header's size is checked first
 /// (against `expected` `(width, height)` when known, and against
-/// [`crate::rle::MAX_MASK_PIXELS`]), so an oversized PNG is never decoded.
+/// [`crate::rle::MAX_MASK_PIXELS`]), so an oversized PNG is never decoded. A mask must be grey
+/// (one channel, or colour channels all equal, as [`read_grey8`] reads it): a PNG with colour
+/// pixels is an image, not a mask (every non-black pixel would count as inside), and is an
+/// error naming the file and its first colour pixel.
 fn read_binary_png(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Plane<bool>> {
     if !path.is_file() {
         return Err(SceneError::missing("SAM mask PNG listed in metadata.csv", path));
@@ -131,7 +134,18 @@ fn read_binary_png(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Pla
     let (w, h) = image_size(path)?;
     check_declared_mask_size(h as u64, w as u64, expected)
         .map_err(|e| SceneError::invalid("SAM mask PNG", path, e))?;
-    Ok(read_luma8(path)?.map(|&v| v != 0))
+    match read_grey8(path)? {
+        Ok(grey) => Ok(grey.map(|&v| v != 0)),
+        Err(c) => Err(SceneError::invalid(
+            "SAM mask PNG",
+            path,
+            format!(
+                "pixel ({}, {}) has the colour ({}, {}, {}): a mask must be grey (one channel, \
+                 non-zero = inside; SAM writes 0 and 255)",
+                c.x, c.y, c.rgb[0], c.rgb[1], c.rgb[2]
+            ),
+        )),
+    }
 }
 
 /// Writes masks in SAM's PNG-folder layout: `dir/<i>.png` (8-bit grey, 255 = inside) and
