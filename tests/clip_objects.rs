@@ -153,7 +153,14 @@ fn run_clip_then_find_then_extract_by_query() {
     ok(&["remove", s(&ply), query, "--out", s(&rest_q)]);
     ok(&["remove", s(&ply), "--ids", best.as_str(), "--out", s(&rest_id)]);
     assert_eq!(std::fs::read(&rest_q).unwrap(), std::fs::read(&rest_id).unwrap());
-    assert!(picked.len() < std::fs::read(&rest_q).unwrap().len() + picked.len());
+    // what extract kept is what remove took away, and it is not nothing
+    let count = |text: &str, word: &str| -> usize {
+        let at = text.find(word).unwrap_or_else(|| panic!("{word:?} in {text:?}"));
+        text[at + word.len()..].split_whitespace().next().and_then(|n| n.parse().ok()).expect("a count")
+    };
+    let removed = ok(&["remove", s(&ply), query, "--out", s(&tmp.path().join("rq2.ply"))]);
+    assert_eq!(count(&said, "wrote "), count(&removed, "removed "), "{said}\n{removed}");
+    assert!(count(&said, "wrote ") > 0, "{said}");
 }
 
 #[test]
