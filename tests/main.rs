@@ -7,6 +7,7 @@ mod architecture_doc;
 mod bad_inputs;
 mod bench_scale;
 mod cli;
+mod clip_objects;
 mod cues_models;
 mod golden_outputs;
 mod kill_harness;

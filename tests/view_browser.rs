@@ -6,7 +6,8 @@
 //! - clicking the centre of each object visible in the first view selects its id (≥ 90 %);
 //! - clicking an object in the strip of overlays selects it;
 //! - hide and isolate change the pixels as expected;
-//! - the exported selection is byte-identical to `splatseg extract --ids …`.
+//! - the exported selection is byte-identical to `splatseg extract --ids …`;
+//! - on a run with object embeddings, the search box ranks as `splatseg find` and Enter selects the best.
 //!
 //! Skips (with a message) only when Chromium or chromedriver is not installed; `.ci/run` installs
 //! both. `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test integration view_browser` also writes the
@@ -333,6 +334,110 @@ fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
         let shown_id = by_area[by_area.len() / 2].1;
         write_screenshot(&browser, &server.url, shown_id);
     }
+}
+
+/// The search box, on a run with object embeddings (`run --clip`, a random CLIP the test writes): it
+/// is shown, typing marks the ranked matches at the top of the table in the order `splatseg find`
+/// gives, Enter selects the best; `/api/find` refuses a request without the page's token. The
+/// page of a run without embeddings has no search box.
+#[test]
+fn the_search_box_ranks_as_find_and_enter_selects_the_best() {
+    let Some(paths) = find_chromium() else {
+        eprintln!("SKIPPED the browser search test: chromium and chromedriver are not installed");
+        return;
+    };
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let [scene, run, clip, exports] = ["scene", "run", "clip", "exports"].map(|d| tmp.path().join(d));
+    let synth_config = tmp.path().join("synth.toml");
+    std::fs::write(&synth_config, "gaussian_spacing_px = 5.0\n").expect("write the synth config");
+    splatseg(&[
+        "synth",
+        "--out",
+        utf8(&scene),
+        "--views",
+        "3",
+        "--size",
+        "160x120",
+        "--config",
+        utf8(&synth_config),
+    ]);
+    splatseg_models::clip::testing::write_random_checkpoint(
+        &clip,
+        splatseg_models::clip::testing::RandomClipSpec::tiny(651),
+        30,
+    )
+    .expect("writes a random CLIP");
+    let merges =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/models/tests/fixtures/clip_bpe_tiny.txt.gz");
+    std::fs::copy(merges, clip.join(splatseg_models::clip::MERGES_FILE)).expect("merges");
+    splatseg(&[
+        "run",
+        utf8(&scene),
+        "--masks",
+        utf8(&scene.join("sam")),
+        "--out",
+        utf8(&run),
+        "--clip",
+        utf8(&clip),
+    ]);
+    let query = "a red mug";
+    let find = String::from_utf8(splatseg(&["find", utf8(&run), query]).stdout).expect("utf-8");
+    let ranked: Vec<u32> = find
+        .lines()
+        .skip(2)
+        .map(|l| l.split_whitespace().nth(1).expect("id").parse().expect("an id"))
+        .take(splatseg_view::search::SEARCH_TOP)
+        .collect();
+    assert!(ranked.len() >= 2, "{find}");
+
+    let server = serve(&run, &exports);
+    let refused = splatseg_view::browser::http::request(
+        "GET",
+        &format!("{}/api/find?q=mug", server.url.trim_end_matches('/')),
+        None,
+        std::time::Duration::from_secs(10),
+    )
+    .expect("the server answers");
+    assert_eq!(refused.status, 403, "a search without the page's token");
+    let browser = Browser::launch(&paths, 1280, 900).expect("headless chromium starts");
+    browser.goto(&server.url).expect("page opens");
+    let ready = browser.await_promise("viewer.whenReady(120000)").expect("ready");
+    assert!(ready["error"].is_null(), "the page failed: {ready}");
+    let script = format!(
+        "(async () => {{
+            const input = document.getElementById('search');
+            if (!input) return {{ error: 'no search box' }};
+            const table = () => [...document.querySelectorAll('#objects tr')];
+            input.value = {query:?};
+            input.dispatchEvent(new Event('input'));
+            for (let k = 0; k < 400 && !table()[0].classList.contains('match'); k++) await new Promise(r => setTimeout(r, 25));
+            const marked = table().filter(r => r.classList.contains('match')).map(r => Number(r.dataset.id));
+            const selectedWhileTyping = viewer.ids(viewer.selected);
+            input.dispatchEvent(new KeyboardEvent('keydown', {{ key: 'Enter' }}));
+            for (let k = 0; k < 400 && viewer.selected.size === 0; k++) await new Promise(r => setTimeout(r, 25));
+            return {{ marked, selectedWhileTyping, selected: viewer.ids(viewer.selected),
+                     results: document.getElementById('search-results').textContent }};
+        }})()"
+    );
+    let got = browser.await_promise(&script).expect("search");
+    assert!(got["error"].is_null(), "{got}");
+    let marked: Vec<u32> =
+        got["marked"].as_array().expect("marked").iter().map(|v| v.as_u64().expect("id") as u32).collect();
+    assert_eq!(marked, ranked, "the table's marked rows, top down, are `find`'s ranking: {got}");
+    assert_eq!(got["selectedWhileTyping"], serde_json::json!([]), "typing selects nothing");
+    assert_eq!(got["selected"], serde_json::json!([ranked[0]]), "Enter selects the best: {got}");
+    drop(browser);
+    drop(server);
+
+    // a run without embeddings: no search box
+    std::fs::remove_dir_all(run.join("objects")).expect("remove the embeddings");
+    let server = serve(&run, &exports);
+    let browser = Browser::launch(&paths, 1280, 900).expect("headless chromium starts");
+    browser.goto(&server.url).expect("page opens");
+    let ready = browser.await_promise("viewer.whenReady(120000)").expect("ready");
+    assert!(ready["error"].is_null(), "the page failed: {ready}");
+    let search = browser.execute("return document.getElementById('search') === null;", serde_json::json!([]));
+    assert_eq!(search.expect("runs"), serde_json::json!(true));
 }
 
 /// The README's screenshot: the page at its normal layout, one object selected, frusta shown.

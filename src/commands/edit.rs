@@ -40,11 +40,20 @@ pub fn objects(args: ObjectsArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--ids`, or the object a query matches best (the embeddings of `run --clip` beside the PLY).
+fn chosen_ids(ply: &Path, ids: &[i32], query: Option<&str>) -> anyhow::Result<Vec<i32>> {
+    let Some(query) = query else { return Ok(ids.to_vec()) };
+    let found = splatseg_model_cues::clip_objects::best_match_beside(ply, query)?;
+    println!("{query:?}: object {} (relevancy {:.4})", found.id, found.relevancy);
+    Ok(vec![i32::try_from(found.id)?])
+}
+
 /// Runs `splatseg extract`.
 pub fn extract(args: ExtractArgs) -> anyhow::Result<()> {
     args.refuse_overwrite()?;
     let g = read_labelled(&args.ply)?;
-    let picked = splatseg_edit::extract(&g, &args.ids).map_err(|e| e.with_path(&args.ply))?;
+    let ids = chosen_ids(&args.ply, &args.ids, args.query.as_deref())?;
+    let picked = splatseg_edit::extract(&g, &ids).map_err(|e| e.with_path(&args.ply))?;
     let count = picked.len();
     write(&args.out, picked, args.keep_extras)?;
     println!("wrote {count} of {} Gaussians to {}", g.len(), args.out.display());
@@ -55,7 +64,8 @@ pub fn extract(args: ExtractArgs) -> anyhow::Result<()> {
 pub fn remove(args: RemoveArgs) -> anyhow::Result<()> {
     args.refuse_overwrite()?;
     let g = read_labelled(&args.ply)?;
-    let kept = splatseg_edit::remove(&g, &args.ids).map_err(|e| e.with_path(&args.ply))?;
+    let ids = chosen_ids(&args.ply, &args.ids, args.query.as_deref())?;
+    let kept = splatseg_edit::remove(&g, &ids).map_err(|e| e.with_path(&args.ply))?;
     let count = kept.len();
     write(&args.out, kept, args.keep_extras)?;
     println!("removed {} Gaussians, wrote {count} to {}", g.len() - count, args.out.display());

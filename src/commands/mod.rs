@@ -10,6 +10,7 @@ pub mod cues;
 pub mod demo;
 pub mod edit;
 pub mod eval;
+pub mod find;
 pub mod info;
 pub mod logging;
 pub mod merge;
@@ -89,6 +90,8 @@ pub enum Command {
     Eval(splatseg_eval::EvalArgs),
     /// Write the Gaussians of chosen objects of a labelled PLY to a new PLY.
     Extract(splatseg_edit::ExtractArgs),
+    /// Rank a run's objects against a text query ("a red mug") with the CLIP embeddings of `run --clip`.
+    Find(splatseg_model_cues::FindArgs),
     /// Show what a scene folder holds: cameras, views, missing images, Gaussians, masks.
     #[command(long_about = pipeline::INFO_LONG_ABOUT)]
     Info(pipeline::InfoArgs),
@@ -122,6 +125,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(args) => demo::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Extract(args) => edit::extract(args),
+        Command::Find(args) => find::run(args),
         Command::Info(args) => info::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Objects(args) => edit::objects(args),

@@ -1,5 +1,6 @@
 //! `splatseg run`: the whole pipeline on a scene with SAM masks (`splatseg_pipeline`), with the
-//! models first when checkpoints are given (`splatseg_model_cues`).
+//! models first when checkpoints are given and the objects' CLIP embeddings after it with `--clip`
+//! (`splatseg_model_cues`).
 
 use anyhow::Context;
 use splatseg_model_cues::RunArgs;
@@ -8,6 +9,10 @@ use splatseg_model_cues::RunArgs;
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
     args.refuse_overwrite()?;
     let profile = args.profile.clone();
+    let clip = args.clip_request(!super::logging::quiet());
+    if let Some(request) = &clip {
+        request.check()?;
+    }
     let summary =
         splatseg_pipeline::run_pipeline(&args.into_config(super::run_options(), !super::logging::quiet())?)?;
     if let Some(path) = &profile {
@@ -16,5 +21,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             .with_context(|| format!("writing the stage profile {}", path.display()))?;
     }
     print!("{}", summary.to_text());
+    if let Some(request) = clip {
+        print!("{}", splatseg_model_cues::clip_objects::embed_objects(&request)?.to_text());
+    }
     Ok(())
 }

@@ -25,7 +25,11 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         source.scene.as_ref().map_or(0, |s| s.views.len()),
         source.ply_path.display()
     );
-    let server = ViewServer::start(Site::new(source), host, *port)?;
+    let mut site = Site::new(source);
+    if let Some(search) = object_search(&args.path) {
+        site = site.with_search(search);
+    }
+    let server = ViewServer::start(site, host, *port)?;
     println!("splatseg view: {summary}");
     println!("open {}", server.url());
     std::io::stdout().flush().context("writing to stdout")?;
@@ -36,4 +40,27 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     }
     server.wait();
     Ok(())
+}
+
+/// The search box's ranking when PATH is (or holds the PLY of) a run with object embeddings
+/// (`run --clip`): the text tower is loaded once, here.
+fn object_search(path: &std::path::Path) -> Option<splatseg_view::search::Search> {
+    let out = if path.is_dir() { path } else { path.parent()? };
+    let index = out.join("objects").join("objects.json");
+    if !index.is_file() {
+        return None;
+    }
+    match splatseg_model_cues::clip_objects::ObjectSearch::open(out) {
+        Ok(search) => Some(Box::new(move |query: &str, top: usize| {
+            let found = search.find(query, top).map_err(|e| e.report())?;
+            Ok(found
+                .iter()
+                .map(|f| splatseg_view::search::SearchHit { id: f.id, relevancy: f.relevancy })
+                .collect())
+        })),
+        Err(e) => {
+            tracing::warn!("no search box: {}", e.report());
+            None
+        }
+    }
 }

@@ -30,10 +30,15 @@ pub struct ObjectsArgs {
 pub struct ExtractArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
+    /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
+    /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
+    /// (`objects/objects.json` beside `gaussians.ply`).
+    #[cfg_attr(feature = "cli", arg(conflicts_with = "ids"))]
+    pub query: Option<String>,
     /// Object ids to keep, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
     #[cfg_attr(
         feature = "cli",
-        arg(long, required = true, value_delimiter = ',', allow_negative_numbers = true)
+        arg(long, required_unless_present = "query", value_delimiter = ',', allow_negative_numbers = true)
     )]
     pub ids: Vec<i32>,
     /// Output PLY.
@@ -55,10 +60,15 @@ pub struct ExtractArgs {
 pub struct RemoveArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
+    /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
+    /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
+    /// (`objects/objects.json` beside `gaussians.ply`).
+    #[cfg_attr(feature = "cli", arg(conflicts_with = "ids"))]
+    pub query: Option<String>,
     /// Object ids to remove, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
     #[cfg_attr(
         feature = "cli",
-        arg(long, required = true, value_delimiter = ',', allow_negative_numbers = true)
+        arg(long, required_unless_present = "query", value_delimiter = ',', allow_negative_numbers = true)
     )]
     pub ids: Vec<i32>,
     /// Output PLY.

@@ -1,6 +1,7 @@
 //! The arguments of `splatseg cues` and `splatseg run` (clap's `Args` with the `cli` feature):
 //! `run` lives here because its `--sam`, `--dinov2` and `--depth-model` run the models first.
 
+use crate::clip_objects::ObjectEmbeddingRequest;
 use crate::{compute_cues, models_for_run, CuesRequest, CuesSummary, ModelCuesError};
 use splatseg_cues::DepthKind;
 use splatseg_pipeline::{PipelineConfig, RunConfig, RunOptions};
@@ -121,6 +122,11 @@ pub struct RunArgs {
     /// Output folder.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
+    /// CLIP checkpoint (with its `bpe_simple_vocab_16e6.txt.gz` beside it): after the run, embed
+    /// each object's best views (at most 5 crops) into OUT/objects/ (`clip.npy`, `objects.json`)
+    /// for `splatseg find`, `extract`/`remove` with a query. Cached.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub clip: Option<PathBuf>,
     /// Write the wall time and peak resident memory of every stage to this JSON file (Linux:
     /// each stage's own peak, from /proc/self/status VmHWM); `splatseg bench scale` uses it.
     #[cfg_attr(feature = "cli", arg(long))]
@@ -128,6 +134,16 @@ pub struct RunArgs {
 }
 
 impl RunArgs {
+    /// What `--clip` asks for once the run is done: its objects embedded (`None` without `--clip`).
+    pub fn clip_request(&self, show_progress: bool) -> Option<ObjectEmbeddingRequest> {
+        self.clip.as_ref().map(|clip| ObjectEmbeddingRequest {
+            scene: self.scene.clone(),
+            out: self.out.clone(),
+            clip: clip.clone(),
+            show_progress,
+        })
+    }
+
     /// The pipeline's request: the `--config` settings, and the cues the models computed (into
     /// OUT/cues) in place of the folders given.
     pub fn into_config(self, options: RunOptions, show_progress: bool) -> crate::Result<RunConfig> {
@@ -186,7 +202,8 @@ impl RunArgs {
     /// Refuses an --out that would overwrite an input, before anything is read: OUT equal to any
     /// input (SCENE, its `gaussians.ply`, --masks, --features, --depth, --gaussians, --gt,
     /// --config, a checkpoint), an input inside what run writes into OUT (`masks/`, `overlays/`,
-    /// `cache/`, `cues/` with models, `gaussians.ply`, `report.md`, `metrics.json`), OUT inside
+    /// `cache/`, `cues/` with models, `objects/` with --clip, `gaussians.ply`, `report.md`,
+    /// `metrics.json`), OUT inside
     /// an input folder of masks, features, depth or ground truth, and --profile equal to an input.
     pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
         let mut inputs = splatseg_pipeline::args::pipeline_inputs(
@@ -204,7 +221,35 @@ impl RunArgs {
             outputs.push(Role::tree("--out's cues/", self.out.join("cues")));
         }
         inputs.extend(models);
+        if let Some(clip) = &self.clip {
+            inputs.push(Role::file("--clip", clip));
+            outputs.push(Role::tree("--out's objects/", self.out.join(crate::clip_objects::OBJECTS_DIR)));
+        }
         outputs.extend(self.profile.as_ref().map(|p| Role::file("--profile", p)));
         splatseg_scene::paths::refuse_overwrite(&inputs, &outputs)
+    }
+}
+
+/// Rank the objects of a finished run by how well they match a text query (CLIP, as LERF scores
+/// relevancy: the cosine to the query against the phrases "object", "things", "stuff", "texture").
+///
+/// Needs `splatseg run --clip CKPT` to have embedded the objects (OUT/objects/); the query is
+/// embedded with the text tower of the checkpoint OUT/objects/objects.json names, so objects and
+/// query come from one model. Prints every embedded object, best first: rank, id, relevancy (above
+/// 0.5: closer to the query than to every generic phrase), cosine, colour and the views its
+/// embedding came from.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct FindArgs {
+    /// A finished run's output folder (`splatseg run --clip CKPT --out OUT`).
+    pub out: PathBuf,
+    /// What to look for, e.g. "a red mug".
+    pub query: String,
+}
+
+impl FindArgs {
+    /// The ranked objects, every embedded one (best first).
+    pub fn find(&self) -> crate::Result<Vec<crate::clip_objects::FoundObject>> {
+        crate::clip_objects::ObjectSearch::open(&self.out)?.find(&self.query, usize::MAX)
     }
 }

@@ -10,9 +10,10 @@
 //! `splatseg cues` and `splatseg run` (clap's `Args` with the `cli` feature).
 
 pub mod args;
+pub mod clip_objects;
 mod error;
 
-pub use args::{CuesArgs, RunArgs};
+pub use args::{CuesArgs, FindArgs, RunArgs};
 pub use error::{Context, ModelCuesError, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use splatseg_models::depth_anything::DepthAnything;

@@ -59,7 +59,52 @@ export class Panel {
       ]),
       el('div', { id: 'export-result', class: 'note' }),
     );
+    if (v.manifest.search) this.buildSearch(box);
     if (!v.manifest.labelled) this.note('This PLY has no object_id: it is one object, and export needs `splatseg run` first.');
+  }
+
+  // The search box (when the server has object embeddings): typing ranks the objects against the
+  // text (`/api/find?q=`), marks the matches in the table with their rank and relevancy, best first;
+  // Enter selects the best.
+  buildSearch(box) {
+    const v = this.viewer;
+    const results = el('div', { id: 'search-results', class: 'note' });
+    let timer = null;
+    let asked = 0;
+    const run = async (q, selectBest) => {
+      const mine = ++asked;
+      if (!q.trim()) { this.showMatches([]); results.textContent = ''; return; }
+      try {
+        const matches = await v.find(q);
+        if (mine !== asked) return; // a newer query is on its way
+        this.showMatches(matches);
+        results.textContent = matches.map((m, i) => `${i + 1}. ${m.id} (${m.relevancy.toFixed(3)})`).join('  ');
+        if (selectBest && matches.length) v.select([matches[0].id]);
+      } catch (e) {
+        results.textContent = String(e.message || e);
+      }
+    };
+    const input = el('input', { id: 'search', type: 'search', placeholder: 'find: a red mug', autocomplete: 'off' });
+    input.addEventListener('input', () => { clearTimeout(timer); timer = setTimeout(() => run(input.value, false), 150); });
+    input.addEventListener('keydown', (e) => {
+      if (e.key === 'Enter') { clearTimeout(timer); run(input.value, true); }
+    });
+    box.append(el('div', { class: 'row' }, [input]), results);
+  }
+
+  // Marks the rows of `matches` (ranked) and moves them to the top of the table in rank order.
+  showMatches(matches) {
+    const body = document.getElementById('objects');
+    const rank = new Map(matches.map((m, i) => [m.id, i]));
+    const rows = this.rows.slice();
+    rows.forEach((row) => {
+      const id = Number(row.dataset.id);
+      row.classList.toggle('match', rank.has(id));
+      row.children[2].dataset.rank = rank.has(id) ? String(rank.get(id) + 1) : '';
+    });
+    rows.sort((a, b) => (rank.get(Number(a.dataset.id)) ?? 1e9) - (rank.get(Number(b.dataset.id)) ?? 1e9));
+    rows.forEach((row) => body.appendChild(row));
+    this.matches = matches;
   }
 
   rgb(value) {

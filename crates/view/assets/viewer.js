@@ -374,6 +374,15 @@ class Viewer {
     this.changed();
   }
 
+  // The objects ranked against `text` by the server (`/api/find`, with the page's token): [{id, relevancy}].
+  async find(text) {
+    const token = document.querySelector('meta[name="splatseg-token"]')?.content ?? '';
+    const r = await fetch(`/api/find?q=${encodeURIComponent(text)}`, { headers: { 'X-Splatseg-Token': token } });
+    const body = await r.json();
+    if (!r.ok) throw new Error(body.error || `search failed (${r.status})`);
+    return body.matches;
+  }
+
   // Asks the server to write the selection (`extract`) or everything else (`remove`), with the
   // token the page was served with (the server refuses changes without it).
   async exportSelection(mode = 'extract') {

@@ -78,10 +78,15 @@ impl Access {
         self.names.iter().any(|n| n == bare) || (self.any_ip && ip_literal)
     }
 
+    /// Whether `token` (an `X-Splatseg-Token` header) is this server's.
+    pub fn token_ok(&self, token: Option<&str>) -> bool {
+        token.is_some_and(|t| constant_time_eq(t.trim().as_bytes(), self.token.as_bytes()))
+    }
+
     /// Whether a request changing something may go ahead: the token, then an `Origin` equal to
     /// `http://` + `host` (already checked by [`Access::host_allowed`]).
     pub fn may_change(&self, host: &str, origin: Option<&str>, token: Option<&str>) -> Result<(), Refusal> {
-        if !token.is_some_and(|t| constant_time_eq(t.trim().as_bytes(), self.token.as_bytes())) {
+        if !self.token_ok(token) {
             return Err(Refusal::Token);
         }
         let page_origin = format!("http://{}", host.trim());

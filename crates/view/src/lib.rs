@@ -14,6 +14,7 @@
 //! - [`access`], [`request`], [`wire`]: who may drive the server (`Host`, the page's token and
 //!   `Origin`), one request → one reply as a pure function, and HTTP/1.1 within fixed limits
 //!   ([`fuzzing`] runs the whole exchange on bytes).
+//! - [`search`]: the search box's endpoint (`/api/find?q=`), ranked by a function the caller gives.
 //! - [`browser`]: a minimal WebDriver client for headless Chromium (tests, benchmarks, the
 //!   README's screenshot).
 
@@ -28,6 +29,7 @@ pub mod manifest;
 pub mod pack;
 pub mod request;
 pub mod routes;
+pub mod search;
 pub mod server;
 pub mod source;
 pub mod wire;

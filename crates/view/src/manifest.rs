@@ -82,6 +82,9 @@ pub struct Manifest {
     pub views: Vec<ViewEntry>,
     /// Folder exports are written to.
     pub export_dir: String,
+    /// True when `/api/find` ranks objects against a text query (left out when false).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub search: bool,
 }
 
 /// Object slots: `[N]` slot per Gaussian and the object entries by slot (ids ascending).
@@ -193,6 +196,7 @@ pub fn build(source: &ViewSource, objects: Vec<ObjectEntry>) -> Manifest {
         capture_cameras,
         views,
         export_dir: source.export_dir.display().to_string(),
+        search: false,
     }
 }
 

@@ -4,12 +4,14 @@
 //! In order: `Host` must name this server ([`Access::host_allowed`], else 403); the body is framed
 //! by one `Content-Length` of at most [`MAX_BODY_BYTES`] (413 without reading a byte, whatever
 //! the header claims; `Transfer-Encoding` gets 411); a request that is not `GET` / `HEAD` changes
-//! something and needs the page's token and `Origin` (403 before the body is read); then the body
+//! something and needs the page's token and `Origin` (403 before the body is read), a search
+//! (`/api/find`) the token; then the body
 //! is read, never more than it said, and [`Site::respond`] answers. `/` and `/index.html` are the
 //! page with this server's token.
 
 use crate::access::{Access, Refusal, TOKEN_HEADER};
 use crate::routes::{Reply, Site, MAX_BODY_BYTES};
+use crate::search::FIND_PATH;
 use crate::wire::Head;
 use std::borrow::Cow;
 use std::io::Read;
@@ -32,6 +34,9 @@ pub fn answer<'a>(site: &'a Site, access: &'a Access, head: &Head, body: &mut dy
         if let Err(why) = access.may_change(host, head.value("origin"), head.value(TOKEN_HEADER)) {
             return refused(why);
         }
+    } else if path == FIND_PATH && !access.token_ok(head.value(TOKEN_HEADER)) {
+        // a search runs a model: only the page (which holds the token) may ask
+        return refused(Refusal::Token);
     }
     let mut bytes = Vec::with_capacity(length);
     match body.take(length as u64).read_to_end(&mut bytes) {
@@ -75,7 +80,7 @@ fn refused(why: Refusal) -> Reply<'static> {
              other names are refused (DNS rebinding)"
         }
         Refusal::Token => {
-            "changes are accepted only from the viewer's own page (missing or wrong X-Splatseg-Token)"
+            "changes and searches are accepted only from the viewer's own page (missing or wrong X-Splatseg-Token)"
         }
         Refusal::Origin => "changes are accepted only from the viewer's own page (its Origin)",
     };

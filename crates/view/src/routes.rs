@@ -8,6 +8,7 @@ use crate::assets::asset;
 use crate::export::{export, ExportRequest};
 use crate::manifest::{self, Manifest};
 use crate::pack::{pack, BYTES_PER_GAUSSIAN, CHUNK_GAUSSIANS};
+use crate::search::{query_param, Search, FIND_PATH, MAX_QUERY_CHARS, SEARCH_TOP};
 use crate::source::ViewSource;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -68,6 +69,7 @@ pub struct Site {
     manifest_json: Vec<u8>,
     packed: Vec<u8>,
     exports: Mutex<BTreeMap<String, PathBuf>>,
+    search: Option<Search>,
 }
 
 impl Site {
@@ -77,7 +79,16 @@ impl Site {
         let packed = pack(&source.gaussians, &slots);
         let manifest = manifest::build(&source, objects);
         let manifest_json = serde_json::to_vec(&manifest).unwrap_or_default();
-        Site { source, manifest, manifest_json, packed, exports: Mutex::new(BTreeMap::new()) }
+        Site { source, manifest, manifest_json, packed, exports: Mutex::new(BTreeMap::new()), search: None }
+    }
+
+    /// The site with a search box: `/api/find?q=` answered by `search` (and `search: true` in the
+    /// manifest).
+    pub fn with_search(mut self, search: Search) -> Site {
+        self.manifest.search = true;
+        self.manifest_json = serde_json::to_vec(&self.manifest).unwrap_or_default();
+        self.search = Some(search);
+        self
     }
 
     /// The manifest served at `/api/scene.json`.
@@ -94,6 +105,7 @@ impl Site {
     pub fn respond(&self, method: &str, url: &str, body: &[u8]) -> Reply<'_> {
         let path = url.split(['?', '#']).next().unwrap_or("");
         match method {
+            "GET" | "HEAD" if path == FIND_PATH => self.find(url),
             "GET" | "HEAD" => self.get(path),
             "POST" if path == "/api/export" => self.export(body),
             _ => Reply::not_found(),
@@ -184,6 +196,26 @@ impl Site {
                 )
             }
             Err(e) => Reply::error(400, &e.to_string()),
+        }
+    }
+
+    fn find(&self, url: &str) -> Reply<'_> {
+        let Some(search) = &self.search else {
+            return Reply::error(
+                404,
+                "no object search here: open the output folder of `splatseg run --clip CKPT` (its objects/)",
+            );
+        };
+        let Some(query) = query_param(url) else {
+            return Reply::error(400, "expected /api/find?q=TEXT (percent-encoded UTF-8)");
+        };
+        let query = query.trim();
+        if query.is_empty() || query.chars().count() > MAX_QUERY_CHARS {
+            return Reply::error(400, &format!("the query must hold 1 to {MAX_QUERY_CHARS} characters"));
+        }
+        match search(query, SEARCH_TOP) {
+            Ok(matches) => Reply::json(200, &serde_json::json!({ "query": query, "matches": matches })),
+            Err(e) => Reply::error(500, &e),
         }
     }
 

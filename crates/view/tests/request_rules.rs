@@ -153,3 +153,53 @@ fn the_committed_fuzz_corpus_replays() {
     }
     assert!(n >= 5, "only {n} inputs in {}", dir.display());
 }
+
+/// `GET /api/find?q=`: only with the page's token, a bounded query, 404 without a search function; the
+/// query reaches the function decoded.
+#[test]
+fn searches_need_the_token_and_a_bounded_query() {
+    use splatseg_view::search::{SearchHit, MAX_QUERY_CHARS};
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let find = |site: &splatseg_view::Site, access, query: &str, token: Option<&str>| {
+        let mut head = format!("GET /api/find?q={query} HTTP/1.1\r\nHost: {ADDR}\r\n");
+        if let Some(token) = token {
+            head.push_str(&format!("X-Splatseg-Token: {token}\r\n"));
+        }
+        let reply = request_bytes(site, access, format!("{head}\r\n").as_bytes());
+        (status(&reply), body(&reply))
+    };
+    let (plain, access) = site(tmp.path().to_path_buf());
+    let (code, text) = find(&plain, &access, "mug", Some(TOKEN));
+    assert_eq!(code, 404, "no search function: {text}");
+    assert!(text.contains("run --clip"), "{text}");
+    assert!(!body(&request_bytes(
+        &plain,
+        &access,
+        format!("GET /api/scene.json HTTP/1.1\r\nHost: {ADDR}\r\n\r\n").as_bytes()
+    ))
+    .contains("\"search\""));
+
+    let (site, access) = site(tmp.path().to_path_buf());
+    // the "ranking": the query's length as the id, to see what arrived
+    let site = site.with_search(Box::new(|q: &str, top: usize| {
+        Ok(vec![SearchHit { id: q.chars().count() as u32, relevancy: 0.75 }; top.min(2)])
+    }));
+    let (code, text) = find(&site, &access, "a+red%20mug", Some(TOKEN));
+    assert_eq!(code, 200, "{text}");
+    let value: serde_json::Value = serde_json::from_str(&text).expect("json");
+    assert_eq!(value["query"], "a red mug");
+    assert_eq!(value["matches"][0]["id"], 9);
+    assert_eq!(value["matches"].as_array().map(Vec::len), Some(2));
+    assert_eq!(find(&site, &access, "mug", None).0, 403, "without the token");
+    assert_eq!(find(&site, &access, "mug", Some("0000")).0, 403, "with another token");
+    assert_eq!(find(&site, &access, "", Some(TOKEN)).0, 400, "empty");
+    assert_eq!(find(&site, &access, "%zz", Some(TOKEN)).0, 400, "bad encoding");
+    let long = "a".repeat(MAX_QUERY_CHARS + 1);
+    assert_eq!(find(&site, &access, &long, Some(TOKEN)).0, 400, "too long");
+    let manifest = request_bytes(
+        &site,
+        &access,
+        format!("GET /api/scene.json HTTP/1.1\r\nHost: {ADDR}\r\n\r\n").as_bytes(),
+    );
+    assert!(body(&manifest).contains("\"search\":true"));
+}

@@ -13,6 +13,7 @@ pub mod config;
 mod image_tower;
 mod pretokens;
 pub mod relevancy;
+pub mod testing;
 mod text_tower;
 pub mod tokenizer;
 
@@ -50,14 +51,17 @@ impl Clip {
     /// snapshot holding one of [`CLIP_WEIGHT_NAMES`], or an `org/name` in the local Hugging Face cache.
     /// `hints` complete (and take precedence over) the `open_clip_config.json` beside the weights.
     pub fn load(path: &Path, hints: ClipHints) -> ModelsResult<Self> {
-        let files = checkpoint::resolve_named(path, ModelKind::Clip, &CLIP_WEIGHT_NAMES)?;
-        let weights = Weights::load(&files.weights, ModelKind::Clip)?;
-        let beside = files.weights.parent().map(|dir| dir.join(OPEN_CLIP_CONFIG)).filter(|p| p.is_file());
-        let from_file = match beside {
-            Some(config) => ClipHints::from_open_clip_config(&read_json(&config)?),
-            None => ClipHints::default(),
-        };
-        Self::from_weights(&weights, hints.or(from_file))
+        let (weights, hints) = read_checkpoint(path, hints)?;
+        Self::from_weights(&weights, hints)
+    }
+
+    /// Loads only the text tower of a checkpoint (as [`Clip::load`], the `visual.*` tensors dropped
+    /// before anything is built): what a text query needs, without ViT-B/16's 86 M image parameters.
+    pub fn load_text_only(path: &Path, hints: ClipHints) -> ModelsResult<Self> {
+        let (weights, hints) = read_checkpoint(path, hints)?;
+        let weights =
+            without_prefix(&weights)?.renamed(|n| (!n.starts_with("visual.")).then(|| n.to_string()));
+        Self::from_weights(&weights, hints)
     }
 
     /// Builds the model from already-read tensors (OpenAI names, possibly under a prefix such as `module.`).
@@ -103,10 +107,45 @@ impl Clip {
     }
 }
 
+impl Clip {
+    /// Image embeddings (not normalised) of `batch` images given as plain values `[B, 3, S, S]`
+    /// (normalised with [`CLIP_MEAN`] / [`CLIP_STD`], `S` the tower's image size): `[B, E]` row-major.
+    pub fn embed_images_flat(&self, pixels: Vec<f32>, batch: usize) -> ModelsResult<Vec<f32>> {
+        let tower = self.image_tower()?;
+        let side = tower.config().image_size;
+        if pixels.len() != batch * 3 * side * side {
+            return Err(ModelsError::Input(format!(
+                "{} values are not {batch} images of 3 × {side} × {side}",
+                pixels.len()
+            )));
+        }
+        let pixels =
+            candle_core::Tensor::from_vec(pixels, (batch, 3, side, side), &candle_core::Device::Cpu)?;
+        Ok(tower.embed(&pixels)?.flatten_all()?.to_vec1::<f32>()?)
+    }
+
+    /// [`Clip::embed_texts`] as plain values: `[B, E]` row-major, rows L2-normalised.
+    pub fn embed_texts_flat(&self, tokenizer: &ClipTokenizer, texts: &[&str]) -> ModelsResult<Vec<f32>> {
+        Ok(self.embed_texts(tokenizer, texts)?.flatten_all()?.to_vec1::<f32>()?)
+    }
+}
+
 /// The merges file beside a checkpoint (or in its folder), when there is one.
 pub fn merges_beside(checkpoint: &Path) -> Option<PathBuf> {
     let dir = if checkpoint.is_dir() { checkpoint } else { checkpoint.parent()? };
     Some(dir.join(MERGES_FILE)).filter(|p| p.is_file())
+}
+
+/// The checkpoint's tensors and `hints` completed by the `open_clip_config.json` beside it.
+fn read_checkpoint(path: &Path, hints: ClipHints) -> ModelsResult<(Weights, ClipHints)> {
+    let files = checkpoint::resolve_named(path, ModelKind::Clip, &CLIP_WEIGHT_NAMES)?;
+    let weights = Weights::load(&files.weights, ModelKind::Clip)?;
+    let beside = files.weights.parent().map(|dir| dir.join(OPEN_CLIP_CONFIG)).filter(|p| p.is_file());
+    let from_file = match beside {
+        Some(config) => ClipHints::from_open_clip_config(&read_json(&config)?),
+        None => ClipHints::default(),
+    };
+    Ok((weights, hints.or(from_file)))
 }
 
 fn read_json(path: &Path) -> ModelsResult<serde_json::Value> {
