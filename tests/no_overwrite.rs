@@ -102,10 +102,6 @@ const REFUSED: &[Refused] = &[
         names: "run/gaussians.ply",
     },
     Refused {
-        args: &["run", "scene", "--masks", "scene/sam", "--out", "x", "--profile", "scene/gaussians.ply"],
-        names: "--profile scene/gaussians.ply",
-    },
-    Refused {
         args: &["train", "scene", "--gaussians", "run/gaussians.ply", "--out", "run", "--iterations", "1"],
         names: "the label maps beside --gaussians run/masks",
     },

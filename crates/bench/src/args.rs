@@ -110,7 +110,7 @@ pub const SCALE_LONG_ABOUT: &str = "Measure `splatseg run` on a synthetic captur
 Writes the capture once into DIR/scene-<N>v-<W>x<H>-<G>g-s<seed>/ (a `rooms` scene with SAM JSON masks, \
 `.npy` features and depth, as a user brings them; reused when it is there), then runs `splatseg run` on it \
 in a child process with a fresh output folder, and prints the wall time and peak resident memory of the whole \
-run and of each stage (from its --profile: VmHWM reset at each stage; the run's peak is the largest), \
+run and of each stage (from its OUT/cache/profile.json: VmHWM reset at each stage; the run's peak is the largest), \
 with the thread time of each stage's parts (surface depth and visibility, merge, votes, render back…; \
 summed over threads, so parts may add up to more than the stage's wall time).
 

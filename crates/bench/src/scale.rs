@@ -47,7 +47,6 @@ pub fn scale(args: &ScaleRequest, exe: &Path) -> crate::Result<String> {
     if out.exists() {
         std::fs::remove_dir_all(&out).with_context(|| format!("cannot clear {}", out.display()))?;
     }
-    let profile = args.dir.join(format!("profile-{name}.json"));
     let s = |p: &Path| p.to_string_lossy().to_string();
     let run_args = vec![
         "run".to_string(),
@@ -60,11 +59,10 @@ pub fn scale(args: &ScaleRequest, exe: &Path) -> crate::Result<String> {
         s(&scene.join("depth")),
         "--out".into(),
         s(&out),
-        "--profile".into(),
-        s(&profile),
         "-q".into(),
     ];
     let (seconds, peak) = measure_child(exe, &run_args)?;
+    let profile = out.join("cache").join("profile.json");
     let json =
         std::fs::read_to_string(&profile).with_context(|| format!("cannot read {}", profile.display()))?;
     let stages: Vec<StageProfile> = serde_json::from_str(&json)?;

@@ -127,10 +127,6 @@ pub struct RunArgs {
     /// for `splatseg find`, `extract`/`remove` with a query. Cached.
     #[cfg_attr(feature = "cli", arg(long))]
     pub clip: Option<PathBuf>,
-    /// Write the wall time and peak resident memory of every stage to this JSON file (Linux:
-    /// each stage's own peak, from /proc/self/status VmHWM); `splatseg bench scale` uses it.
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub profile: Option<PathBuf>,
 }
 
 impl RunArgs {
@@ -204,7 +200,7 @@ impl RunArgs {
     /// --config, a checkpoint), an input inside what run writes into OUT (`masks/`, `overlays/`,
     /// `cache/`, `cues/` with models, `objects/` with --clip, `gaussians.ply`, `report.md`,
     /// `metrics.json`), OUT inside
-    /// an input folder of masks, features, depth or ground truth, and --profile equal to an input.
+    /// an input folder of masks, features, depth or ground truth.
     pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
         let mut inputs = splatseg_pipeline::args::pipeline_inputs(
             &self.scene,
@@ -225,7 +221,6 @@ impl RunArgs {
             inputs.push(Role::file("--clip", clip));
             outputs.push(Role::tree("--out's objects/", self.out.join(crate::clip_objects::OBJECTS_DIR)));
         }
-        outputs.extend(self.profile.as_ref().map(|p| Role::file("--profile", p)));
         splatseg_scene::paths::refuse_overwrite(&inputs, &outputs)
     }
 }

@@ -1,5 +1,5 @@
-//! Wall time and peak resident memory per stage of a run (`splatseg run --profile FILE`,
-//! `splatseg bench scale`). On Linux the peak is the process's `VmHWM`, reset at the start of
+//! Wall time and peak resident memory per stage of a run (`splatseg run` writes them to
+//! `OUT/cache/profile.json`; `splatseg bench scale` prints them). On Linux the peak is the process's `VmHWM`, reset at the start of
 //! every stage (`/proc/self/clear_refs`), so each stage reports its own peak; elsewhere it is
 //! absent.
 
