@@ -25,6 +25,9 @@ use splatseg_scene::{load_scene, LoadOptions, Plane};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// A view an object could be cropped from: (score, view index, its footprint there).
+type ScoredView = (f64, usize, Footprint);
+
 /// The folder under a run's OUT.
 pub const OBJECTS_DIR: &str = "objects";
 /// The embeddings, `[N, E]` f32.
@@ -379,7 +382,7 @@ pub fn embed_objects(request: &ObjectEmbeddingRequest) -> crate::Result<ObjectEm
             masks.display()
         )));
     }
-    let chosen: Vec<(u32, Vec<(f64, usize, Footprint)>)> = candidates
+    let chosen: Vec<(u32, Vec<ScoredView>)> = candidates
         .into_iter()
         .map(|(id, mut views)| {
             views.retain(|(_, _, f)| f.pixels >= MIN_PIXELS);
