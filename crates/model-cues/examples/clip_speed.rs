@@ -6,7 +6,7 @@
 //! ```sh
 //! splatseg synth --out /tmp/speed/scene --views 20 --size 320x240
 //! splatseg run /tmp/speed/scene --masks /tmp/speed/scene/sam --out /tmp/speed/out
-//! cargo run --release -p splatseg-model-cues --example clip_speed -- /tmp/speed/scene /tmp/speed/out
+//! cargo run --release -p splatseg-model-cues --features bench --example clip_speed -- /tmp/speed/scene /tmp/speed/out
 //! ```
 //!
 //! The checkpoint is written to `OUT/../clip_vit_b16_random/` with the OpenAI merges subset the models'
