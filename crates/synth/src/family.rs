@@ -165,12 +165,7 @@ impl Family {
                     ..c.sam
                 };
             }
-            Family::Hires => {
-                let scale = 4.0;
-                c.width = (c.width as f64 * scale) as u32;
-                c.height = (c.height as f64 * scale) as u32;
-                c.sam = c.sam.scaled(scale);
-            }
+            Family::Hires => resize(&mut c, 1280, 960),
             Family::ManyViews => c.views = rng.gen_range(12..=100),
             Family::BlindCues => harsher_cues(&mut c, &mut rng),
             Family::BlindLens => c.fov_x_deg = rng.gen_range(40.0..75.0),
