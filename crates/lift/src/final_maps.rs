@@ -9,7 +9,10 @@
 //!    colours ([`refine_boundaries`]);
 //! 5. ids kept only by snapping's containment rule and owning no region anywhere given back
 //!    ([`give_unowned_ids_back`]);
-//! 6. specks dropped and ids numbered by first appearance ([`drop_specks_and_number`]).
+//! 6. where the Gaussians say nothing (a pixel left without an id, inside a merged region that
+//!    matching gave a global id), the matched id, as the object it became in 3D
+//!    ([`fill_from_matches`]);
+//! 7. specks dropped and ids numbered by first appearance ([`drop_specks_and_number`]).
 //!
 //! Nothing here holds every view's visible Gaussians or an `[H, W]` map per view: the caller's
 //! [`ViewStore`] hands over one view's visible Gaussians, tile lists, regions and image at a time
@@ -32,7 +35,7 @@ use crate::PosedCamera;
 use rayon::prelude::*;
 use splatseg_render::bin::TileBins;
 use splatseg_scene::Plane;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// The Gaussians one view sees, as the per-view pass found them.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -58,8 +61,8 @@ pub trait ViewStore: Sync {
     /// again, so the same map), or `None`.
     fn tile_lists(&self, v: usize) -> Result<Option<TileBins>, Self::Error>;
 
-    /// `[H, W]` regions of view `v` (with masks) to snap onto, any local ids, 0 = none.
-    fn snap_regions(&self, v: usize) -> Result<Plane<u32>, Self::Error>;
+    /// The regions of view `v` (a view with masks): those to snap onto and the merged ones.
+    fn regions(&self, v: usize) -> Result<ViewRegions, Self::Error>;
 
     /// `[H, W, 3]` 8-bit row-major colours of view `v`'s image, for the boundary refinement.
     fn image_rgb(&self, v: usize) -> Result<Vec<u8>, Self::Error>;
@@ -76,6 +79,15 @@ pub trait ViewStore: Sync {
 
     /// Called once per view rendered back (for a progress bar).
     fn view_rendered(&self) {}
+}
+
+/// One view's region maps, as the lift stage reads them back.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewRegions {
+    /// `[H, W]` regions to snap onto ([`FinalMaps::snapped_onto`]), any local ids, 0 = none.
+    pub snap: Plane<u32>,
+    /// `[H, W]` merged regions, the labels [`MatchedViews::global_of_label`] maps (0 = none).
+    pub merged: Plane<u32>,
 }
 
 /// What matching gave the lift stage.
@@ -138,7 +150,7 @@ impl LiftStage<'_> {
             split.parents.len()
         );
         let votes = render_votes(&lifted, self.config);
-        let snapped: Vec<SnappedRuns> = (0..self.cams.len())
+        let snapped: Vec<(SnappedRuns, LeftEmpty)> = (0..self.cams.len())
             .into_par_iter()
             .map(|v| {
                 let map = self.view_map(v, &votes, store);
@@ -146,7 +158,8 @@ impl LiftStage<'_> {
                 map
             })
             .collect::<Result<_, S::Error>>()?;
-        let maps = give_unowned_ids_back(snapped);
+        let (snapped, left): (Vec<SnappedRuns>, Vec<LeftEmpty>) = snapped.into_iter().unzip();
+        let maps = fill_from_matches(give_unowned_ids_back(snapped), left);
         let mean_view_px =
             maps.iter().map(|m| (m.width * m.height) as u64).sum::<u64>() / maps.len().max(1) as u64;
         let min_px = self.config.min_object_px_for(mean_view_px);
@@ -219,7 +232,7 @@ impl LiftStage<'_> {
         v: usize,
         votes: &RenderVotes,
         store: &S,
-    ) -> Result<SnappedRuns, S::Error> {
+    ) -> Result<(SnappedRuns, LeftEmpty), S::Error> {
         let c = &self.cams[v];
         let map = store.time("render back", || -> Result<Plane<u32>, S::Error> {
             let bins = store.tile_lists(v)?;
@@ -230,22 +243,24 @@ impl LiftStage<'_> {
         let with_masks = self.matched.global_of_label.get(v).is_some_and(|t| t.is_some());
         Ok(match self.config.final_maps {
             FinalMaps::Snapped | FinalMaps::SnappedRaw if with_masks => {
-                let regions = store.time("read the region maps back", || store.snap_regions(v))?;
+                let regions = store.time("read the region maps back", || store.regions(v))?;
                 let rule = self.config.snap_rule_for((map.width * map.height) as u64);
-                let mut s = store.time("snap", || snap_view(&regions, &map, &rule));
+                let mut s = store.time("snap", || snap_view(&regions.snap, &map, &rule));
                 s.labels = self.refine(v, &s.labels, store)?;
+                let table = self.matched.global_of_label[v].unwrap_or_default();
+                let left = LeftEmpty::new(&s.labels, &regions.merged, table);
                 let has_fallback = s.contained_fallback.data.iter().any(|&id| id != 0);
-                SnappedRuns {
+                let runs = SnappedRuns {
                     labels: RunLengths::encode(&s.labels),
                     fallback: has_fallback.then(|| RunLengths::encode(&s.contained_fallback)),
                     owned: Some(s.region_winners),
-                }
+                };
+                (runs, left)
             }
-            _ => SnappedRuns {
-                labels: RunLengths::encode(&self.refine(v, &map, store)?),
-                fallback: None,
-                owned: None,
-            },
+            _ => {
+                let labels = RunLengths::encode(&self.refine(v, &map, store)?);
+                (SnappedRuns { labels, fallback: None, owned: None }, LeftEmpty::default())
+            }
         })
     }
 
@@ -307,12 +322,139 @@ fn give_unowned_ids_back(snapped: Vec<SnappedRuns>) -> Vec<RunLengths> {
         .collect()
 }
 
+/// One view's pixels the Gaussians left without an id inside a matched merged region, and how
+/// the view's labelled pixels of each matched object were labelled (for [`fill_from_matches`]).
+#[derive(Default)]
+struct LeftEmpty {
+    /// `[H, W]` as runs: the matched global id at each pixel left at 0, 0 elsewhere; `None`
+    /// when there is no such pixel.
+    matched: Option<RunLengths>,
+    /// (matched global id, final id) → pixels of the view labelled so.
+    labelled_as: BTreeMap<(u32, u32), u64>,
+}
+
+impl LeftEmpty {
+    /// `labels` `[H, W]` (the view's final ids, 0 = none), `merged` `[H, W]` (merged labels),
+    /// `global_of_label[label]`: the matched global id of each merged label.
+    fn new(labels: &Plane<u32>, merged: &Plane<u32>, global_of_label: &[u32]) -> LeftEmpty {
+        let global = |l: u32| global_of_label.get(l as usize).copied().unwrap_or(0);
+        let mut labelled_as: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+        let mut left =
+            Plane { width: labels.width, height: labels.height, data: vec![0u32; labels.data.len()] };
+        let mut any = false;
+        // Counted run by run of equal (g, id) pixels (row-major), the same sums.
+        let mut run: ((u32, u32), u64) = ((0, 0), 0);
+        for ((&id, &l), out) in labels.data.iter().zip(&merged.data).zip(&mut left.data) {
+            let g = global(l);
+            if g != 0 && id == 0 {
+                *out = g;
+                any = true;
+            }
+            let key = if id == 0 { (0, 0) } else { (g, id) };
+            if key != run.0 {
+                if run.0 .0 != 0 {
+                    *labelled_as.entry(run.0).or_insert(0) += run.1;
+                }
+                run = (key, 0);
+            }
+            run.1 += 1;
+        }
+        if run.0 .0 != 0 {
+            *labelled_as.entry(run.0).or_insert(0) += run.1;
+        }
+        LeftEmpty { matched: any.then(|| RunLengths::encode(&left)), labelled_as }
+    }
+}
+
+/// Step 6: a pixel the Gaussians left without an id (a part the 3DGS reconstructed poorly or not
+/// at all, or Gaussians the variance filter left unlabelled) inside a merged region that
+/// matching gave the global id `g` takes the final id that most of `g`'s labelled pixels have
+/// over all views (ties: the smaller id) when that id covers at least as many of `g`'s pixels as
+/// are left empty (snapping's rule for a region), else `g` itself (an object the Gaussians do
+/// not hold, or only a neighbour's bleed covers: kept, not lost). One table for all views, so
+/// the fill is the same object in every view. Returns the final maps.
+fn fill_from_matches(maps: Vec<RunLengths>, left: Vec<LeftEmpty>) -> Vec<RunLengths> {
+    let mut labelled_as: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    for l in &left {
+        for (&key, &n) in &l.labelled_as {
+            *labelled_as.entry(key).or_insert(0) += n;
+        }
+    }
+    let mut empty_px: BTreeMap<u32, u64> = BTreeMap::new();
+    for runs in left.iter().filter_map(|l| l.matched.as_ref()) {
+        for &(g, n) in runs.runs.iter().filter(|&&(g, _)| g != 0) {
+            *empty_px.entry(g).or_insert(0) += n as u64;
+        }
+    }
+    // Ascending (g, id) with a strict `>`: the smallest id wins ties.
+    let mut most: BTreeMap<u32, (u32, u64)> = BTreeMap::new();
+    for (&(g, id), &n) in &labelled_as {
+        let best = most.entry(g).or_insert((id, n));
+        if n > best.1 {
+            *best = (id, n);
+        }
+    }
+    // As snapping decides a region: the winner must cover at least the pixels left empty.
+    let became = |g: u32| match most.get(&g) {
+        Some(&(id, n)) if n >= empty_px.get(&g).copied().unwrap_or(0) => id,
+        _ => g,
+    };
+    let mut filled = 0u64;
+    let maps: Vec<RunLengths> = maps
+        .into_iter()
+        .zip(left)
+        .map(|(map, l)| match l.matched {
+            None => map,
+            Some(matched) => {
+                let mut labels = map.decode(|id| id);
+                let matched = matched.decode(|g| if g == 0 { 0 } else { became(g) });
+                for (id, &fill) in labels.data.iter_mut().zip(&matched.data) {
+                    if *id == 0 && fill != 0 {
+                        *id = fill;
+                        filled += 1;
+                    }
+                }
+                RunLengths::encode(&labels)
+            }
+        })
+        .collect();
+    tracing::info!(
+        "{filled} pixels without an id from the Gaussians took their merged region's matched object"
+    );
+    maps
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn runs(width: usize, data: Vec<u32>) -> RunLengths {
         RunLengths::encode(&Plane { width, height: 1, data })
+    }
+
+    /// Pixels left at 0 inside matched regions take, in every view, the final id most of that
+    /// matched object's labelled pixels have over all views (ties: the smaller id) if it covers
+    /// as many pixels as are empty, else the matched id itself; labelled pixels never change.
+    #[test]
+    fn empty_pixels_take_what_their_matched_object_became() {
+        // Merged labels 1, 2, 3 are the matched objects 10, 20, 30 (label 4 matched nothing).
+        let table = [0u32, 10, 20, 30, 0];
+        let plane = |data: Vec<u32>| Plane { width: data.len(), height: 1, data };
+        // View 0: object 10 labelled 7 on two pixels, 8 on one; object 20 labelled 5 and 6 once each.
+        let v0 = (plane(vec![7, 7, 8, 0, 5, 6, 0, 0, 0]), plane(vec![1, 1, 1, 1, 2, 2, 2, 3, 4]));
+        // View 1: object 10 labelled 8 once (7: 2 px, 8: 2 px over both views: the smaller wins).
+        let v1 = (plane(vec![0, 8, 0, 0]), plane(vec![1, 1, 3, 0]));
+        let left: Vec<LeftEmpty> = [&v0, &v1].iter().map(|(l, m)| LeftEmpty::new(l, m, &table)).collect();
+        let maps = vec![RunLengths::encode(&v0.0), RunLengths::encode(&v1.0)];
+        let filled = fill_from_matches(maps, left);
+        assert_eq!(filled[0].decode(|id| id).data, vec![7, 7, 8, 7, 5, 6, 5, 30, 0]);
+        assert_eq!(filled[1].decode(|id| id).data, vec![7, 8, 30, 0]);
+        // Object 20 with a third empty pixel: its one labelled pixel of 5 is outnumbered.
+        let v2 = (plane(vec![0, 0]), plane(vec![2, 2]));
+        let left: Vec<LeftEmpty> = [&v0, &v2].iter().map(|(l, m)| LeftEmpty::new(l, m, &table)).collect();
+        let filled = fill_from_matches(vec![RunLengths::encode(&v0.0), RunLengths::encode(&v2.0)], left);
+        assert_eq!(filled[0].decode(|id| id).data, vec![7, 7, 8, 7, 5, 6, 20, 30, 0]);
+        assert_eq!(filled[1].decode(|id| id).data, vec![20, 20]);
     }
 
     /// An id kept only by the containment rule gives its pixels back unless some view's region

@@ -48,7 +48,7 @@ mod voxels;
 pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
 pub use facing::Facing;
-pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewStore, VisibleGaussians};
+pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewRegions, ViewStore, VisibleGaussians};
 pub use labelled_ply::{ids_of_every_row, write_labelled_ply};
 pub use lifting::{FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator};
 pub use numbering::{drop_specks_and_number, renumber};

@@ -6,10 +6,11 @@ use glam::DVec3;
 use splatseg_lift::{
     render_label_map, render_votes, renumber, view_visibility, FinalMaps, GaussianStatus, LiftConfig,
     LiftError, LiftResult, LiftStage, Lifted, MatchedViews, ObjectFeatures, PosedCamera, PreparedGaussians,
-    RenderVotes, ViewStore, ViewVisibility, VisibleGaussians, VoteAccumulator,
+    RenderVotes, ViewRegions, ViewStore, ViewVisibility, VisibleGaussians, VoteAccumulator,
 };
 use splatseg_render::bin::TileBins;
 use splatseg_scene::Plane;
+use std::collections::BTreeMap;
 
 /// The votes of every view (`visibility: [n_views]`, `id_maps: [n_views]` global ids at each
 /// visible Gaussian's centre pixel), added view by view in order, then decided.
@@ -249,8 +250,8 @@ impl ViewStore for MemoryViews {
         Ok(self.keep_tile_lists.then(|| self.passes[v].1.clone()))
     }
 
-    fn snap_regions(&self, v: usize) -> LiftResult<Plane<u32>> {
-        Ok(self.regions[v].clone())
+    fn regions(&self, v: usize) -> LiftResult<ViewRegions> {
+        Ok(ViewRegions { snap: self.regions[v].clone(), merged: self.regions[v].clone() })
     }
 
     fn image_rgb(&self, v: usize) -> LiftResult<Vec<u8>> {
@@ -318,5 +319,67 @@ fn the_stage_labels_the_objects_with_or_without_kept_tile_lists() {
         assert!(wrong * 20 <= object_px, "{final_maps:?}: {wrong} wrong of {object_px} object pixels");
         let labelled = kept.lifted.object_ids.iter().filter(|&&id| id > 0).count();
         assert!(labelled * 2 > means.len(), "{final_maps:?}: {labelled} labelled");
+    }
+}
+
+/// Where the Gaussians say nothing the final maps keep the matched ids (issue 27): of two
+/// spheres matched in every view, the second has no Gaussians at all (a part the 3DGS did not
+/// reconstruct); its pixels still end with one id of their own, the same in every view, and the
+/// first sphere keeps its pixels.
+#[test]
+fn an_object_without_gaussians_keeps_its_matched_id_in_every_view() {
+    let first = sphere([-0.6, 0.0, 0.0], 0.4, 24);
+    let mut both = first.clone();
+    both.extend(sphere([0.6, 0.0, 0.0], 0.4, 24));
+    let all = PreparedGaussians::new(&gaussians(&both, 0.06, 0.9)).unwrap();
+    let truth: Vec<u32> = (0..both.len()).map(|i| if i < first.len() { 1 } else { 2 }).collect();
+    let only_first = PreparedGaussians::new(&gaussians(&first, 0.06, 0.9)).unwrap();
+    let cam = camera(96);
+    let poses: Vec<_> = (0..8)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 8.0;
+            look_at(DVec3::new(3.5 * a.sin(), 1.0, -3.5 * a.cos()), DVec3::ZERO)
+        })
+        .collect();
+    let cams: Vec<PosedCamera> =
+        poses.iter().map(|p| PosedCamera { camera: &cam, world_from_cam: p }).collect();
+    let truth_maps = render_views(&all, &RenderVotes::uniform(truth), &cams, &LiftConfig::default());
+    let passes: Vec<(VisibleGaussians, TileBins)> = cams
+        .iter()
+        .zip(&truth_maps)
+        .map(|(c, t)| {
+            let pass = view_visibility(&only_first, c.camera, c.world_from_cam, None, &LiftConfig::default());
+            let labels = pass.visible.pixels.iter().map(|&p| t.data[p as usize]).collect();
+            let visible =
+                VisibleGaussians { gaussians: pass.visible.gaussians, weights: pass.visible.weights, labels };
+            (visible, pass.tile_lists)
+        })
+        .collect();
+    let table = [0u32, 1, 2];
+    for final_maps in [FinalMaps::Snapped, FinalMaps::SnappedRaw] {
+        let config = LiftConfig { final_maps, ..LiftConfig::default() };
+        let store =
+            MemoryViews { passes: passes.clone(), regions: truth_maps.clone(), keep_tile_lists: true };
+        let matched =
+            MatchedViews { global_of_label: vec![Some(&table[..]); cams.len()], objects: features() };
+        let out =
+            LiftStage { gaussians: &only_first, cams: &cams, matched, config: &config }.run(&store).unwrap();
+        // Pixels per final id of each sphere's truth pixels, over all views.
+        let mut px_of: [BTreeMap<u32, usize>; 2] = [BTreeMap::new(), BTreeMap::new()];
+        for (v, t) in truth_maps.iter().enumerate() {
+            for (&id, &truth) in out.final_map(v).data.iter().zip(&t.data) {
+                if truth > 0 {
+                    *px_of[truth as usize - 1].entry(id).or_insert(0) += 1;
+                }
+            }
+        }
+        let main = |m: &BTreeMap<u32, usize>| m.iter().max_by_key(|(_, &n)| n).map(|(&id, &n)| (id, n));
+        let ((first_id, _), (second_id, second_main)) = (main(&px_of[0]).unwrap(), main(&px_of[1]).unwrap());
+        let second_px: usize = px_of[1].values().sum();
+        assert!(second_px > 1000, "{second_px} px");
+        assert!(second_id != 0 && second_id != first_id, "{final_maps:?}: {px_of:?}");
+        // All but the band the first sphere's splats bleed into (snapping keeps it).
+        assert!(second_main * 20 >= second_px * 17, "{final_maps:?}: {px_of:?}");
+        assert_eq!(px_of[1].get(&0), None, "{final_maps:?}: pixels of the second sphere left at 0");
     }
 }

@@ -18,12 +18,11 @@ use crate::RunConfig;
 use indicatif::ProgressBar;
 use splatseg_lift::{
     LiftError, LiftOutput, LiftStage, MatchedViews, ObjectFeatures, PosedCamera, PreparedGaussians,
-    ViewStore, VisibleGaussians,
+    ViewRegions, ViewStore, VisibleGaussians,
 };
 use splatseg_match::{match_masks_owned, MatchConfig, MatchInput, Matching, ViewMasks, ViewObservations};
 use splatseg_merge::RegionSummary;
 use splatseg_render::bin::TileBins;
-use splatseg_scene::Plane;
 use std::path::{Path, PathBuf};
 
 /// What the global stages keep of one view with masks.
@@ -150,9 +149,9 @@ pub fn lift_views(
     // A view with masks: its spill from the per-view pass (decoded there once); a view without
     // them (rendered and refined, never snapped) has its image decoded here.
     let spilled = |v: usize| views.get(v).and_then(|m| m.as_ref());
-    let snap_map = |v: usize| -> crate::Result<Plane<u32>> {
+    let regions = |v: usize| -> crate::Result<ViewRegions> {
         match spilled(v) {
-            Some(m) => m.data()?.into_map(snap_kind),
+            Some(m) => m.data()?.into_regions(snap_kind),
             None => bail!("view {v} has no masks to snap onto"),
         }
     };
@@ -166,7 +165,7 @@ pub fn lift_views(
     };
     let store = SpilledViews {
         views,
-        snap_map: &snap_map,
+        regions: &regions,
         image_rgb: &image_rgb,
         times,
         bar: crate::progress(cams.len(), "render label maps", config.options),
@@ -191,8 +190,8 @@ pub fn lift_views(
 pub struct SpilledViews<'a> {
     /// `[n_views]` per-view results (`None`: no masks).
     pub views: &'a [Option<ViewResult>],
-    /// `[H, W]` regions of view `v` to snap onto.
-    pub snap_map: &'a (dyn Fn(usize) -> crate::Result<Plane<u32>> + Sync),
+    /// The regions of view `v` to snap onto and its merged regions.
+    pub regions: &'a (dyn Fn(usize) -> crate::Result<ViewRegions> + Sync),
     /// `[H, W, 3]` 8-bit row-major colours of view `v`'s image.
     pub image_rgb: &'a (dyn Fn(usize) -> crate::Result<Vec<u8>> + Sync),
     /// Thread time of the stage's parts.
@@ -228,8 +227,8 @@ impl ViewStore for SpilledViews<'_> {
         self.bins(v).map(|p| visible::read_bins(&p)).transpose()
     }
 
-    fn snap_regions(&self, v: usize) -> crate::Result<Plane<u32>> {
-        (self.snap_map)(v)
+    fn regions(&self, v: usize) -> crate::Result<ViewRegions> {
+        (self.regions)(v)
     }
 
     fn image_rgb(&self, v: usize) -> crate::Result<Vec<u8>> {

@@ -11,7 +11,7 @@
 //! other spills once the run's outputs are written.
 
 use crate::error::{bail, Context};
-use splatseg_lift::RunLengths;
+use splatseg_lift::{RunLengths, ViewRegions};
 use splatseg_scene::image_io::RgbImage;
 use splatseg_scene::images::load_image_rgb;
 use splatseg_scene::load::LoadOptions;
@@ -58,13 +58,15 @@ pub struct ViewData {
 }
 
 impl ViewData {
-    /// The map `kind` names: `raw` or `merged`.
-    pub fn into_map(self, kind: &str) -> crate::Result<Plane<u32>> {
-        match kind {
-            "raw" => Ok(self.raw),
-            "merged" => Ok(self.merged),
+    /// The regions to snap onto (the map `snap_kind` names: `raw` or `merged`) and the merged
+    /// ones.
+    pub fn into_regions(self, snap_kind: &str) -> crate::Result<ViewRegions> {
+        let snap = match snap_kind {
+            "raw" => self.raw,
+            "merged" => self.merged.clone(),
             other => bail!("no `{other}` map in a view's spill (expected `raw` or `merged`)"),
-        }
+        };
+        Ok(ViewRegions { snap, merged: self.merged })
     }
 }
 
@@ -152,8 +154,10 @@ mod tests {
         write_spill(&path, &rgb, &raw, &merged).expect("writes");
         let back = read_spill(&path).expect("reads");
         assert_eq!(back, ViewData { rgb: rgb.clone(), raw: raw.clone(), merged: merged.clone() });
-        assert_eq!(back.clone().into_map("merged").expect("merged"), merged);
-        assert!(back.into_map("final").is_err());
+        let regions = back.clone().into_regions("raw").expect("raw");
+        assert_eq!((regions.snap, regions.merged), (raw.clone(), merged.clone()));
+        assert_eq!(back.clone().into_regions("merged").expect("merged").snap, merged);
+        assert!(back.into_regions("final").is_err());
         let bytes = std::fs::read(&path).expect("bytes");
         for cut in [1, 8, bytes.len() - 10] {
             std::fs::write(&path, &bytes[..bytes.len() - cut]).expect("truncates");
