@@ -3,7 +3,7 @@
 //! profiles, boundary statistics, the cue ablation (raw / semantic only / + LoG / + depth, as the
 //! paper's Table 3), the paper's supplementary sensitivity table (τ_merge, τ_depth, w_sem), the
 //! depth gates on the white-on-white pair, and the rule for uncovered pixels. Cues: the scene's
-//! simulated DINOv2-like features and monocular depth; metric depth for the relative gate rendered
+//! simulated DINOv2-like features and monocular depth; metric depth for the crease gate rendered
 //! from its Gaussians.
 
 use crate::error::Context;
@@ -151,12 +151,10 @@ pub fn ablate(args: &AblateRequest) -> crate::Result<String> {
         table(&rows_for(&views, sensitivity_configs(&base))?)
     )?;
 
-    let no_gates = MergeConfig { tau_depth: f32::INFINITY, relative_depth_gate: None, ..base.clone() };
+    let no_gates = MergeConfig { tau_depth: f32::INFINITY, ..base.clone() };
     let gates = vec![
-        ("no depth gate".to_string(), no_gates.clone()),
-        ("normalised gate only".to_string(), MergeConfig { relative_depth_gate: None, ..base.clone() }),
-        ("relative metric gate only".to_string(), MergeConfig { tau_depth: f32::INFINITY, ..base.clone() }),
-        ("both gates (default)".to_string(), base.clone()),
+        ("no depth gate".to_string(), no_gates),
+        ("normalised gate (default)".to_string(), base.clone()),
         ("semantic only, no gate".to_string(), ablation_configs(&base)[0].1.clone()),
     ];
     writeln!(out, "### Depth gates\n\n{}", table(&rows_for(&views, gates)?))?;
@@ -172,17 +170,14 @@ pub fn ablate(args: &AblateRequest) -> crate::Result<String> {
     let count = |o: splatseg_merge::Outcome| adjacent.iter().filter(|d| d.decision.outcome == o).count();
     writeln!(
         out,
-        "White-on-white pair, {} adjacent evaluations: normalised |Δd̄| {} (τ_depth {}), relative boundary gap {} \
-         (τ_rel {:?}), score S {}; rejected by the normalised gate {}, by the relative gate {}, by the score {}, \
-         merged {}.\n",
+        "White-on-white pair, {} adjacent evaluations: normalised |Δd̄| {} (τ_depth {}), score S {}; rejected by \
+         the normalised gate {}, by the depth-step gate {}, by the score {}, merged {}.\n",
         adjacent.len(),
         range(&|t| Some(t.depth_gap)),
         base.tau_depth,
-        range(&|t| t.relative_depth_gap),
-        base.relative_depth_gate,
         range(&|t| Some(t.score)),
         count(splatseg_merge::Outcome::DepthGate),
-        count(splatseg_merge::Outcome::RelativeDepthGate),
+        count(splatseg_merge::Outcome::DepthStep),
         count(splatseg_merge::Outcome::BelowThreshold),
         pair.iter().filter(|d| d.decision.merged).count(),
     )?;

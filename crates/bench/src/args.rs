@@ -162,7 +162,7 @@ impl ScaleArgs {
 /// (raw / semantic only / + LoG / + depth, as the paper's Table 3), the paper's supplementary
 /// sensitivity table (τ_merge, τ_depth, w_sem), the depth gates on the white-on-white pair, and
 /// the rule for uncovered pixels. Cues: the scene's simulated DINOv2-like features and monocular
-/// depth; metric depth for the relative gate rendered from its Gaussians.
+/// depth; metric depth for the crease gate rendered from its Gaussians.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct AblateArgs {

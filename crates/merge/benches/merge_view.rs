@@ -87,7 +87,6 @@ fn generated_view(size: usize, cells: usize, objects: usize) -> ViewInputs {
         depth: plane(size, depth),
         depth_gradient: plane(size, edges.clone()),
         edges: plane(size, edges),
-        metric_depth: None,
         points: None,
     }
 }

@@ -1,7 +1,7 @@
 //! [`MergeConfig`]: the numbers of Multi-Cue-Guided Mask Merging (paper §4.2), read from the
 //! `[merge]` table of the `--config` TOML. The score's weights and thresholds default to the
-//! paper's (§5 "Hyperparameters"); the three gates not in the paper (`relative_depth_gate`,
-//! `max_depth_boundary`, `max_concave_crease_deg`) to values measured on the stress suite; the
+//! paper's (§5 "Hyperparameters"); the two gates not in the paper (`max_depth_boundary`,
+//! `max_concave_crease_deg`) to values measured on the stress suite; the
 //! adjacency numbers the paper leaves out are the released code's, as constants ([`TAU_GAP_PX`],
 //! [`TAU_CONTACT`], [`DILATION_STEPS`]).
 //!
@@ -98,9 +98,6 @@ pub struct MergeConfig {
     pub w_edge: f32,
     /// `σ_d²` of the depth affinity `exp(−Δd²/(2σ_d²))`, in normalised depth squared (paper: 0.05).
     pub sigma_d_sq: f32,
-    /// With metric depth: reject if `|z_i − z_j| / min(z_i, z_j)` on the shared boundary exceeds
-    /// this (a ratio; `z` = median metric depth of each side). Omitted = off. Ours: 0.1.
-    pub relative_depth_gate: Option<f32>,
     /// Reject when the boundary statistic of `∇D` (normalised per image, 0–1) on the shared band
     /// exceeds this: a box on the floor it stands on. Omitted = off. Ours: 0.12 (tuning seeds
     /// 0–2: mean mIoU 0.844 at 0.08, 0.838 at 0.12, 0.783 off; 0.08 costs the default synthetic
@@ -140,8 +137,6 @@ pub struct MergeConfigTable {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sigma_d_sq: Option<f32>,
     #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
-    relative_depth_gate: Option<Option<f32>>,
-    #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
     max_depth_boundary: Option<Option<f32>>,
     #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
     max_concave_crease_deg: Option<Option<f32>>,
@@ -179,7 +174,6 @@ impl From<MergeConfigTable> for MergeConfig {
             w_dbound: t.w_dbound.unwrap_or(p.w_dbound),
             w_edge: t.w_edge.unwrap_or(p.w_edge),
             sigma_d_sq: t.sigma_d_sq.unwrap_or(p.sigma_d_sq),
-            relative_depth_gate: t.relative_depth_gate.unwrap_or(p.relative_depth_gate),
             max_depth_boundary: t.max_depth_boundary.unwrap_or(p.max_depth_boundary),
             max_concave_crease_deg: t.max_concave_crease_deg.unwrap_or(p.max_concave_crease_deg),
             ..p
@@ -198,7 +192,6 @@ impl Default for MergeConfig {
             w_dbound: 0.1,
             w_edge: 0.2,
             sigma_d_sq: 0.05,
-            relative_depth_gate: Some(0.1),
             max_depth_boundary: Some(0.12),
             max_concave_crease_deg: Some(CONCAVE_CREASE_DEG),
             boundary_statistic: BoundaryStatistic::Quantile(0.5),
@@ -217,6 +210,11 @@ pub const RETIRED_KEYS: &[(&str, &str)] = &[
     ("boundary_statistic", "follows `profile` now (paper: the median; literal: the max)"),
     ("depth_gap_at", "follows `profile` now (paper: contact; literal: region-means)"),
     ("released", "was removed with the `released-code` profile"),
+    (
+        "relative_depth_gate",
+        "was removed: the metric depth gate changed no result on the tuning or the blind families \
+         (issue 27's ablation, BENCHMARKS.md); the depth-step and concave-crease gates remain",
+    ),
 ];
 
 /// The error for a `profile = "released-code"` in a file.
@@ -233,7 +231,7 @@ pub fn retired_merge_setting(table: &toml::Table) -> Option<String> {
     RETIRED_KEYS
         .iter()
         .find(|(key, _)| table.contains_key(*key))
-        .map(|(key, what)| format!("[merge] {key} {what}; remove it from the file"))
+        .map(|(key, what)| format!("[merge] {key} {what}"))
 }
 
 impl MergeConfig {
@@ -244,7 +242,6 @@ impl MergeConfig {
             Profile::Paper => paper,
             Profile::Literal => MergeConfig {
                 profile,
-                relative_depth_gate: None,
                 depth_gap_at: DepthGapAt::RegionMeans,
                 max_depth_boundary: None,
                 max_concave_crease_deg: None,
@@ -265,7 +262,6 @@ impl MergeConfig {
             w_dbound: Some(self.w_dbound),
             w_edge: Some(self.w_edge),
             sigma_d_sq: Some(self.sigma_d_sq),
-            relative_depth_gate: Some(self.relative_depth_gate),
             max_depth_boundary: Some(self.max_depth_boundary),
             max_concave_crease_deg: Some(self.max_concave_crease_deg),
         }
@@ -276,7 +272,7 @@ impl MergeConfig {
     pub fn from_toml_str(text: &str) -> Result<Self, MergeError> {
         let table: toml::Table = toml::from_str(text).map_err(|e| MergeError::Config(e.to_string()))?;
         if let Some(message) = retired_merge_setting(&table) {
-            return Err(MergeError::Config(message));
+            return Err(MergeError::Config(format!("{message}; remove it from the file")));
         }
         let config: MergeConfig = toml::from_str(text).map_err(|e| MergeError::Config(e.to_string()))?;
         config.validate()?;
@@ -360,10 +356,10 @@ mod tests {
         assert_eq!((c.depth_gap_at, c.max_depth_boundary), (DepthGapAt::RegionMeans, None));
         // Through any deserialiser, e.g. as a table of a bigger config.
         let json: MergeConfig =
-            serde_json::from_str(r#"{"profile": "literal", "relative_depth_gate": 0.2}"#).unwrap();
-        assert_eq!((json.profile, json.relative_depth_gate), (Profile::Literal, Some(0.2)));
-        let json: MergeConfig = serde_json::from_str(r#"{"relative_depth_gate": null}"#).unwrap();
-        assert_eq!(json.relative_depth_gate, None);
+            serde_json::from_str(r#"{"profile": "literal", "max_depth_boundary": 0.2}"#).unwrap();
+        assert_eq!((json.profile, json.max_depth_boundary), (Profile::Literal, Some(0.2)));
+        let json: MergeConfig = serde_json::from_str(r#"{"max_depth_boundary": null}"#).unwrap();
+        assert_eq!(json.max_depth_boundary, None);
         // Round trip through the file's table, defaults and a literal profile with one gate set.
         for config in [MergeConfig::default(), MergeConfig { max_depth_boundary: Some(0.2), ..c }] {
             let text = toml::to_string(&config.table()).unwrap();

@@ -21,7 +21,7 @@ pub struct CueRequest<'a> {
     pub masks: &'a [MaskInput],
     /// `[H, W]` depth for the normalised gate, the affinity and `∇D` (monocular or rendered).
     pub depth: &'a DepthMap,
-    /// `[H, W]` metric z for the relative gate; when `None`, `depth` is used if it is metric.
+    /// `[H, W]` metric z for the crease gate's points; when `None`, `depth` is used if it is metric.
     pub metric_depth: Option<&'a Plane<f32>>,
     /// Where region descriptors come from.
     pub descriptors: &'a dyn DescriptorSource,
@@ -57,5 +57,5 @@ pub fn build_view_inputs(request: &CueRequest<'_>) -> MergeResultOf<ViewInputs> 
         (Some(z), Some(k)) => Some(camera_points(z, k)),
         _ => None,
     };
-    Ok(ViewInputs { regions, descriptors, depth, depth_gradient: gradient, edges, metric_depth, points })
+    Ok(ViewInputs { regions, descriptors, depth, depth_gradient: gradient, edges, points })
 }

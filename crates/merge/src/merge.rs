@@ -30,8 +30,6 @@ pub struct ViewInputs {
     pub depth_gradient: Plane<f32>,
     /// `[H, W]` LoG edge strength in [0, 1].
     pub edges: Plane<f32>,
-    /// `[H, W]` metric z, when available (enables the relative depth gate).
-    pub metric_depth: Option<Plane<f32>>,
     /// `[H, W]` camera-space points (NaN = no depth), when metric depth and the intrinsics are
     /// known (enables the crease gate).
     pub points: Option<Plane<[f32; 3]>>,
@@ -130,9 +128,6 @@ fn check_inputs(inputs: &ViewInputs) -> MergeResultOf<()> {
         ("depth gradient", inputs.depth_gradient.size()),
         ("edges", inputs.edges.size()),
     ];
-    if let Some(m) = &inputs.metric_depth {
-        maps.push(("metric depth", m.size()));
-    }
     if let Some(m) = &inputs.points {
         maps.push(("points", m.size()));
     }
@@ -277,7 +272,6 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
         depth: &inputs.depth,
         edges: &inputs.edges,
         depth_gradient: &inputs.depth_gradient,
-        metric_depth: inputs.metric_depth.as_ref(),
         surface: inputs
             .points
             .as_ref()

@@ -156,14 +156,8 @@ pub fn merged_row(
 /// The ablation of the paper's Table 3 on top of `base`: semantic only (no depth, no edges, no
 /// gates), + LoG, + depth (= `base`).
 pub fn ablation_configs(base: &MergeConfig) -> Vec<(String, MergeConfig)> {
-    let semantic = MergeConfig {
-        w_depth: 0.0,
-        w_dbound: 0.0,
-        w_edge: 0.0,
-        tau_depth: f32::INFINITY,
-        relative_depth_gate: None,
-        ..base.clone()
-    };
+    let semantic =
+        MergeConfig { w_depth: 0.0, w_dbound: 0.0, w_edge: 0.0, tau_depth: f32::INFINITY, ..base.clone() };
     let with_log = MergeConfig { w_edge: base.w_edge, ..semantic.clone() };
     vec![
         ("semantic only".to_string(), semantic),

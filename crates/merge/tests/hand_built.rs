@@ -39,7 +39,6 @@ fn view(
         depth_gradient: depth_gradient(&depth, DEPTH_GRADIENT_SIGMA_PX),
         depth,
         edges: log_edges(&plane(grey), LOG_SIGMA_PX),
-        metric_depth: None,
         points: None,
     }
 }
@@ -149,7 +148,6 @@ fn masks_view(masks: &[MaskInput]) -> ViewInputs {
         depth_gradient: depth_gradient(&depth, DEPTH_GRADIENT_SIGMA_PX),
         depth,
         edges: log_edges(&grey, LOG_SIGMA_PX),
-        metric_depth: None,
         points: None,
         regions,
     }
@@ -234,29 +232,6 @@ fn the_literal_formula_merges_nothing() {
         .all(|d| d.outcome == Outcome::BelowThreshold && d.terms.score <= 0.7 + 1e-6));
     // The paper profile merges all four.
     assert_eq!(merge_view(&v, &MergeConfig::default()).unwrap().regions.len(), 1);
-}
-
-#[test]
-fn the_relative_metric_gate_separates_what_normalised_depth_cannot() {
-    // Normalised depths differ by only 0.1 (a room 2–8 m deep: 4.0 m vs 4.6 m), so the
-    // normalised gate passes; metric z differs by 15 % at the contact, so the relative gate
-    // (τ_rel = 0.1) rejects.
-    let mut v = view(
-        |x, _| if x < 40 { 1 } else { 2 },
-        &[[1.0, 0.0, 0.0]; 2],
-        |_, _| 1.0,
-        |x, _| if x < 40 { 0.33 } else { 0.43 },
-    );
-    v.metric_depth = Some(plane(|x, _| if x < 40 { 4.0 } else { 4.6 }));
-    // The depth-step gate would stop this pair first (∇D peaks on the contact): off here.
-    let config = MergeConfig { max_depth_boundary: None, ..MergeConfig::default() };
-    let r = merge_view(&v, &config).unwrap();
-    let d = &r.log.decisions[0];
-    assert_eq!(d.outcome, Outcome::RelativeDepthGate);
-    assert!((d.terms.relative_depth_gap.unwrap() - 0.15).abs() < 1e-3);
-    v.metric_depth = None;
-    let d = merge_view(&v, &config).unwrap().log.decisions[0].clone();
-    assert!(!matches!(d.outcome, Outcome::RelativeDepthGate | Outcome::DepthGate), "{:?}", d.outcome);
 }
 
 #[test]
@@ -387,7 +362,6 @@ fn planes_view(surface: impl Fn(f32) -> (u32, f32), regions: usize) -> ViewInput
         |_, y| surface(ray_y(y)).1 / 10.0,
     );
     v.points = Some(splatseg_cues::camera_points(&z, &K));
-    v.metric_depth = Some(z);
     v
 }
 

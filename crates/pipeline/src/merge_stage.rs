@@ -88,7 +88,7 @@ pub struct MergeContext<'a> {
 pub struct ViewDepth<'a> {
     /// Depth for the merge cues.
     pub depth: &'a DepthMap,
-    /// Metric z for the relative gate, when known.
+    /// Metric z for the crease gate's points, when known.
     pub metric: Option<&'a Plane<f32>>,
     /// Identifies where the depth came from, for the cache key.
     pub key: String,

@@ -24,7 +24,7 @@ pub struct ViewArrays<'a> {
     /// `[H, W]` depth for the normalised gate, the affinity and `∇D`
     /// ([`DepthMap::at_image_size`] for a map of another size).
     pub depth: &'a DepthMap,
-    /// `[H, W]` metric z for the relative gate and the crease gate, when known (`run` renders it
+    /// `[H, W]` metric z for the crease gate, when known (`run` renders it
     /// from the Gaussians); `None`: `depth` when it is metric.
     pub metric: Option<&'a Plane<f32>>,
     /// Where the regions' descriptors come from (dense features or the colour/texture fallback).
