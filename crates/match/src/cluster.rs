@@ -82,22 +82,6 @@ impl ConstrainedUnionFind {
         m
     }
 
-    /// Joins the clusters of two masks of one view (fragments of one object, see
-    /// [`crate::fragments`]) unless a cannot-link spans them; afterwards the cluster counts that
-    /// view once, so it still takes no other mask of it through [`Self::union`].
-    pub fn union_fragments(&mut self, i: u32, j: u32) -> JoinOutcome {
-        let (ri, rj) = (self.find(i), self.find(j));
-        if ri == rj {
-            return JoinOutcome::AlreadyJoined;
-        }
-        let (root, child) = if ri < rj { (ri, rj) } else { (rj, ri) };
-        if self.spans_cannot_link(root, child) {
-            return JoinOutcome::CannotLink;
-        }
-        self.join_roots(root, child);
-        JoinOutcome::Joined
-    }
-
     fn spans_cannot_link(&self, root: u32, child: u32) -> bool {
         if self.cannot_link.is_empty() {
             return false;
@@ -150,18 +134,6 @@ mod tests {
         assert_eq!(uf.find(1), 1);
         assert_eq!(uf.find(2), 0);
         assert_eq!(uf.union(2, 0), JoinOutcome::AlreadyJoined);
-    }
-
-    #[test]
-    fn fragments_of_one_view_join_and_still_refuse_that_view() {
-        // masks 0, 1 in view 0 (fragments), 2 in view 0 too, 3 in view 1.
-        let mut uf = ConstrainedUnionFind::new(&[0, 0, 0, 1]);
-        assert_eq!(uf.union_fragments(0, 1), JoinOutcome::Joined);
-        assert_eq!(uf.find(1), 0);
-        assert_eq!(uf.union(2, 0), JoinOutcome::SameView);
-        assert_eq!(uf.union(3, 1), JoinOutcome::Joined);
-        uf.add_cannot_link(2, 3);
-        assert_eq!(uf.union_fragments(2, 0), JoinOutcome::CannotLink);
     }
 
     #[test]

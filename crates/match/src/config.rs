@@ -1,5 +1,5 @@
 //! [`MatchConfig`]: cross-view matching (paper §4.3), the `[match]` table of the `--config`
-//! TOML. τ_match is the paper's (0.7); the 3D-evidence and fragment thresholds are ours,
+//! TOML. τ_match is the paper's (0.7); the 3D-evidence thresholds are ours,
 //! measured on the stress suite; the numbers a user has no reason to set are the constants below.
 
 use serde::{Deserialize, Serialize};
@@ -14,10 +14,6 @@ pub const MIN_SUPPORT: u32 = 20;
 /// masks that clearly cover different Gaussians.
 pub const TAU_REJECT: f32 = 0.2;
 
-/// Fragments ([`crate::fragments`]): two masks of one view join only when at least this many
-/// other views hold both inside one mask (one view could be one wrong merge).
-pub const MIN_FRAGMENT_VIEWS: u32 = 2;
-
 /// Thresholds of [`crate::match_masks`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -31,11 +27,6 @@ pub struct MatchConfig {
     /// With supporting 3D overlap the descriptor gate is lowered from `tau_match` to this cosine
     /// (far-apart views of one object look different), not removed (ours: 0.5).
     pub tau_match_with_3d: f32,
-    /// Fragments: two masks of one view join when the views holding both inside one mask are at
-    /// least this share of the views holding each inside some mask; above 1 = off. Ours: 0.9
-    /// (tuning seeds 0, 1: 0.75 joined touching objects, touching IoU 0.80 → 0.70; 0.9 keeps
-    /// 0.80 and cuts ids / GT 1.37 → 1.33).
-    pub fragment_majority: f32,
     /// Memory bound: Gaussian view pairs counted for 3D evidence; above it Gaussians are
     /// subsampled with a fixed stride (pairs; keeps million-Gaussian scenes fast).
     pub max_pair_samples: u64,
@@ -48,7 +39,12 @@ pub struct MatchConfig {
 pub const RETIRED_KEYS: &[(&str, &str)] = &[
     ("min_support", "is now the constant splatseg_match::config::MIN_SUPPORT (20)"),
     ("tau_reject", "is now the constant splatseg_match::config::TAU_REJECT (0.2)"),
-    ("min_fragment_views", "is now the constant splatseg_match::config::MIN_FRAGMENT_VIEWS (2)"),
+    ("min_fragment_views", "was removed with the fragment joins (issue 27's ablation, BENCHMARKS.md)"),
+    (
+        "fragment_majority",
+        "was removed with the fragment joins: they changed no result on the tuning families and \
+         none for the better on the blind ones (issue 27's ablation, BENCHMARKS.md)",
+    ),
 ];
 
 impl Default for MatchConfig {
@@ -57,7 +53,6 @@ impl Default for MatchConfig {
             tau_match: 0.7,
             tau_overlap: 0.5,
             tau_match_with_3d: 0.5,
-            fragment_majority: 0.9,
             max_pair_samples: 40_000_000,
             max_candidate_edges: 500_000,
         }

@@ -12,8 +12,6 @@
 //!   co-visible Gaussians mostly coincide are the same object (even when their descriptors
 //!   differ somewhat), and masks whose co-visible Gaussians are disjoint are a cannot-link pair,
 //!   however alike they look — this is what keeps the white-on-white pair apart.
-//! - **Fragments** ([`fragments`]): masks of one view whose Gaussians other views see inside
-//!   one mask are pieces of one object (a split the per-view merge left) and share an id.
 //! - **Stable ids**: clusters are numbered by their first mask in (view, local label) order;
 //!   every step is deterministic (sorted edges, index tie-breaking, exact integer counting).
 //!
@@ -30,7 +28,6 @@ pub mod cluster;
 pub mod config;
 pub mod error;
 pub mod evidence;
-pub mod fragments;
 pub mod input;
 pub mod matching;
 

@@ -16,12 +16,10 @@
 //!    pair is kept when either of its masks keeps it. On captures where no mask has more candidates
 //!    than that (every capture of up to ~700 masks) nothing is dropped and the result is that
 //!    of scoring every pair.
-//! 3. With 3D evidence, masks of one view that other views see inside one mask are joined
-//!    first, as fragments of one object ([`crate::fragments`]).
-//! 4. Edges are taken in order (tier, score descending, then mask indices) and fed to a
+//! 3. Edges are taken in order (tier, score descending, then mask indices) and fed to a
 //!    union-find that refuses to join clusters holding masks of the same view or spanning a
 //!    cannot-link.
-//! 5. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
+//! 4. Clusters are numbered 1, 2, … by their first mask in (view, local label) order, and each
 //!    gets an identity feature: the area-weighted mean of its masks' unit descriptors,
 //!    re-normalised.
 
@@ -29,7 +27,6 @@ use crate::cluster::{ConstrainedUnionFind, JoinOutcome};
 use crate::config::MatchConfig;
 use crate::error::{MatchError, MatchResult};
 use crate::evidence::{gather_evidence, mask_offsets, Evidence, MaskCounts};
-use crate::fragments::{containers_of_mask, fragment_pairs_of_view};
 use crate::input::{MatchInput, ViewMasks};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -71,8 +68,6 @@ pub struct MatchStats {
     pub cannot_links: usize,
     /// Edges that joined two clusters.
     pub joins: usize,
-    /// Masks of one view joined as fragments of one object ([`crate::fragments`]).
-    pub fragment_joins: usize,
     /// Edges refused because both clusters hold a mask of one view.
     pub refused_same_view: usize,
     /// Edges refused because of a cannot-link.
@@ -238,8 +233,6 @@ struct ViewFindings {
     edges: Vec<Edge>,
     /// Cannot-link pairs `(lo, hi)` some mask of the view keeps.
     cannot: Vec<(u32, u32)>,
-    /// Fragment pairs of the view, sorted ([`crate::fragments`]).
-    fragments: Vec<(u32, u32)>,
     /// Candidate edges `(i, j)`, `i` of this view, `j > i`: backed by 3D overlap / descriptors only.
     edges_3d: usize,
     edges_descriptor: usize,
@@ -265,8 +258,6 @@ struct Scratch {
     /// `[n_masks]` `|S_j ∩ V_a|` for the view `a` being scored.
     view_counts: Vec<u32>,
     counts: MaskCounts,
-    /// `[n_masks of the view, n_views]` containers ([`crate::fragments`]).
-    containers: Vec<u32>,
     /// `[n_masks]` cosines of the mask being scored with every mask.
     cosines: Vec<f32>,
 }
@@ -275,7 +266,6 @@ impl Scoring<'_> {
     /// Scores every mask of view `a` against every mask of the other views.
     fn view(&self, a: usize, scratch: &mut Scratch) -> ViewFindings {
         let (dim, config) = (self.input.dim, self.config);
-        let n_views = self.input.views.len();
         let masks = self.offsets[a]..self.offsets[a + 1];
         let mut found = ViewFindings::default();
         let rows = match (self.evidence, &self.input.observations) {
@@ -286,20 +276,11 @@ impl Scoring<'_> {
             }
             _ => None,
         };
-        let fragments_on = rows.is_some() && config.fragment_majority <= 1.0;
-        if fragments_on {
-            scratch.containers.clear();
-            scratch.containers.resize(masks.len() * n_views, u32::MAX);
-        }
         let mut edges = BestK::new(self.keep);
         let mut cannot = BestK::new(self.keep);
-        for (k, i) in masks.clone().enumerate() {
+        for (k, i) in masks.enumerate() {
             if let Some((e, starts, rows)) = &rows {
                 e.mask_counts(a, &rows[starts[k + 1]..starts[k + 2]], &mut scratch.counts);
-                if fragments_on {
-                    let out = &mut scratch.containers[k * n_views..(k + 1) * n_views];
-                    containers_of_mask(&scratch.counts, a, self.offsets, config, out);
-                }
             }
             cosines_of_mask(self.unit, dim, i, &mut scratch.cosines);
             for (j, &b) in self.view_of_mask.iter().enumerate() {
@@ -327,11 +308,6 @@ impl Scoring<'_> {
             }
             found.edges.extend(edges.drain().map(|r| r.0));
             found.cannot.extend(cannot.drain().map(|r| r.pair));
-        }
-        if fragments_on {
-            let similar = |i: usize, j: usize| dim == 0 || cosine(self.unit, dim, i, j) >= config.tau_match;
-            found.fragments =
-                fragment_pairs_of_view(&scratch.containers, n_views, a, masks.start, similar, config);
         }
         found
     }
@@ -389,14 +365,12 @@ fn match_unit_masks(input: &MatchInput, unit: Vec<f32>, config: &MatchConfig) ->
     // about one copy of the kept edges.
     let mut edges = Vec::with_capacity(per_view.iter().map(|f| f.edges.len()).sum());
     let mut cannot = Vec::with_capacity(per_view.iter().map(|f| f.cannot.len()).sum());
-    let mut fragments = Vec::new();
     for found in per_view {
         stats.edges_3d += found.edges_3d;
         stats.edges_descriptor += found.edges_descriptor;
         stats.cannot_links += found.cannot_links;
         edges.extend(found.edges);
         cannot.extend(found.cannot);
-        fragments.extend(found.fragments);
     }
     // A pair both masks keep comes twice, with the same score (the scoring is symmetric).
     edges.sort_unstable_by(edge_order);
@@ -406,11 +380,6 @@ fn match_unit_masks(input: &MatchInput, unit: Vec<f32>, config: &MatchConfig) ->
     let mut uf = ConstrainedUnionFind::new(&view_of_mask);
     for (i, j) in cannot {
         uf.add_cannot_link(i, j);
-    }
-    for (i, j) in fragments {
-        if uf.union_fragments(i, j) == JoinOutcome::Joined {
-            stats.fragment_joins += 1;
-        }
     }
     for e in edges {
         match uf.union(e.i, e.j) {
