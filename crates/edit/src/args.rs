@@ -5,15 +5,15 @@ use crate::ExtraFields;
 use std::path::PathBuf;
 
 /// List the objects of a labelled PLY: id, Gaussian count, bounding box of the centres, palette
-/// colour and (with --masks) the number of views showing it.
+/// colour and the number of views showing it.
+///
+/// The views are counted in the per-view label maps `masks/<stem>.png` beside the PLY, where
+/// `splatseg run` (and `train`) write them with the PLY; without that folder the column is empty.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ObjectsArgs {
     /// Labelled 3DGS PLY (with `object_id`, as `splatseg run` writes it).
     pub ply: PathBuf,
-    /// Folder of per-view label maps (`<stem>.png`, e.g. `OUT/masks`) to count views per object.
-    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
-    pub masks: Option<PathBuf>,
     /// Print JSON instead of a table.
     #[cfg_attr(feature = "cli", arg(long))]
     pub json: bool,
@@ -113,6 +113,14 @@ pub fn extras(keep_extras: bool) -> ExtraFields {
 fn refuse_overwrite(ply: &std::path::Path, out: &std::path::Path) -> splatseg_scene::SceneResult<()> {
     use splatseg_scene::paths::{refuse_overwrite, Role};
     refuse_overwrite(&[Role::file("the input PLY", ply)], &[Role::file("--out", out)])
+}
+
+impl ObjectsArgs {
+    /// The folder of label maps the views are counted in: `masks/` beside the PLY, when it is there.
+    pub fn label_maps(&self) -> Option<PathBuf> {
+        let dir = self.ply.parent().unwrap_or(std::path::Path::new(".")).join("masks");
+        dir.is_dir().then_some(dir)
+    }
 }
 
 impl ExtractArgs {
