@@ -122,9 +122,9 @@ pub struct RunArgs {
     /// Output folder.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
-    /// CLIP checkpoint (with its `bpe_simple_vocab_16e6.txt.gz` beside it): after the run, embed
-    /// each object's best views (at most 5 crops) into OUT/objects/ (`clip.npy`, `objects.json`)
-    /// for `splatseg find`, `extract`/`remove` with a query. Cached.
+    /// CLIP checkpoint (with `bpe_simple_vocab_16e6.txt.gz` or `tokenizer.json` beside it): after
+    /// the run, embed each object's best views (at most 5 crops) into OUT/objects/ (`clip.npy`,
+    /// `objects.json`) for `splatseg find` and `extract`/`remove --query`. Cached.
     #[cfg_attr(feature = "cli", arg(long))]
     pub clip: Option<PathBuf>,
 }
