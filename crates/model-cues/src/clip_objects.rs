@@ -599,6 +599,22 @@ impl ObjectSearch {
         &self.index
     }
 
+    /// The embedded objects' ids `[N]` and embeddings `[N, E]`, in the index's (id) order.
+    pub fn embedded(&self) -> (Vec<u32>, &[f32]) {
+        let ids = self.index.objects.iter().filter(|o| o.row.is_some()).map(|o| o.id).collect();
+        (ids, &self.embeddings)
+    }
+
+    /// The canonical phrases' embeddings, `[4, E]`, L2-normalised.
+    pub fn negatives(&self) -> &[f32] {
+        &self.negatives
+    }
+
+    /// L2-normalised text embeddings `[texts, E]` by the run's text tower.
+    pub fn embed_texts(&self, texts_in: &[&str]) -> crate::Result<Vec<f32>> {
+        texts(&self.clip, &self.tokenizer, texts_in)
+    }
+
     /// The `top` objects most relevant to `query`, best first (ties by id).
     pub fn find(&self, query: &str, top: usize) -> crate::Result<Vec<FoundObject>> {
         let q = texts(&self.clip, &self.tokenizer, &[query])?;
@@ -657,6 +673,21 @@ pub fn best_match_beside(ply: &Path, query: &str) -> crate::Result<FoundObject> 
 /// L2-normalised text embeddings, `[texts, dim]` row-major.
 fn texts(clip: &Clip, tokenizer: &ClipTokenizer, texts: &[&str]) -> crate::Result<Vec<f32>> {
     Ok(clip.embed_texts_flat(tokenizer, texts)?)
+}
+
+/// The ranked objects as `find --json` prints them: a JSON array, best first, each object
+/// `{"rank", "id", "relevancy", "cosine", "colour": [r, g, b], "views": [stems]}` (the fields of
+/// [`FoundObject`], in that order), one object per line.
+pub fn found_json(found: &[FoundObject]) -> crate::Result<String> {
+    let rows = found
+        .iter()
+        .map(serde_json::to_string)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| ModelCuesError::Invalid(format!("cannot serialise the ranking: {e}")))?;
+    Ok(match rows.is_empty() {
+        true => "[]\n".to_string(),
+        false => format!("[\n  {}\n]\n", rows.join(",\n  ")),
+    })
 }
 
 /// The ranked objects as a table: rank, id, relevancy, cosine, colour, views.
