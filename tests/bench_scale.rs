@@ -1,20 +1,23 @@
-//! `splatseg bench scale` on a tiny capture: it writes the capture (repeating views beyond
-//! `--distinct-views`), runs `run` in a child and prints every stage with its time and peak memory.
+//! `bench scale` on a tiny capture (the library `splatseg bench scale` calls, with 2 distinct views
+//! where the command renders at most `DISTINCT_VIEWS`, so that the repeated views are exercised): it
+//! writes the capture (repeating views beyond the distinct ones), runs the binary's `run` in a child
+//! and prints every stage with its time and peak memory.
 
-use std::process::Command;
+use splatseg_bench::scale::{scale, ScaleRequest};
+use std::path::Path;
 
 #[test]
 fn bench_scale_prints_every_stage_of_a_run_on_the_capture_it_wrote() {
     let tmp = tempfile::tempdir().expect("temp dir");
-    let dir = tmp.path().to_str().expect("utf-8");
-    let output = Command::new(env!("CARGO_BIN_EXE_splatseg"))
-        .args(["bench", "scale", "--views", "3", "--distinct-views", "2", "--size", "160x120"])
-        .args(["--gaussians", "7000", "--dir", dir])
-        .env("RAYON_NUM_THREADS", "2")
-        .output()
-        .expect("spawn");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+    let request = ScaleRequest {
+        views: 3,
+        size: (160, 120),
+        gaussians: 7000,
+        seed: 0,
+        distinct_views: 2,
+        dir: tmp.path().to_path_buf(),
+    };
+    let stdout = scale(&request, Path::new(env!("CARGO_BIN_EXE_splatseg"))).expect("bench scale runs");
     let stages = [
         "load inputs",
         "prepare Gaussians",

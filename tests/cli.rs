@@ -92,38 +92,41 @@ fn config_prints_the_papers_defaults_as_toml() {
 }
 
 #[test]
-fn render_takes_the_background_as_r_g_b_and_rejects_other_forms() {
+fn render_draws_over_black_as_3dgs_with_the_alpha_to_composite() {
+    // a few Gaussians of the scene, so that most pixels see none
     let tmp = tempfile::tempdir().expect("temp dir");
     let scene = tmp.path().join("scene");
     tiny_scene(&scene);
-    let (scene_s, ply) = (scene.to_str().expect("utf-8"), scene.join("gaussians.ply"));
+    let all = splatseg_scene::ply::read_ply(&scene.join("gaussians.ply")).expect("the scene's PLY");
+    let few: Vec<usize> = (0..all.len()).step_by(97).collect();
+    let ply = tmp.path().join("few.ply");
+    splatseg_scene::ply::write_ply(&ply, &all.select(&few)).expect("writes the PLY");
     let out = tmp.path().join("rendered");
-    let render = |background: &str| {
-        splatseg(&[
-            "render",
-            scene_s,
-            "--gaussians",
-            ply.to_str().expect("utf-8"),
-            "--out",
-            out.to_str().expect("utf-8"),
-            "--what",
-            "rgb",
-            "--background",
-            background,
-        ])
-    };
-    let ok = render("1,1,1");
-    assert!(ok.status.success(), "{}", stderr(&ok));
-    assert!(out.join("view_000_rgb.png").is_file());
-    for bad in ["1,1", "1,1,1,1", "2,0,0", "red"] {
-        let failed = render(bad);
-        assert!(!failed.status.success(), "--background {bad} was accepted");
-        assert!(
-            stderr(&failed).contains("R,G,B") || stderr(&failed).contains("number"),
-            "{}",
-            stderr(&failed)
-        );
+    let rendered = splatseg(&[
+        "render",
+        scene.to_str().expect("utf-8"),
+        "--gaussians",
+        ply.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+        "--what",
+        "rgb,alpha",
+    ]);
+    assert!(rendered.status.success(), "{}", stderr(&rendered));
+    let rgb = splatseg_scene::image_io::read_rgb8(&out.join("view_000_rgb.png")).expect("rgb");
+    let alpha = splatseg_scene::image_io::read_grey8(&out.join("view_000_alpha.png"))
+        .expect("alpha")
+        .expect("a grey alpha map");
+    let (mut empty, mut drawn) = (0, 0);
+    for (i, &a) in alpha.data.iter().enumerate() {
+        if a == 0 {
+            empty += 1;
+            assert_eq!(&rgb.data[3 * i..3 * i + 3], &[0, 0, 0], "pixel {i}: nothing drawn, not black");
+        } else if rgb.data[3 * i..3 * i + 3].iter().any(|&c| c > 0) {
+            drawn += 1;
+        }
     }
+    assert!(empty > 0 && drawn > 0, "{empty} empty and {drawn} drawn pixels");
 }
 
 #[test]
@@ -317,4 +320,46 @@ fn train_says_when_a_labelled_ply_gets_no_joint_stage() {
         "{}",
         stderr(&out)
     );
+}
+
+#[test]
+fn objects_counts_views_in_the_label_maps_beside_the_ply() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let out = tmp.path().join("out");
+    let run = splatseg(&[
+        "run",
+        scene.to_str().expect("utf-8"),
+        "--masks",
+        scene.join("sam").to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let table = |ply: &Path| -> serde_json::Value {
+        let listed = splatseg(&["objects", ply.to_str().expect("utf-8"), "--json"]);
+        assert!(listed.status.success(), "{}", stderr(&listed));
+        serde_json::from_slice(&listed.stdout).expect("json")
+    };
+    // run's folder: every object's views counted in OUT/masks/, as the label maps say
+    let beside = table(&out.join("gaussians.ply"));
+    let objects = beside["objects"].as_array().expect("objects");
+    assert!(!objects.is_empty());
+    let maps: Vec<Vec<u32>> = ["view_000", "view_001"]
+        .iter()
+        .map(|v| {
+            splatseg_scene::labels::read_label_png(&out.join(format!("masks/{v}.png"))).expect("map").data
+        })
+        .collect();
+    for o in objects {
+        let id = o["id"].as_i64().expect("id");
+        let seen = maps.iter().filter(|m| id > 0 && m.contains(&(id as u32))).count();
+        assert_eq!(o["views_seen"], seen, "{o}");
+    }
+    // the same PLY elsewhere, without masks/ beside it: no views column
+    let alone = tmp.path().join("alone.ply");
+    std::fs::copy(out.join("gaussians.ply"), &alone).expect("copy");
+    let elsewhere = table(&alone);
+    assert!(elsewhere["objects"].as_array().expect("objects").iter().all(|o| o["views_seen"].is_null()));
 }

@@ -1,11 +1,12 @@
 //! Issue 30 end to end on a synthetic scene with a random-weight CLIP the test writes itself
 //! (open_clip's hub layout: `open_clip_model.safetensors` with OpenAI names, `open_clip_config.json`,
-//! and the tokenizer's merges beside): `run --clip` → `find` → `extract QUERY` / `remove QUERY`,
-//! deterministic, cached, and the errors of a missing checkpoint or missing embeddings.
+//! and the tokenizer's merges beside): `run --clip` → `find` (`--top`, `--json`) → `extract --query` /
+//! `remove --query`, deterministic (whatever the thread count), cached, the names `view --names`
+//! gives, and the errors of a missing checkpoint, missing embeddings or a bad names file.
 //!
 //! The weights are random, so which object a query picks means nothing; what is checked is that
 //! the binary's ranking is the one the library's towers and `rank_objects` give for the same files,
-//! and that `extract QUERY` writes exactly what `extract --ids <the best>` writes.
+//! and that `extract --query` writes exactly what `extract --ids <the best>` writes.
 
 use splatseg_models::clip::relevancy::{rank_objects, Embeddings, CANONICAL_NEGATIVES, LERF_SCALE};
 use splatseg_models::clip::testing::{write_random_checkpoint, RandomClipSpec};
@@ -15,6 +16,17 @@ use std::process::{Command, Output};
 
 fn splatseg<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args).output().expect("the splatseg binary runs")
+}
+
+/// `splatseg ARGS` with rayon's (and candle's) pool of `threads` threads; its stdout.
+fn ok_with_threads(args: &[&str], threads: usize) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_splatseg"))
+        .args(args)
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .output()
+        .expect("the splatseg binary runs");
+    assert!(out.status.success(), "splatseg {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 fn ok<S: AsRef<std::ffi::OsStr> + std::fmt::Debug>(args: &[S]) -> String {
@@ -140,17 +152,73 @@ fn run_clip_then_find_then_extract_by_query() {
     assert!(found.windows(2).all(|w| w[0].1 >= w[1].1), "best first: {found:?}");
     assert_eq!(ok(&["find", s(&out), query]), ok(&["find", s(&out), query]), "find is deterministic");
 
+    // --top K: the first K rows; --json: the same ranking as a JSON array with every field
+    let top2 = parse_find(&ok(&["find", s(&out), query, "--top", "2"]));
+    assert_eq!(top2, found[..2].to_vec());
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["find", s(&out), query, "--json"])).expect("find --json prints JSON");
+    let rows = json.as_array().expect("an array");
+    assert_eq!(rows.len(), found.len());
+    for (i, (row, e)) in rows.iter().zip(&expected).enumerate() {
+        assert_eq!(row["rank"], i + 1, "{row}");
+        assert_eq!(row["id"], e.id, "{row}");
+        assert!((row["relevancy"].as_f64().unwrap() as f32 - e.relevancy).abs() < 1e-6, "{row} vs {e:?}");
+        assert!((row["cosine"].as_f64().unwrap() as f32 - e.cosine).abs() < 1e-6, "{row} vs {e:?}");
+        let object = objects.iter().find(|o| o["id"] == e.id).unwrap();
+        assert_eq!(row["colour"], object["colour"], "{row}");
+        let views: Vec<&serde_json::Value> =
+            object["views"].as_array().unwrap().iter().map(|v| &v["stem"]).collect();
+        assert_eq!(row["views"].as_array().unwrap().iter().collect::<Vec<_>>(), views, "{row}");
+        let mut keys: Vec<&String> = row.as_object().unwrap().keys().collect();
+        keys.sort();
+        assert_eq!(keys, ["colour", "cosine", "id", "rank", "relevancy", "views"], "{row}");
+    }
+    // one object per line, its fields in a fixed order
+    let text = ok(&["find", s(&out), query, "--json"]);
+    let lines: Vec<&str> = text.lines().filter(|l| l.contains('{')).collect();
+    assert_eq!(lines.len(), rows.len(), "{text}");
+    assert!(lines.iter().all(|l| l.trim_start().starts_with("{\"rank\":")), "{text}");
+    let one: serde_json::Value =
+        serde_json::from_str(&ok(&["find", s(&out), query, "--json", "--top", "1"])).unwrap();
+    assert_eq!(one.as_array().map(Vec::len), Some(1));
+    assert_eq!(one[0], rows[0]);
+    let err = failed(&["find", s(&out), query, "--top", "0"]);
+    assert!(err.contains("at least 1"), "{err}");
+
+    // the names of `view --names`: each object's best name is the one `find NAME` gives it the
+    // highest relevancy (the first name of the list on a tie)
+    let names: Vec<String> =
+        ["chair", "a red mug", "lamp", "the floor", "a wooden table"].map(String::from).to_vec();
+    let search =
+        splatseg_model_cues::clip_objects::ObjectSearch::open(&out).expect("opens the run's embeddings");
+    let named = search.name_objects(&names).expect("names the objects");
+    assert_eq!(named.iter().map(|n| n.id).collect::<Vec<_>>(), ids, "every embedded object, by id");
+    let by_name: Vec<serde_json::Value> = names
+        .iter()
+        .map(|n| serde_json::from_str(&ok(&["find", s(&out), n.as_str(), "--json"])).unwrap())
+        .collect();
+    for n in &named {
+        let relevancy_to = |k: usize| -> f32 {
+            let row = by_name[k].as_array().unwrap().iter().find(|r| r["id"] == n.id).unwrap();
+            row["relevancy"].as_f64().unwrap() as f32
+        };
+        let best = (0..names.len()).map(relevancy_to).fold(f32::NEG_INFINITY, f32::max);
+        let first_best = (0..names.len()).find(|&k| relevancy_to(k) == best).unwrap();
+        assert_eq!(n.name, names[first_best], "object {}: {named:?}", n.id);
+        assert!((n.relevancy - best).abs() < 1e-6, "{n:?}: find says {best}");
+    }
+
     // extract / remove by query = by the best id
     let best = expected_ids[0].to_string();
     let ply = out.join("gaussians.ply");
     let (by_query, by_id) = (tmp.path().join("q.ply"), tmp.path().join("id.ply"));
-    let said = ok(&["extract", s(&ply), query, "--out", s(&by_query)]);
+    let said = ok(&["extract", s(&ply), "--query", query, "--out", s(&by_query)]);
     assert!(said.contains(&format!("object {best}")), "{said}");
     ok(&["extract", s(&ply), "--ids", best.as_str(), "--out", s(&by_id)]);
     let picked = std::fs::read(&by_query).unwrap();
     assert_eq!(picked, std::fs::read(&by_id).unwrap(), "extract QUERY = extract --ids best");
     let (rest_q, rest_id) = (tmp.path().join("rq.ply"), tmp.path().join("rid.ply"));
-    ok(&["remove", s(&ply), query, "--out", s(&rest_q)]);
+    ok(&["remove", s(&ply), "--query", query, "--out", s(&rest_q)]);
     ok(&["remove", s(&ply), "--ids", best.as_str(), "--out", s(&rest_id)]);
     assert_eq!(std::fs::read(&rest_q).unwrap(), std::fs::read(&rest_id).unwrap());
     // what extract kept is what remove took away, and it is not nothing
@@ -158,7 +226,7 @@ fn run_clip_then_find_then_extract_by_query() {
         let at = text.find(word).unwrap_or_else(|| panic!("{word:?} in {text:?}"));
         text[at + word.len()..].split_whitespace().next().and_then(|n| n.parse().ok()).expect("a count")
     };
-    let removed = ok(&["remove", s(&ply), query, "--out", s(&tmp.path().join("rq2.ply"))]);
+    let removed = ok(&["remove", s(&ply), "--query", query, "--out", s(&tmp.path().join("rq2.ply"))]);
     assert_eq!(count(&said, "wrote "), count(&removed, "removed "), "{said}\n{removed}");
     assert!(count(&said, "wrote ") > 0, "{said}");
 }
@@ -174,11 +242,107 @@ fn run_without_clip_writes_no_objects_and_queries_name_the_missing_index() {
     assert!(err.contains("objects.json") && err.contains("run --clip"), "{err}");
     let ply_path = out.join("gaussians.ply");
     let ply = s(&ply_path);
-    let err = failed(&["extract", ply, "a chair", "--out", s(&tmp.path().join("x.ply"))]);
+    let err = failed(&["extract", ply, "--query", "a chair", "--out", s(&tmp.path().join("x.ply"))]);
     assert!(err.contains("objects.json"), "{err}");
     assert!(!tmp.path().join("x.ply").exists());
-    let err = failed(&["extract", ply, "a chair", "--ids", "1", "--out", s(&tmp.path().join("x.ply"))]);
+    let err =
+        failed(&["extract", ply, "--query", "a chair", "--ids", "1", "--out", s(&tmp.path().join("x.ply"))]);
     assert!(err.contains("cannot be used with"), "{err}");
+    for verb in ["extract", "remove"] {
+        let err = failed(&[verb, ply, "--out", s(&tmp.path().join("x.ply"))]);
+        assert!(err.contains("--ids") && err.contains("--query"), "{verb} without either: {err}");
+        // the query is no longer a positional argument
+        let err = failed(&[verb, ply, "a chair", "--out", s(&tmp.path().join("x.ply"))]);
+        assert!(err.contains("unexpected argument"), "{err}");
+    }
+    assert!(!tmp.path().join("x.ply").exists());
+
+    // `view --names` needs the embeddings, and a readable list with a name in it
+    let names = tmp.path().join("names.txt");
+    std::fs::write(&names, "chair\n").unwrap();
+    let view = |names: &Path| failed(&["view", s(&out), "--listen", "127.0.0.1:0", "--names", s(names)]);
+    let err = view(&names);
+    assert!(err.contains("--names") && err.contains("objects.json"), "{err}");
+    let err = view(&tmp.path().join("no_such_names.txt"));
+    assert!(err.contains("no_such_names.txt"), "{err}");
+    std::fs::write(&names, "# nothing\n\n").unwrap();
+    let err = view(&names);
+    assert!(err.contains("names.txt") && err.contains("holds no name"), "{err}");
+}
+
+/// transformers' `CLIPModel` folder (`model.safetensors` + `config.json`) with its `tokenizer.json` (the
+/// models crate's fixture, copied): `run --clip` embeds the objects with it, and `find` reads the
+/// query's tokens from `tokenizer.json` and ranks as the library does with the same files.
+#[test]
+fn a_transformers_checkpoint_with_its_tokenizer_json_runs_end_to_end() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/models/tests/fixtures/clip_tiny_hf");
+    let clip = tmp.path().join("hf_clip");
+    std::fs::create_dir_all(&clip).unwrap();
+    for file in ["model.safetensors", "config.json", "tokenizer.json"] {
+        std::fs::copy(fixture.join(file), clip.join(file)).expect("copies the fixture");
+    }
+    let scene = scene(tmp.path());
+    let out = tmp.path().join("out");
+    run_clip(&scene, &out, &clip);
+    let index: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("objects/objects.json")).unwrap()).unwrap();
+    let ids: Vec<u32> = index["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|o| !o["row"].is_null())
+        .map(|o| o["id"].as_u64().unwrap() as u32)
+        .collect();
+    assert!(ids.len() >= 3, "{index}");
+    let npy = splatseg_scene::npy::read_npy(&out.join("objects/clip.npy")).unwrap();
+    let query = "a red mug";
+    let found: serde_json::Value = serde_json::from_str(&ok(&["find", s(&out), query, "--json"])).unwrap();
+    let model = Clip::load(&clip, ClipHints::default()).unwrap();
+    let tokenizer = ClipTokenizer::load(&clip.join("tokenizer.json")).unwrap();
+    let q = model.embed_texts_flat(&tokenizer, &[query]).unwrap();
+    let negatives = model.embed_texts_flat(&tokenizer, &CANONICAL_NEGATIVES).unwrap();
+    let expected = rank_objects(
+        &ids,
+        Embeddings::new(&npy.data, 16, "objects").unwrap(),
+        &q,
+        Embeddings::new(&negatives, 16, "negatives").unwrap(),
+        LERF_SCALE,
+        usize::MAX,
+    )
+    .unwrap();
+    let got: Vec<u64> = found.as_array().unwrap().iter().map(|r| r["id"].as_u64().unwrap()).collect();
+    assert_eq!(got, expected.iter().map(|r| u64::from(r.id)).collect::<Vec<_>>());
+    // without its tokenizer file, find names both file names it looks for
+    std::fs::remove_file(clip.join("tokenizer.json")).unwrap();
+    let err = failed(&["find", s(&out), query]);
+    assert!(err.contains("tokenizer.json") && err.contains(MERGES_FILE), "{err}");
+}
+
+/// The object embeddings and `find`'s ranking, made with rayon's and candle's pools of 1 and of 2
+/// threads (`RAYON_NUM_THREADS`, which both read), are byte for byte the same.
+#[test]
+fn embeddings_and_rankings_do_not_depend_on_the_thread_count() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let clip = random_clip(&tmp.path().join("clip"));
+    let scene = scene(tmp.path());
+    let mut results = Vec::new();
+    for threads in [1, 2] {
+        let out = tmp.path().join(format!("out-{threads}"));
+        ok_with_threads(
+            &["run", s(&scene), "--masks", s(&scene.join("sam")), "--out", s(&out), "--clip", s(&clip)],
+            threads,
+        );
+        let npy = std::fs::read(out.join("objects/clip.npy")).expect("clip.npy");
+        let found: Vec<String> = ["a red mug", "chair"]
+            .iter()
+            .map(|q| ok_with_threads(&["find", s(&out), q, "--json"], threads))
+            .collect();
+        results.push((npy, found));
+    }
+    assert!(results[0].0.len() > 128, "embeddings were written");
+    assert!(results[0].0 == results[1].0, "clip.npy differs between 1 and 2 threads");
+    assert_eq!(results[0].1, results[1].1, "find's ranking differs between 1 and 2 threads");
 }
 
 #[test]

@@ -7,7 +7,8 @@
 //! - clicking an object in the strip of overlays selects it;
 //! - hide and isolate change the pixels as expected;
 //! - the exported selection is byte-identical to `splatseg extract --ids …`;
-//! - on a run with object embeddings, the search box ranks as `splatseg find` and Enter selects the best.
+//! - on a run with object embeddings, the search box ranks as `splatseg find` and Enter selects the best;
+//!   with `--names FILE`, the object list shows each object's best name as `find` scores the names.
 //!
 //! Skips (with a message) only when Chromium or chromedriver is not installed; `.ci/run` installs
 //! both. `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test integration view_browser` also writes the
@@ -44,8 +45,14 @@ impl Drop for Served {
 }
 
 fn serve(run: &Path, exports: &Path) -> Served {
+    serve_with(run, exports, &[])
+}
+
+/// `serve` with more arguments of `splatseg view`.
+fn serve_with(run: &Path, exports: &Path, more: &[&str]) -> Served {
     let mut child = Command::new(env!("CARGO_BIN_EXE_splatseg"))
         .args(["view", utf8(run), "--listen", "127.0.0.1:0", "--out", utf8(exports)])
+        .args(more)
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -338,8 +345,10 @@ fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
 
 /// The search box, on a run with object embeddings (`run --clip`, a random CLIP the test writes): it
 /// is shown, typing marks the ranked matches at the top of the table in the order `splatseg find`
-/// gives, Enter selects the best; `/api/find` refuses a request without the page's token. The
-/// page of a run without embeddings has no search box.
+/// gives, Enter selects the best; `/api/find` refuses a request without the page's token. With
+/// `--names FILE` the table has a name column: each object's name is the one of the file that
+/// `splatseg find NAME --json` gives it the highest relevancy. The page of a run without embeddings
+/// has no search box and no name column.
 #[test]
 fn the_search_box_ranks_as_find_and_enter_selects_the_best() {
     let Some(paths) = find_chromium() else {
@@ -389,8 +398,25 @@ fn the_search_box_ranks_as_find_and_enter_selects_the_best() {
         .take(splatseg_view::search::SEARCH_TOP)
         .collect();
     assert!(ranked.len() >= 2, "{find}");
+    // the names: every object's best among them, from `find --json` (the first name on a tie)
+    let names = ["chair", "a red mug", "lamp", "the floor", "a wooden table"];
+    let names_file = tmp.path().join("names.txt");
+    std::fs::write(&names_file, format!("# objects of the room\n{}\n\n# the end\n", names.join("\n")))
+        .expect("write the names");
+    let mut best: std::collections::BTreeMap<u64, (f64, &str)> = Default::default();
+    for name in names {
+        let json = String::from_utf8(splatseg(&["find", utf8(&run), name, "--json"]).stdout).expect("utf-8");
+        let rows: serde_json::Value = serde_json::from_str(&json).expect("find --json");
+        for row in rows.as_array().expect("rows") {
+            let (id, relevancy) = (row["id"].as_u64().expect("id"), row["relevancy"].as_f64().expect("r"));
+            let entry = best.entry(id).or_insert((f64::NEG_INFINITY, ""));
+            if relevancy > entry.0 {
+                *entry = (relevancy, name);
+            }
+        }
+    }
 
-    let server = serve(&run, &exports);
+    let server = serve_with(&run, &exports, &["--names", utf8(&names_file)]);
     let refused = splatseg_view::browser::http::request(
         "GET",
         &format!("{}/api/find?q=mug", server.url.trim_end_matches('/')),
@@ -426,6 +452,29 @@ fn the_search_box_ranks_as_find_and_enter_selects_the_best() {
     assert_eq!(marked, ranked, "the table's marked rows, top down, are `find`'s ranking: {got}");
     assert_eq!(got["selectedWhileTyping"], serde_json::json!([]), "typing selects nothing");
     assert_eq!(got["selected"], serde_json::json!([ranked[0]]), "Enter selects the best: {got}");
+    let shown = browser
+        .execute(
+            "return { header: [...document.querySelectorAll('#table thead th')].map(h => h.textContent),
+                      rows: [...document.querySelectorAll('#objects tr')].map(r =>
+                        [Number(r.dataset.id), r.querySelector('td.name')?.textContent ?? null]) };",
+            serde_json::json!([]),
+        )
+        .expect("reads the table");
+    assert_eq!(shown["header"][3], "name", "{shown}");
+    let rows = shown["rows"].as_array().expect("rows");
+    let mut named = 0;
+    for row in rows {
+        let id = row[0].as_i64().expect("id");
+        let name = row[1].as_str().expect("every row has a name cell");
+        match best.get(&(id as u64)) {
+            Some((_, expected)) => {
+                assert_eq!(name, *expected, "object {id}: {shown}");
+                named += 1;
+            }
+            None => assert_eq!(name, "", "object {id} has no embedding, so no name: {shown}"),
+        }
+    }
+    assert_eq!(named, best.len(), "every embedded object is named: {shown}");
     drop(browser);
     drop(server);
 
@@ -436,8 +485,11 @@ fn the_search_box_ranks_as_find_and_enter_selects_the_best() {
     browser.goto(&server.url).expect("page opens");
     let ready = browser.await_promise("viewer.whenReady(120000)").expect("ready");
     assert!(ready["error"].is_null(), "the page failed: {ready}");
-    let search = browser.execute("return document.getElementById('search') === null;", serde_json::json!([]));
-    assert_eq!(search.expect("runs"), serde_json::json!(true));
+    let search = browser.execute(
+        "return document.getElementById('search') === null && document.querySelector('td.name') === null;",
+        serde_json::json!([]),
+    );
+    assert_eq!(search.expect("runs"), serde_json::json!(true), "no search box and no names");
 }
 
 /// The README's screenshot: the page at its normal layout, one object selected, frusta shown.

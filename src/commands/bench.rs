@@ -6,7 +6,8 @@ use splatseg_bench::args::What;
 use splatseg_bench::{ablate, quality, scale, AblateArgs, BenchArgs};
 use std::io::Write;
 
-/// Runs the chosen benchmark: the quality suite (progress on stderr) or the scale run.
+/// Runs the chosen benchmark: the quality suite (progress on stderr), the scale run or the identity
+/// study.
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     match args.what {
         What::Quality(a) => {
@@ -17,6 +18,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         What::Scale(a) => {
             let exe = std::env::current_exe().context("cannot find the splatseg binary")?;
             print!("{}", scale::scale(&a.request(), &exe)?);
+        }
+        What::Identity(a) => {
+            for request in a.requests(super::run_options()) {
+                splatseg_pipeline::demo::run_demo(&request, &mut |text| println!("{text}"))?;
+            }
         }
     }
     Ok(())

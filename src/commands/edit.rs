@@ -21,8 +21,8 @@ fn write(out: &Path, g: Gaussians, keep_extras: bool) -> anyhow::Result<()> {
 /// Runs `splatseg objects`.
 pub fn objects(args: ObjectsArgs) -> anyhow::Result<()> {
     let mut table = splatseg_edit::objects(&read_labelled(&args.ply)?).map_err(|e| e.with_path(&args.ply))?;
-    if let Some(dir) = &args.masks {
-        let maps = splatseg_eval::list_label_maps(dir)?;
+    if let Some(dir) = args.label_maps() {
+        let maps = splatseg_eval::list_label_maps(&dir)?;
         anyhow::ensure!(!maps.is_empty(), "no label map (*.png) found in folder: {}", dir.display());
         let ids: Vec<Vec<u32>> = maps
             .par_iter()

@@ -1,10 +1,9 @@
 //! `splatseg find`: a finished run's objects ranked against a text query (`splatseg_model_cues`).
 
-use splatseg_model_cues::clip_objects::found_table;
 use splatseg_model_cues::FindArgs;
 
-/// Ranks the objects and prints them.
+/// Ranks the objects and prints them (a table, or the JSON array of `--json`).
 pub fn run(args: FindArgs) -> anyhow::Result<()> {
-    print!("{}", found_table(&args.query, &args.find()?));
+    print!("{}", args.report()?);
     Ok(())
 }

@@ -1,11 +1,15 @@
 //! `splatseg view`: serve the interactive web viewer (crate `splatseg-view`) for a scene.
 
 use anyhow::Context;
+use splatseg_model_cues::clip_objects::ObjectSearch;
+use splatseg_view::search::{ObjectName, SearchHit};
 use splatseg_view::{Site, ViewArgs, ViewServer, ViewSource};
 use std::io::Write;
+use std::path::Path;
 
 /// Runs the command (until interrupted).
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
+    let names = args.names.as_deref().map(splatseg_model_cues::object_names::read_names).transpose()?;
     let source = ViewSource::open(&args.path, &args.source_options())?;
     for warning in &source.warnings {
         tracing::warn!("{warning}");
@@ -26,8 +30,20 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         source.ply_path.display()
     );
     let mut site = Site::new(source);
-    if let Some(search) = object_search(&args.path) {
-        site = site.with_search(search);
+    let search = object_search(&args.path, names.is_some())?;
+    if let (Some(names), Some(search)) = (&names, &search) {
+        let named = search.name_objects(names).map_err(|e| anyhow::anyhow!(e.report()))?;
+        let named: Vec<ObjectName> = named
+            .into_iter()
+            .map(|n| ObjectName { id: n.id, name: n.name, relevancy: n.relevancy })
+            .collect();
+        site = site.with_names(&named);
+    }
+    if let Some(search) = search {
+        site = site.with_search(Box::new(move |query: &str, top: usize| {
+            let found = search.find(query, top).map_err(|e| e.report())?;
+            Ok(found.iter().map(|f| SearchHit { id: f.id, relevancy: f.relevancy }).collect())
+        }));
     }
     let server = ViewServer::start(site, host, *port)?;
     println!("splatseg view: {summary}");
@@ -42,25 +58,21 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The search box's ranking when PATH is (or holds the PLY of) a run with object embeddings
-/// (`run --clip`): the text tower is loaded once, here.
-fn object_search(path: &std::path::Path) -> Option<splatseg_view::search::Search> {
-    let out = if path.is_dir() { path } else { path.parent()? };
+/// The object embeddings and text tower of the run at PATH (the folder, or the folder of its PLY)
+/// when it has them (`run --clip`), loaded once for the search box and the names. Without them: no
+/// search box, or an error when `--names` asked for them.
+fn object_search(path: &Path, needed: bool) -> anyhow::Result<Option<ObjectSearch>> {
+    let out = if path.is_dir() { path } else { path.parent().unwrap_or(Path::new(".")) };
     let index = out.join("objects").join("objects.json");
-    if !index.is_file() {
-        return None;
+    if !index.is_file() && !needed {
+        return Ok(None);
     }
-    match splatseg_model_cues::clip_objects::ObjectSearch::open(out) {
-        Ok(search) => Some(Box::new(move |query: &str, top: usize| {
-            let found = search.find(query, top).map_err(|e| e.report())?;
-            Ok(found
-                .iter()
-                .map(|f| splatseg_view::search::SearchHit { id: f.id, relevancy: f.relevancy })
-                .collect())
-        })),
+    match ObjectSearch::open(out) {
+        Ok(search) => Ok(Some(search)),
+        Err(e) if needed => Err(anyhow::anyhow!("--names needs the object embeddings: {}", e.report())),
         Err(e) => {
             tracing::warn!("no search box: {}", e.report());
-            None
+            Ok(None)
         }
     }
 }

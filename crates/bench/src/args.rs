@@ -1,4 +1,4 @@
-//! The arguments of `splatseg bench quality`, `bench scale` and `ablate` (clap's `Args` and
+//! The arguments of `splatseg bench quality`, `bench scale`, `bench identity` and `ablate` (clap's `Args` and
 //! `Subcommand` with the `cli` feature), and the requests they make.
 
 use crate::ablate::{base_config, AblateRequest};
@@ -28,6 +28,48 @@ pub enum What {
     /// Time and peak memory of `run`, per stage, on a synthetic capture of a given size.
     #[cfg_attr(feature = "cli", command(long_about = SCALE_LONG_ABOUT))]
     Scale(ScaleArgs),
+    /// The joint stage with the 3D terms only against 3D terms + identity maps, on the demo's scenes.
+    #[cfg_attr(feature = "cli", command(long_about = IDENTITY_LONG_ABOUT))]
+    Identity(IdentityArgs),
+}
+
+/// The long help of `bench identity`.
+pub const IDENTITY_LONG_ABOUT: &str = "\
+The identity study (paper §4.4): for each seed, the demo's synthetic scene (12 views of 320×240, \
+`splatseg demo --seed S`) and its pipeline run, then the train stage twice on the lifted Gaussians \
+(300 iterations, the joint optimisation from iteration 100): with the 3D terms only, and with the 3D \
+terms plus the 2D identity maps, every read-back of the ids scored against the ground truth next to \
+the lifted ids. One Markdown table per seed (mIoU, boundary mIoU, #masks, consistency, 3D label \
+accuracy, held-out PSNR / SSIM); `BENCHMARKS.md` records the means over seeds 5–8. Writes into \
+out/identity-study/seed-<S>/ (the scene, the run, both trainings).
+
+Examples:
+  splatseg bench identity 5 6 7 8
+  splatseg bench identity 0";
+
+/// Arguments of `bench identity`.
+#[derive(Debug)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct IdentityArgs {
+    /// Seeds of the demo's scene, one study each.
+    #[cfg_attr(feature = "cli", arg(required = true, num_args = 1..))]
+    pub seeds: Vec<u64>,
+}
+
+impl IdentityArgs {
+    /// One demo request per seed, with the identity study, into `out/identity-study/seed-<S>/`.
+    pub fn requests(
+        &self,
+        options: splatseg_pipeline::RunOptions,
+    ) -> Vec<splatseg_pipeline::demo::DemoRequest> {
+        self.seeds
+            .iter()
+            .map(|&seed| {
+                let out = PathBuf::from("out").join("identity-study").join(format!("seed-{seed}"));
+                splatseg_pipeline::args::identity_study_request(seed, out, options)
+            })
+            .collect()
+    }
 }
 
 /// The long help of `bench quality`.
@@ -114,8 +156,8 @@ run and of each stage (from its OUT/cache/profile.json: VmHWM reset at each stag
 with the thread time of each stage's parts (surface depth and visibility, merge, votes, render back…; \
 summed over threads, so parts may add up to more than the stage's wall time).
 
-The scene has min(N, --distinct-views) distinct views; beyond that, views repeat the distinct ones (same \
-image, masks, cues and pose under a new name), so a 1,000-view capture costs the disk of 100. The Gaussians \
+The scene has min(N, 100) distinct views; beyond that, views repeat the distinct ones (same image, \
+masks, cues and pose under a new name), so a 1,000-view capture costs the disk of 100. The Gaussians \
 are the synthetic ones subsampled evenly to G, or repeated with a small deterministic offset up to G.
 
 Example: splatseg bench scale --views 100 --size 1280x960 --gaussians 1000000 --dir /tmp/scale";
@@ -133,9 +175,6 @@ pub struct ScaleArgs {
     /// Gaussians in the PLY.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 1_000_000))]
     pub gaussians: usize,
-    /// Most distinct views rendered; further views repeat them.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 100))]
-    pub distinct_views: usize,
     /// Working folder (captures and outputs; several GB for large captures).
     #[cfg_attr(feature = "cli", arg(long, default_value = "bench-scale"))]
     pub dir: PathBuf,
@@ -149,7 +188,7 @@ impl ScaleArgs {
             size: self.size,
             gaussians: self.gaussians,
             seed: 0,
-            distinct_views: self.distinct_views,
+            distinct_views: crate::scale::DISTINCT_VIEWS,
             dir: self.dir,
         }
     }

@@ -5,15 +5,15 @@ use crate::ExtraFields;
 use std::path::PathBuf;
 
 /// List the objects of a labelled PLY: id, Gaussian count, bounding box of the centres, palette
-/// colour and (with --masks) the number of views showing it.
+/// colour and the number of views showing it.
+///
+/// The views are counted in the per-view label maps `masks/<stem>.png` beside the PLY, where
+/// `splatseg run` (and `train`) write them with the PLY; without that folder the column is empty.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ObjectsArgs {
     /// Labelled 3DGS PLY (with `object_id`, as `splatseg run` writes it).
     pub ply: PathBuf,
-    /// Folder of per-view label maps (`<stem>.png`, e.g. `OUT/masks`) to count views per object.
-    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
-    pub masks: Option<PathBuf>,
     /// Print JSON instead of a table.
     #[cfg_attr(feature = "cli", arg(long))]
     pub json: bool,
@@ -24,23 +24,22 @@ pub struct ObjectsArgs {
 /// The input is a labelled PLY (with `object_id`, as `splatseg run` writes it); the Gaussians
 /// keep their order and every value bit for bit. The output has the standard INRIA 3DGS layout
 /// that viewers open: splatseg's `object_id` and `feat_*` properties (and any other non-standard
-/// property) are dropped unless --keep-extras is given. `splatseg objects PLY` lists the ids.
+/// property) are dropped unless --keep-extras is given. The objects are given by --ids
+/// (`splatseg objects PLY` lists them) or, after `run --clip`, by --query (the best match).
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "cli", command(group(clap::ArgGroup::new("objects").required(true).args(["ids", "query"]))))]
 pub struct ExtractArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
+    /// Object ids to keep, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
+    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_negative_numbers = true))]
+    pub ids: Vec<i32>,
     /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
     /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
     /// (`objects/objects.json` beside `gaussians.ply`).
-    #[cfg_attr(feature = "cli", arg(conflicts_with = "ids"))]
+    #[cfg_attr(feature = "cli", arg(long, value_name = "TEXT"))]
     pub query: Option<String>,
-    /// Object ids to keep, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
-    #[cfg_attr(
-        feature = "cli",
-        arg(long, required_unless_present = "query", value_delimiter = ',', allow_negative_numbers = true)
-    )]
-    pub ids: Vec<i32>,
     /// Output PLY.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
@@ -54,23 +53,22 @@ pub struct ExtractArgs {
 /// The input is a labelled PLY (with `object_id`, as `splatseg run` writes it). The output has
 /// the standard INRIA 3DGS layout that viewers open: splatseg's `object_id` and `feat_*`
 /// properties (and any other non-standard property) are dropped unless --keep-extras is given.
-/// `splatseg objects PLY` lists the ids.
+/// The objects are given by --ids (`splatseg objects PLY` lists them) or, after `run --clip`, by
+/// --query (the best match).
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "cli", command(group(clap::ArgGroup::new("objects").required(true).args(["ids", "query"]))))]
 pub struct RemoveArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
+    /// Object ids to remove, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
+    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_negative_numbers = true))]
+    pub ids: Vec<i32>,
     /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
     /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
     /// (`objects/objects.json` beside `gaussians.ply`).
-    #[cfg_attr(feature = "cli", arg(conflicts_with = "ids"))]
+    #[cfg_attr(feature = "cli", arg(long, value_name = "TEXT"))]
     pub query: Option<String>,
-    /// Object ids to remove, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
-    #[cfg_attr(
-        feature = "cli",
-        arg(long, required_unless_present = "query", value_delimiter = ',', allow_negative_numbers = true)
-    )]
-    pub ids: Vec<i32>,
     /// Output PLY.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
@@ -113,6 +111,14 @@ pub fn extras(keep_extras: bool) -> ExtraFields {
 fn refuse_overwrite(ply: &std::path::Path, out: &std::path::Path) -> splatseg_scene::SceneResult<()> {
     use splatseg_scene::paths::{refuse_overwrite, Role};
     refuse_overwrite(&[Role::file("the input PLY", ply)], &[Role::file("--out", out)])
+}
+
+impl ObjectsArgs {
+    /// The folder of label maps the views are counted in: `masks/` beside the PLY, when it is there.
+    pub fn label_maps(&self) -> Option<PathBuf> {
+        let dir = self.ply.parent().unwrap_or(std::path::Path::new(".")).join("masks");
+        dir.is_dir().then_some(dir)
+    }
 }
 
 impl ExtractArgs {

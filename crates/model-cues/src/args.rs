@@ -122,9 +122,9 @@ pub struct RunArgs {
     /// Output folder.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
-    /// CLIP checkpoint (with its `bpe_simple_vocab_16e6.txt.gz` beside it): after the run, embed
-    /// each object's best views (at most 5 crops) into OUT/objects/ (`clip.npy`, `objects.json`)
-    /// for `splatseg find`, `extract`/`remove` with a query. Cached.
+    /// CLIP checkpoint (with `bpe_simple_vocab_16e6.txt.gz` or `tokenizer.json` beside it): after
+    /// the run, embed each object's best views (at most 5 crops) into OUT/objects/ (`clip.npy`,
+    /// `objects.json`) for `splatseg find` and `extract`/`remove --query`. Cached.
     #[cfg_attr(feature = "cli", arg(long))]
     pub clip: Option<PathBuf>,
 }
@@ -230,9 +230,11 @@ impl RunArgs {
 ///
 /// Needs `splatseg run --clip CKPT` to have embedded the objects (OUT/objects/); the query is
 /// embedded with the text tower of the checkpoint OUT/objects/objects.json names, so objects and
-/// query come from one model. Prints every embedded object, best first: rank, id, relevancy (above
+/// query come from one model. Prints the embedded objects, best first: rank, id, relevancy (above
 /// 0.5: closer to the query than to every generic phrase), cosine, colour and the views its
-/// embedding came from.
+/// embedding came from. Equal relevancies keep the order of the margins under them, then ids.
+///
+/// Example: splatseg find OUT "a red mug" --top 3 --json
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct FindArgs {
@@ -240,11 +242,48 @@ pub struct FindArgs {
     pub out: PathBuf,
     /// What to look for, e.g. "a red mug".
     pub query: String,
+    /// Only the K best objects (default: every embedded object).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "K", value_parser = parse_top))]
+    pub top: Option<usize>,
+    /// Print a JSON array for scripts instead of the table: per object, best first, `rank`, `id`,
+    /// `relevancy`, `cosine`, `colour` ([r, g, b]) and `views` (image stems).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub json: bool,
 }
 
 impl FindArgs {
-    /// The ranked objects, every embedded one (best first).
+    /// The ranked objects, the `--top` best (best first).
     pub fn find(&self) -> crate::Result<Vec<crate::clip_objects::FoundObject>> {
-        crate::clip_objects::ObjectSearch::open(&self.out)?.find(&self.query, usize::MAX)
+        crate::clip_objects::ObjectSearch::open(&self.out)?.find(&self.query, self.top.unwrap_or(usize::MAX))
+    }
+
+    /// What `find` prints: the table, or with `--json` the JSON array.
+    pub fn report(&self) -> crate::Result<String> {
+        let found = self.find()?;
+        Ok(match self.json {
+            true => crate::clip_objects::found_json(&found)?,
+            false => crate::clip_objects::found_table(&self.query, &found),
+        })
+    }
+}
+
+/// Parses `--top K`: a whole number of at least 1.
+pub fn parse_top(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(k) if k >= 1 => Ok(k),
+        _ => Err(format!("expected a number of objects of at least 1, got `{text}`")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_top;
+
+    #[test]
+    fn top_is_at_least_one() {
+        assert_eq!(parse_top("3"), Ok(3));
+        assert!(parse_top("0").unwrap_err().contains("at least 1"));
+        assert!(parse_top("-2").is_err());
+        assert!(parse_top("many").is_err());
     }
 }

@@ -59,23 +59,25 @@ pub struct ObjectEmbeddingRequest {
     pub scene: PathBuf,
     /// The finished run's output folder.
     pub out: PathBuf,
-    /// The CLIP checkpoint (file, folder or Hugging Face cache id), with its tokenizer's merges beside.
+    /// The CLIP checkpoint (file, folder or Hugging Face cache id), with its tokenizer file beside
+    /// (`bpe_simple_vocab_16e6.txt.gz` or `tokenizer.json`).
     pub clip: PathBuf,
     /// Draw a progress bar on stderr.
     pub show_progress: bool,
 }
 
 impl ObjectEmbeddingRequest {
-    /// Checks what can be checked before the run: the checkpoint's weights resolve and the tokenizer's
-    /// merges file lies beside them (queries need it), so a mistyped path fails at once.
+    /// Checks what can be checked before the run: the checkpoint's weights resolve and a tokenizer
+    /// file lies beside them (queries need it), so a mistyped path fails at once.
     pub fn check(&self) -> crate::Result<()> {
         let files =
             splatseg_models::checkpoint::resolve_named(&self.clip, ModelKind::Clip, &CLIP_WEIGHT_NAMES)
                 .context("the CLIP checkpoint (--clip)")?;
-        splatseg_models::clip::merges_beside(&files.weights).map(|_| ()).with_context(|| {
+        splatseg_models::clip::tokenizer_beside(&files.weights).map(|_| ()).with_context(|| {
             format!(
-                "no tokenizer merges ({}) beside the CLIP checkpoint (--clip) {}",
+                "no tokenizer ({} or {}) beside the CLIP checkpoint (--clip) {}",
                 splatseg_models::clip::MERGES_FILE,
+                splatseg_models::clip::HF_TOKENIZER_FILE,
                 self.clip.display()
             )
         })
@@ -544,7 +546,7 @@ pub struct ObjectSearch {
 }
 
 impl ObjectSearch {
-    /// Opens `OUT/objects/` and the text tower of the checkpoint its index names (with the merges
+    /// Opens `OUT/objects/` and the text tower of the checkpoint its index names (with the tokenizer
     /// file beside it); errors name the file that is missing or wrong.
     pub fn open(out: &Path) -> crate::Result<ObjectSearch> {
         let dir = out.join(OBJECTS_DIR);
@@ -571,14 +573,15 @@ impl ObjectSearch {
             &CLIP_WEIGHT_NAMES,
         )
         .with_context(|| format!("the CLIP checkpoint that {} names", index_path.display()))?;
-        let merges = splatseg_models::clip::merges_beside(&files.weights).with_context(|| {
+        let vocabulary = splatseg_models::clip::tokenizer_beside(&files.weights).with_context(|| {
             format!(
-                "no tokenizer merges ({}) beside the CLIP checkpoint {}",
+                "no tokenizer ({} or {}) beside the CLIP checkpoint {}",
                 splatseg_models::clip::MERGES_FILE,
+                splatseg_models::clip::HF_TOKENIZER_FILE,
                 index.checkpoint.display()
             )
         })?;
-        let tokenizer = ClipTokenizer::load(&merges)?;
+        let tokenizer = ClipTokenizer::load(&vocabulary)?;
         if clip.config().embed_dim != index.dim {
             return Err(ModelCuesError::Invalid(format!(
                 "the checkpoint embeds in {} dimensions but the embeddings have {}: {}",
@@ -594,6 +597,22 @@ impl ObjectSearch {
     /// The index.
     pub fn index(&self) -> &ObjectIndex {
         &self.index
+    }
+
+    /// The embedded objects' ids `[N]` and embeddings `[N, E]`, in the index's (id) order.
+    pub fn embedded(&self) -> (Vec<u32>, &[f32]) {
+        let ids = self.index.objects.iter().filter(|o| o.row.is_some()).map(|o| o.id).collect();
+        (ids, &self.embeddings)
+    }
+
+    /// The canonical phrases' embeddings, `[4, E]`, L2-normalised.
+    pub fn negatives(&self) -> &[f32] {
+        &self.negatives
+    }
+
+    /// L2-normalised text embeddings `[texts, E]` by the run's text tower.
+    pub fn embed_texts(&self, texts_in: &[&str]) -> crate::Result<Vec<f32>> {
+        texts(&self.clip, &self.tokenizer, texts_in)
     }
 
     /// The `top` objects most relevant to `query`, best first (ties by id).
@@ -654,6 +673,21 @@ pub fn best_match_beside(ply: &Path, query: &str) -> crate::Result<FoundObject> 
 /// L2-normalised text embeddings, `[texts, dim]` row-major.
 fn texts(clip: &Clip, tokenizer: &ClipTokenizer, texts: &[&str]) -> crate::Result<Vec<f32>> {
     Ok(clip.embed_texts_flat(tokenizer, texts)?)
+}
+
+/// The ranked objects as `find --json` prints them: a JSON array, best first, each object
+/// `{"rank", "id", "relevancy", "cosine", "colour": [r, g, b], "views": [stems]}` (the fields of
+/// [`FoundObject`], in that order), one object per line.
+pub fn found_json(found: &[FoundObject]) -> crate::Result<String> {
+    let rows = found
+        .iter()
+        .map(serde_json::to_string)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| ModelCuesError::Invalid(format!("cannot serialise the ranking: {e}")))?;
+    Ok(match rows.is_empty() {
+        true => "[]\n".to_string(),
+        false => format!("[\n  {}\n]\n", rows.join(",\n  ")),
+    })
 }
 
 /// The ranked objects as a table: rank, id, relevancy, cosine, colour, views.

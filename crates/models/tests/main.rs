@@ -5,6 +5,7 @@
 
 mod common;
 
+mod clip_hf_parity;
 mod clip_parity;
 mod depth_anything_parity;
 mod dinov2_parity;

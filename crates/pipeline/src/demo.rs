@@ -1,6 +1,7 @@
 //! `splatseg demo`: the whole pipeline on a generated synthetic scene with ground truth, end to
 //! end — the scene into `OUT/scene/`, [`crate::run_pipeline`] into `OUT/run/`, then the train stage
-//! into `OUT/train/` (or, with [`DemoRequest::identity_study`], [`crate::identity_study`]) — with
+//! into `OUT/train/` (or, with [`DemoRequest::identity_study`], [`crate::identity_study`], as `splatseg
+//! bench identity` runs it) — with
 //! what a person reads on the way (the metrics tables) handed to a callback line by line.
 
 use crate::error::{bail, Context};
@@ -26,6 +27,13 @@ pub struct DemoRequest {
     pub identity_study: bool,
     /// `--strict` and `--quiet`.
     pub options: crate::RunOptions,
+}
+
+impl DemoRequest {
+    /// The request with the identity study in place of the train stage.
+    pub fn with_identity_study(self) -> Self {
+        Self { identity_study: true, ..self }
+    }
 }
 
 /// Runs the demo; `say` gets each block of the text the demo prints (one `println!` each).

@@ -1,4 +1,4 @@
-//! `splatseg demo --identity-study`: on a synthetic scene with ground truth, the joint stage with the 3D
+//! `splatseg bench identity`: on a synthetic scene with ground truth, the joint stage with the 3D
 //! terms only against the 3D terms plus the 2D identity maps (each read-back), next to the lifted ids,
 //! as one Markdown table (the numbers in `BENCHMARKS.md`).
 

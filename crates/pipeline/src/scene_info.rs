@@ -42,6 +42,9 @@ pub struct Report {
     pub views_resized_on_load: usize,
     /// Problems with image files (unreadable, size disagreeing with the camera).
     pub image_problems: Vec<String>,
+    /// The down-scaled copies found (`images_2/`, `images_4/`, `images_8/` beside the images, as
+    /// 3DGS's `--resolution` reads them), each checked against the cameras down-scaled as much.
+    pub downscaled: Vec<DownscaledImages>,
     /// Number of COLMAP sparse points, when the format has them.
     pub sparse_points: Option<usize>,
     /// PLY files described.
@@ -50,6 +53,17 @@ pub struct Report {
     pub per_view: Vec<PerViewFolder>,
     /// Loader warnings (e.g. listed images that are missing).
     pub warnings: Vec<String>,
+}
+
+/// The images of one down-scaling factor, as `--resolution f` reads them.
+#[derive(Debug, Serialize)]
+pub struct DownscaledImages {
+    /// The factor `f` (2, 4 or 8).
+    pub factor: u32,
+    /// Views whose image is in the `<images>_<f>/` folder (the others would be resized on load).
+    pub views: usize,
+    /// Problems with those images (unreadable, size disagreeing with the camera down-scaled by `f`).
+    pub image_problems: Vec<String>,
 }
 
 /// One 3DGS PLY.
@@ -94,6 +108,7 @@ pub fn inspect(args: &InfoRequest) -> crate::Result<Report> {
     let scene = load_scene(&args.path, &options)
         .with_context(|| format!("cannot load a scene from {}", args.path.display()))?;
     let (views_resized_on_load, image_problems) = check_images(&scene, &options);
+    let downscaled = if args.resolution == 1 { downscaled_images(args) } else { Vec::new() };
     let gaussians = ply_files(&args.path, args.gaussians.as_deref())
         .iter()
         .map(|p| describe_ply(p, args.strict))
@@ -117,6 +132,7 @@ pub fn inspect(args: &InfoRequest) -> crate::Result<Report> {
         views: scene.views.len(),
         views_resized_on_load,
         image_problems,
+        downscaled,
         sparse_points: scene.points.as_ref().map(Vec::len),
         gaussians,
         per_view,
@@ -136,6 +152,33 @@ fn check_images(scene: &Scene, options: &LoadOptions) -> (usize, Vec<String>) {
         }
     }
     (resized, problems)
+}
+
+/// Every factor 2, 4, 8 with images in a `<images>_<f>/` folder, those images checked against the
+/// cameras at that factor (header only).
+fn downscaled_images(args: &InfoRequest) -> Vec<DownscaledImages> {
+    let mut found = Vec::new();
+    for factor in [2, 4, 8] {
+        let options = LoadOptions { resolution: factor, split: args.split.clone(), ..LoadOptions::default() };
+        let Ok(scene) = load_scene(&args.path, &options) else { continue };
+        let suffix = format!("_{factor}");
+        let in_folder = |v: &&splatseg_scene::View| {
+            v.image_path
+                .parent()
+                .and_then(Path::file_name)
+                .is_some_and(|n| n.to_string_lossy().ends_with(&suffix))
+        };
+        let views: Vec<&splatseg_scene::View> = scene.views.iter().filter(in_folder).collect();
+        if views.is_empty() {
+            continue;
+        }
+        let image_problems = views
+            .iter()
+            .filter_map(|v| check_image_size(&scene, v, &options).err().map(|e| e.to_string()))
+            .collect();
+        found.push(DownscaledImages { factor, views: views.len(), image_problems });
+    }
+    found
 }
 
 /// The PLY files to describe: `explicit`, else `*.ply` in `root`, else the latest 3DGS
@@ -303,6 +346,16 @@ fn format_report(r: &Report) -> String {
             line(format!("  {p}"));
         }
     }
+    for d in &r.downscaled {
+        let state = match d.image_problems.len() {
+            0 => "every size agrees with its camera at that factor".to_string(),
+            n => format!("{n} problem(s):"),
+        };
+        line(format!("images_{} (--resolution {}): {} views, {state}", d.factor, d.factor, d.views));
+        for p in d.image_problems.iter().take(10) {
+            line(format!("  {p}"));
+        }
+    }
     match r.sparse_points {
         Some(n) => line(format!("sparse points: {n}")),
         None => line("sparse points: none (format has none)".into()),
@@ -369,6 +422,9 @@ mod tests {
         for (i, w) in [40, 41, 40].into_iter().enumerate() {
             write_png(&root.join(format!("images/v{i}.png")), w, 30);
         }
+        // copies at half size for v0 and v2 (v2's of the wrong width); none at 4 or 8
+        write_png(&root.join("images_2/v0.png"), 20, 15);
+        write_png(&root.join("images_2/v2.png"), 22, 15);
         let g = Gaussians {
             means: vec![[0.0; 3]; 5],
             sh_dc: vec![[0.1; 3]; 5],
@@ -413,8 +469,15 @@ mod tests {
         assert_eq!(masks.views_missing, ["v1"]);
         assert_eq!(masks.unmatched_files, ["IMG_v1.json"]);
 
+        assert_eq!(report.downscaled.len(), 1, "only images_2/ is there");
+        let half = &report.downscaled[0];
+        assert_eq!((half.factor, half.views), (2, 2));
+        assert_eq!(half.image_problems.len(), 1, "{:?}", half.image_problems);
+        assert!(half.image_problems[0].contains("22x15") && half.image_problems[0].contains("v2.png"));
+
         let text = report.to_text();
         assert!(text.contains("views: 3 with image files"), "{text}");
+        assert!(text.contains("images_2 (--resolution 2): 2 views, 1 problem(s):"), "{text}");
         assert!(text.contains("5 Gaussians, SH degree 1"), "{text}");
         assert!(text.contains("SAM masks:") && text.contains("2 of 3 views"), "{text}");
         assert!(text.contains("1 file(s) match no view"), "{text}");

@@ -1,6 +1,6 @@
 //! `splatseg.run`: the whole pipeline of `splatseg run` ([`splatseg_pipeline::run_pipeline`]),
 //! then its outputs read back as arrays: the final label maps, every input Gaussian's object id,
-//! the object table (as `splatseg objects --json --masks OUT/masks` prints it) and the report.
+//! the object table (as `splatseg objects --json OUT/gaussians.ply` prints it) and the report.
 
 use crate::arrays::owned_array;
 use crate::errors;

@@ -48,7 +48,7 @@ def test_run_object_ids_equal_the_plys_column(run_outputs, scene):
 
 def test_run_objects_equal_splatseg_objects_json(run_outputs):
     by_cli, result = run_outputs
-    table = json.loads(cli("objects", by_cli / "gaussians.ply", "--masks", by_cli / "masks", "--json"))
+    table = json.loads(cli("objects", by_cli / "gaussians.ply", "--json"))
     assert result.objects == table["objects"]
     assert {o["id"] for o in result.objects} >= {int(i) for i in np.unique(result.object_ids) if i > 0}
 

@@ -1,6 +1,6 @@
-// The side panel: view toggles, the object table (id, palette colour, Gaussian count, bounding
-// box), selection actions, export, and the strip of the capture's overlays (a click there selects
-// the object under it in 3D).
+// The side panel: view toggles, the object table (id, palette colour, the name of `view --names`,
+// Gaussian count, bounding box), selection actions, export, and the strip of the capture's overlays
+// (a click there selects the object under it in 3D).
 
 function el(tag, attrs = {}, children = []) {
   const e = document.createElement(tag);
@@ -78,7 +78,9 @@ export class Panel {
         const matches = await v.find(q);
         if (mine !== asked) return; // a newer query is on its way
         this.showMatches(matches);
-        results.textContent = matches.map((m, i) => `${i + 1}. ${m.id} (${m.relevancy.toFixed(3)})`).join('  ');
+        const names = new Map(v.manifest.objects.map((o) => [o.id, o.name]));
+        const label = (m) => (names.get(m.id) ? `${m.id} ${names.get(m.id)}` : String(m.id));
+        results.textContent = matches.map((m, i) => `${i + 1}. ${label(m)} (${m.relevancy.toFixed(3)})`).join('  ');
         if (selectBest && matches.length) v.select([matches[0].id]);
       } catch (e) {
         results.textContent = String(e.message || e);
@@ -130,6 +132,12 @@ export class Panel {
   buildTable() {
     const v = this.viewer;
     const body = document.getElementById('objects');
+    // `view --names FILE`: a column with each object's best match among the names
+    const named = v.manifest.objects.some((o) => o.name !== undefined);
+    if (named) {
+      const idHeader = document.querySelector('#table thead th:nth-child(3)');
+      idHeader.after(el('th', { text: 'name' }));
+    }
     this.rows = v.manifest.objects.map((o) => {
       const visible = el('input', { type: 'checkbox', title: 'visible',
         onchange: (e) => (e.target.checked ? v.show([o.id]) : v.hide([o.id])) });
@@ -142,6 +150,8 @@ export class Panel {
         el('td', {}, [visible]),
         el('td', {}, [el('span', { class: 'swatch', style: `background:${hex(o.colour)}` })]),
         el('td', { text: o.id < 0 ? 'none' : String(o.id) }),
+        ...(named ? [el('td', { class: 'name', text: o.name ?? '',
+          title: o.name === undefined ? '' : `relevancy ${o.name_relevancy.toFixed(3)}` })] : []),
         el('td', { class: 'num', text: o.count.toLocaleString() }),
         el('td', { class: 'bbox', text: `${fmt(o.bbox_min)} … ${fmt(o.bbox_max)}` }),
       ]);

@@ -34,6 +34,11 @@ pub struct ViewArgs {
     /// Open the page in the default browser.
     #[cfg_attr(feature = "cli", arg(long))]
     pub open: bool,
+    /// A list of names, one noun per line (`#` comments and blank lines ignored): the object list
+    /// shows each object's best match among them (CLIP relevancy, as `splatseg find` scores a
+    /// query). Needs a run made with `--clip CKPT` (its objects/).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE"))]
+    pub names: Option<PathBuf>,
 }
 
 impl ViewArgs {

@@ -21,6 +21,12 @@ pub struct ObjectEntry {
     pub bbox_min: [f32; 3],
     /// Largest x, y, z of their centres.
     pub bbox_max: [f32; 3],
+    /// Its best match among the names of `view --names` (left out without them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The relevancy of that name to the object, in (0, 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name_relevancy: Option<f32>,
 }
 
 /// A pinhole camera in the page's terms (OpenCV axes, pixel-corner origin, `CONVENTIONS.md`).
@@ -104,6 +110,8 @@ pub fn object_slots(g: &Gaussians) -> (Vec<u32>, Vec<ObjectEntry>) {
             count: 0,
             bbox_min: [f32::INFINITY; 3],
             bbox_max: [f32::NEG_INFINITY; 3],
+            name: None,
+            name_relevancy: None,
         })
         .collect();
     let slots: Vec<u32> = ids

@@ -91,6 +91,19 @@ impl Site {
         self
     }
 
+    /// The site with the objects' names of `view --names` in the manifest (objects not named
+    /// keep none).
+    pub fn with_names(mut self, names: &[crate::search::ObjectName]) -> Site {
+        for object in &mut self.manifest.objects {
+            if let Some(n) = names.iter().find(|n| i64::from(n.id) == i64::from(object.id)) {
+                object.name = Some(n.name.clone());
+                object.name_relevancy = Some(n.relevancy);
+            }
+        }
+        self.manifest_json = serde_json::to_vec(&self.manifest).unwrap_or_default();
+        self
+    }
+
     /// The manifest served at `/api/scene.json`.
     pub fn manifest(&self) -> &Manifest {
         &self.manifest

@@ -3,6 +3,9 @@
 //! wires the CLIP embeddings `run --clip` wrote (`splatseg_model_cues::clip_objects`), so this crate
 //! does not build candle. Without one, the manifest says `search: false` and `/api/find` is 404.
 //!
+//! The object list's names (`view --names`) are the caller's too ([`ObjectName`], given with
+//! [`crate::Site::with_names`]): they go into the manifest's objects.
+//!
 //! The query is bounded ([`MAX_QUERY_CHARS`]) and, as it runs a model, the request needs the page's
 //! token (`X-Splatseg-Token`, which another site's page cannot send without a preflight this server
 //! never grants), besides the `Host` check every request has.
@@ -22,6 +25,17 @@ pub struct SearchHit {
     /// The object's id.
     pub id: u32,
     /// Relevancy in (0, 1), best first.
+    pub relevancy: f32,
+}
+
+/// An object's name from the list of `view --names`, as the caller computed it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectName {
+    /// The object's id.
+    pub id: u32,
+    /// Its best match among the names.
+    pub name: String,
+    /// The relevancy of that name to the object, in (0, 1).
     pub relevancy: f32,
 }
 

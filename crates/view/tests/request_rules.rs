@@ -203,3 +203,30 @@ fn searches_need_the_token_and_a_bounded_query() {
     );
     assert!(body(&manifest).contains("\"search\":true"));
 }
+
+#[test]
+fn the_names_of_view_names_go_into_the_manifest_objects() {
+    use splatseg_view::search::ObjectName;
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let (site, access) = site(tmp.path().to_path_buf());
+    let manifest = |site: &splatseg_view::Site| -> serde_json::Value {
+        let reply = request_bytes(
+            site,
+            &access,
+            format!("GET /api/scene.json HTTP/1.1\r\nHost: {ADDR}\r\n\r\n").as_bytes(),
+        );
+        serde_json::from_str(&body(&reply)).expect("json")
+    };
+    let plain = manifest(&site);
+    assert!(plain["objects"].as_array().expect("objects").iter().all(|o| o.get("name").is_none()));
+    let named = ObjectName { id: 2, name: "a red mug".into(), relevancy: 0.625 };
+    let unknown = ObjectName { id: 7, name: "lamp".into(), relevancy: 0.5 };
+    let site = site.with_names(&[named, unknown]);
+    let objects = manifest(&site)["objects"].clone();
+    assert_eq!(objects[0]["id"], 1);
+    assert!(objects[0].get("name").is_none(), "object 1 was given no name: {objects}");
+    assert_eq!(objects[1]["id"], 2);
+    assert_eq!(objects[1]["name"], "a red mug");
+    assert_eq!(objects[1]["name_relevancy"], 0.625);
+    assert_eq!(objects.as_array().map(Vec::len), Some(2), "a name of no object adds nothing");
+}

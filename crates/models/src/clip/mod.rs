@@ -10,6 +10,7 @@
 mod block;
 pub mod clean;
 pub mod config;
+pub mod hf_names;
 mod image_tower;
 mod pretokens;
 pub mod relevancy;
@@ -23,20 +24,29 @@ pub use block::{l2_normalise_rows, quick_gelu};
 pub use config::{Activation, ClipConfig, ClipHints, TextConfig, VisionConfig};
 pub use image_tower::{ClipImageTower, CLIP_MEAN, CLIP_STD};
 pub use text_tower::ClipTextTower;
-pub use tokenizer::{ClipTokenizer, CONTEXT_LENGTH};
+pub use tokenizer::{ClipTokenizer, CONTEXT_LENGTH, HF_SPECIALS};
 
 use crate::checkpoint;
 use crate::error::{ModelKind, ModelsError, ModelsResult};
 use crate::weights::Weights;
 
-/// Weight files a CLIP folder or Hugging Face snapshot may hold, in order of preference (open_clip's
-/// hub names; the repositories' `model.safetensors` is Hugging Face's own layout, not read here).
-pub const CLIP_WEIGHT_NAMES: [&str; 3] =
-    ["open_clip_model.safetensors", "open_clip_pytorch_model.bin", "open_clip_model.pth"];
+/// Weight files a CLIP folder or Hugging Face snapshot may hold, in order of preference: open_clip's
+/// hub names (OpenAI's layout), then transformers' `CLIPModel` files ([`hf_names`]).
+pub const CLIP_WEIGHT_NAMES: [&str; 5] = [
+    "open_clip_model.safetensors",
+    "open_clip_pytorch_model.bin",
+    "open_clip_model.pth",
+    "model.safetensors",
+    "pytorch_model.bin",
+];
 /// The config open_clip's hub repositories hold beside the weights.
 pub const OPEN_CLIP_CONFIG: &str = "open_clip_config.json";
 /// The merges file OpenAI's CLIP and open_clip ship.
 pub const MERGES_FILE: &str = "bpe_simple_vocab_16e6.txt.gz";
+/// The tokenizer file of Hugging Face's CLIP repositories (OpenAI's and open_clip's on the hub).
+pub const HF_TOKENIZER_FILE: &str = "tokenizer.json";
+/// The tokenizer files looked for beside a checkpoint, in order of preference.
+pub const TOKENIZER_FILES: [&str; 2] = [MERGES_FILE, HF_TOKENIZER_FILE];
 
 /// A loaded CLIP: whichever towers the checkpoint has.
 #[derive(Debug, Clone)]
@@ -49,7 +59,8 @@ pub struct Clip {
 impl Clip {
     /// Loads a checkpoint: a `.safetensors` / `.bin` / `.pt` state dict, a folder or Hugging Face
     /// snapshot holding one of [`CLIP_WEIGHT_NAMES`], or an `org/name` in the local Hugging Face cache.
-    /// `hints` complete (and take precedence over) the `open_clip_config.json` beside the weights.
+    /// `hints` complete (and take precedence over) the `open_clip_config.json` beside the weights, or
+    /// for transformers' `CLIPModel` names its `config.json`.
     pub fn load(path: &Path, hints: ClipHints) -> ModelsResult<Self> {
         let (weights, hints) = read_checkpoint(path, hints)?;
         Self::from_weights(&weights, hints)
@@ -59,14 +70,14 @@ impl Clip {
     /// before anything is built): what a text query needs, without ViT-B/16's 86 M image parameters.
     pub fn load_text_only(path: &Path, hints: ClipHints) -> ModelsResult<Self> {
         let (weights, hints) = read_checkpoint(path, hints)?;
-        let weights =
-            without_prefix(&weights)?.renamed(|n| (!n.starts_with("visual.")).then(|| n.to_string()));
+        let weights = openai_named(&weights)?.renamed(|n| (!n.starts_with("visual.")).then(|| n.to_string()));
         Self::from_weights(&weights, hints)
     }
 
-    /// Builds the model from already-read tensors (OpenAI names, possibly under a prefix such as `module.`).
+    /// Builds the model from already-read tensors: OpenAI names, possibly under a prefix such as
+    /// `module.`, or transformers' `CLIPModel` names.
     pub fn from_weights(weights: &Weights, hints: ClipHints) -> ModelsResult<Self> {
-        let weights = without_prefix(weights)?;
+        let weights = openai_named(weights)?;
         let config = ClipConfig::infer(&weights, hints)?;
         let image = match config.vision {
             Some(_) => Some(ClipImageTower::new(&weights, &config)?),
@@ -130,22 +141,39 @@ impl Clip {
     }
 }
 
-/// The merges file beside a checkpoint (or in its folder), when there is one.
-pub fn merges_beside(checkpoint: &Path) -> Option<PathBuf> {
+/// The tokenizer file beside a checkpoint (or in its folder), when there is one: the merges file
+/// ([`MERGES_FILE`]), else a Hugging Face [`HF_TOKENIZER_FILE`] ([`ClipTokenizer::load`] reads both).
+pub fn tokenizer_beside(checkpoint: &Path) -> Option<PathBuf> {
     let dir = if checkpoint.is_dir() { checkpoint } else { checkpoint.parent()? };
-    Some(dir.join(MERGES_FILE)).filter(|p| p.is_file())
+    TOKENIZER_FILES.iter().map(|name| dir.join(name)).find(|p| p.is_file())
 }
 
-/// The checkpoint's tensors and `hints` completed by the `open_clip_config.json` beside it.
+/// The checkpoint's tensors and `hints` completed by the `open_clip_config.json` beside it (or, for
+/// transformers' names, its `config.json`).
 fn read_checkpoint(path: &Path, hints: ClipHints) -> ModelsResult<(Weights, ClipHints)> {
     let files = checkpoint::resolve_named(path, ModelKind::Clip, &CLIP_WEIGHT_NAMES)?;
     let weights = Weights::load(&files.weights, ModelKind::Clip)?;
-    let beside = files.weights.parent().map(|dir| dir.join(OPEN_CLIP_CONFIG)).filter(|p| p.is_file());
-    let from_file = match beside {
-        Some(config) => ClipHints::from_open_clip_config(&read_json(&config)?),
-        None => ClipHints::default(),
+    let from_file = if hf_names::is_hf_layout(&weights) {
+        match &files.config {
+            Some(config) => ClipHints::from_hf_config(&read_json(config)?, config)?,
+            None => ClipHints::default(),
+        }
+    } else {
+        let beside = files.weights.parent().map(|dir| dir.join(OPEN_CLIP_CONFIG)).filter(|p| p.is_file());
+        match beside {
+            Some(config) => ClipHints::from_open_clip_config(&read_json(&config)?),
+            None => ClipHints::default(),
+        }
     };
     Ok((weights, hints.or(from_file)))
+}
+
+/// The tensors under OpenAI's names: transformers' renamed ([`hf_names`]), a prefix removed.
+fn openai_named(weights: &Weights) -> ModelsResult<Weights> {
+    match hf_names::is_hf_layout(weights) {
+        true => without_prefix(&hf_names::to_openai_names(weights)?),
+        false => without_prefix(weights),
+    }
 }
 
 fn read_json(path: &Path) -> ModelsResult<serde_json::Value> {

@@ -1,5 +1,7 @@
 //! The split of cleaned text into pre-tokens, CLIP's pattern
 //! `(?i)<start_of_text>|<end_of_text>|'s|'t|'re|'ve|'m|'ll|'d|\p{L}+|\p{N}|[^\s\p{L}\p{N}]+`
+//! (the special tokens are the vocabulary file's: Hugging Face's `tokenizer.json` has
+//! `<|startoftext|>` and `<|endoftext|>`)
 //! read as a regex engine reads it: at each position the first alternative that matches wins
 //! (leftmost-first), the repeated classes are greedy, whitespace between matches is skipped.
 //!
@@ -10,17 +12,20 @@
 
 use unicode_general_category::{get_general_category, GeneralCategory};
 
-const SPECIALS: [&str; 2] = ["<start_of_text>", "<end_of_text>"];
+/// open_clip's special tokens (the merges file's); a Hugging Face `tokenizer.json` names them
+/// `<|startoftext|>` and `<|endoftext|>`.
+pub const OPEN_CLIP_SPECIALS: [&str; 2] = ["<start_of_text>", "<end_of_text>"];
 /// The contractions after the apostrophe, in the pattern's order.
 const CONTRACTIONS: [&str; 7] = ["s", "t", "re", "ve", "m", "ll", "d"];
 
-/// The pre-tokens of `text`, in order.
-pub fn pretokens(text: &str) -> Vec<&str> {
+/// The pre-tokens of `text`, in order; `specials` (ASCII, e.g. [`OPEN_CLIP_SPECIALS`]) are the
+/// pattern's first alternatives.
+pub fn pretokens<'t>(text: &'t str, specials: &[&str]) -> Vec<&'t str> {
     let mut out = Vec::new();
     let mut at = 0;
     while let Some(c) = text[at..].chars().next() {
         let rest = &text[at..];
-        let len = if let Some(n) = SPECIALS.iter().find_map(|s| folded_prefix(rest, s)) {
+        let len = if let Some(n) = specials.iter().find_map(|s| folded_prefix(rest, s)) {
             n
         } else if let Some(n) = contraction(rest) {
             n
@@ -83,7 +88,11 @@ fn fold(c: char) -> char {
 
 #[cfg(test)]
 mod tests {
-    use super::pretokens;
+    use super::OPEN_CLIP_SPECIALS;
+
+    fn pretokens(text: &str) -> Vec<&str> {
+        super::pretokens(text, &OPEN_CLIP_SPECIALS)
+    }
 
     #[test]
     fn splits_as_the_pattern_does() {
@@ -98,6 +107,11 @@ mod tests {
         assert_eq!(pretokens("<START_OF_TEXT>"), ["<START_OF_TEXT>"]);
         assert_eq!(pretokens("'ſ x"), ["'ſ", "x"]);
         assert_eq!(pretokens("  \t\n "), Vec::<&str>::new());
+        let hf = ["<|startoftext|>", "<|endoftext|>"];
+        assert_eq!(
+            super::pretokens("<|startoftext|>hi<start_of_text>", &hf),
+            ["<|startoftext|>", "hi", "<", "start", "_", "of", "_", "text", ">"]
+        );
     }
 
     #[test]

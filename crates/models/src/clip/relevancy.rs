@@ -12,8 +12,10 @@
 //! multiplies the cosines by 10 before it ([`LERF_SCALE`], a temperature of 0.1). A relevancy above 0.5
 //! means the object is closer to the query than to every canonical phrase.
 //!
-//! Objects are ranked by relevancy, highest first; equal relevancies by id, lowest first. The
-//! arithmetic is sequential, so the ranking does not depend on the thread count.
+//! Objects are ranked by relevancy, highest first (by the margin under the σ, so relevancies that
+//! round to the same `f32` near 1 keep their order); equal margins by id, lowest first. The
+//! arithmetic is sequential, so the ranking does not depend on the thread count. [`best_names`]
+//! scores a list of names the same way and gives each object the name it is most relevant to.
 
 use crate::error::{ModelsError, ModelsResult};
 
@@ -67,6 +69,11 @@ impl<'a> Embeddings<'a> {
 /// The `top_k` objects most relevant to `query` (`[E]`), `objects` being `[N, E]` with `ids` `[N]`
 /// and `negatives` `[M, E]` (M ≥ 1, the canonical phrases' embeddings); `scale` as [`LERF_SCALE`].
 /// Inputs need not be normalised; a zero or non-finite vector is an error.
+///
+/// Ranked by relevancy, highest first. As `min_j σ(s·(c − n_j)) = σ(s·min_j (c − n_j))`, the order is
+/// that of the margin `min_j (φ·q − φ·n_j)`, computed in `f64`: relevancies that round to the same
+/// `f32` (σ saturates at 1 for margins above ≈ 1.7) keep the order of their margins; equal margins go
+/// by id, lowest first.
 pub fn rank_objects(
     ids: &[u32],
     objects: Embeddings,
@@ -75,48 +82,135 @@ pub fn rank_objects(
     scale: f32,
     top_k: usize,
 ) -> ModelsResult<Vec<RankedObject>> {
-    let dim = objects.dim;
-    if ids.len() != objects.rows() {
-        return Err(ModelsError::Input(format!(
-            "{} ids for {} object embeddings",
-            ids.len(),
-            objects.rows()
-        )));
-    }
-    if query.len() != dim || negatives.dim != dim {
-        return Err(ModelsError::Input(format!(
-            "embedding widths differ: objects {dim}, query {}, negatives {}",
-            query.len(),
-            negatives.dim
-        )));
-    }
-    if negatives.rows() == 0 {
-        return Err(ModelsError::Input("relevancy needs at least one negative phrase".into()));
-    }
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(ModelsError::Input(format!("the softmax scale must be positive, got {scale}")));
-    }
-    let query = normalised(query, "the query")?;
-    let negatives: Vec<Vec<f32>> = (0..negatives.rows())
-        .map(|j| normalised(negatives.row(j), &format!("negative phrase {j}")))
-        .collect::<ModelsResult<_>>()?;
-    let mut ranked = Vec::with_capacity(ids.len());
+    let scorer = Scorer::new(ids, objects, negatives, scale)?;
+    let query = scorer.query(query, "the query")?;
+    let mut scored = Vec::with_capacity(ids.len());
     for (i, &id) in ids.iter().enumerate() {
-        let object = normalised(objects.row(i), &format!("object {id}"))?;
-        let cosine = dot(&object, &query);
-        let relevancy = negatives
-            .iter()
-            .map(|negative| logistic(scale * (cosine - dot(&object, negative))))
-            .fold(f32::INFINITY, f32::min);
-        ranked.push(RankedObject { id, relevancy, cosine });
+        let object = scorer.object(i)?;
+        let (margin, cosine) = scorer.margin(&object, &query);
+        scored
+            .push((margin, RankedObject { id, relevancy: scorer.relevancy(margin), cosine: cosine as f32 }));
     }
-    ranked.sort_by(|a, b| b.relevancy.total_cmp(&a.relevancy).then(a.id.cmp(&b.id)));
-    ranked.truncate(top_k);
-    Ok(ranked)
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.id.cmp(&b.1.id)));
+    Ok(scored.into_iter().take(top_k).map(|(_, r)| r).collect())
+}
+
+/// One object's best name among a list (see [`best_names`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NamedObject {
+    /// The object's id.
+    pub id: u32,
+    /// Index of its best name in the list.
+    pub name: usize,
+    /// Its relevancy to that name, in (0, 1).
+    pub relevancy: f32,
+}
+
+/// For every object (`objects` `[N, E]`, `ids` `[N]`), the name it is most relevant to, each of
+/// `names` (`[K, E]`, K ≥ 1, the names' text embeddings) scored as [`rank_objects`] scores a query
+/// against `negatives` (`[M, E]`): the largest margin wins, the first name in the list on equal
+/// margins. In the objects' order.
+pub fn best_names(
+    ids: &[u32],
+    objects: Embeddings,
+    names: Embeddings,
+    negatives: Embeddings,
+    scale: f32,
+) -> ModelsResult<Vec<NamedObject>> {
+    let scorer = Scorer::new(ids, objects, negatives, scale)?;
+    if names.dim != objects.dim || names.rows() == 0 {
+        return Err(ModelsError::Input(format!(
+            "{} names of width {} for objects of width {}: at least one name of the objects' width is needed",
+            names.rows(),
+            names.dim,
+            objects.dim
+        )));
+    }
+    let names: Vec<Vec<f32>> = (0..names.rows())
+        .map(|k| scorer.query(names.row(k), &format!("name {k}")))
+        .collect::<ModelsResult<_>>()?;
+    let mut named = Vec::with_capacity(ids.len());
+    for (i, &id) in ids.iter().enumerate() {
+        let object = scorer.object(i)?;
+        let mut best = (0, f64::NEG_INFINITY);
+        for (k, name) in names.iter().enumerate() {
+            let (margin, _) = scorer.margin(&object, name);
+            if margin > best.1 {
+                best = (k, margin);
+            }
+        }
+        named.push(NamedObject { id, name: best.0, relevancy: scorer.relevancy(best.1) });
+    }
+    Ok(named)
+}
+
+/// The checked inputs shared by [`rank_objects`] and [`best_names`], with the negatives normalised.
+struct Scorer<'a> {
+    ids: &'a [u32],
+    objects: Embeddings<'a>,
+    negatives: Vec<Vec<f32>>,
+    scale: f32,
+}
+
+impl<'a> Scorer<'a> {
+    fn new(ids: &'a [u32], objects: Embeddings<'a>, negatives: Embeddings, scale: f32) -> ModelsResult<Self> {
+        if ids.len() != objects.rows() {
+            return Err(ModelsError::Input(format!(
+                "{} ids for {} object embeddings",
+                ids.len(),
+                objects.rows()
+            )));
+        }
+        if negatives.dim != objects.dim {
+            return Err(ModelsError::Input(format!(
+                "embedding widths differ: objects {}, negatives {}",
+                objects.dim, negatives.dim
+            )));
+        }
+        if negatives.rows() == 0 {
+            return Err(ModelsError::Input("relevancy needs at least one negative phrase".into()));
+        }
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(ModelsError::Input(format!("the softmax scale must be positive, got {scale}")));
+        }
+        let negatives = (0..negatives.rows())
+            .map(|j| normalised(negatives.row(j), &format!("negative phrase {j}")))
+            .collect::<ModelsResult<_>>()?;
+        Ok(Self { ids, objects, negatives, scale })
+    }
+
+    /// A text embedding `[E]` checked against the objects' width and normalised.
+    fn query(&self, query: &[f32], what: &str) -> ModelsResult<Vec<f32>> {
+        if query.len() != self.objects.dim {
+            return Err(ModelsError::Input(format!(
+                "embedding widths differ: objects {}, {what} {}",
+                self.objects.dim,
+                query.len()
+            )));
+        }
+        normalised(query, what)
+    }
+
+    /// Object `i`, normalised.
+    fn object(&self, i: usize) -> ModelsResult<Vec<f32>> {
+        normalised(self.objects.row(i), &format!("object {}", self.ids[i]))
+    }
+
+    /// `(min_j (φ·q − φ·n_j), φ·q)` of a normalised object and query.
+    fn margin(&self, object: &[f32], query: &[f32]) -> (f64, f64) {
+        let cosine = dot(object, query);
+        let margin = self.negatives.iter().map(|n| cosine - dot(object, n)).fold(f64::INFINITY, f64::min);
+        (margin, cosine)
+    }
+
+    /// `σ(s · margin)`.
+    fn relevancy(&self, margin: f64) -> f32 {
+        logistic(f64::from(self.scale) * margin) as f32
+    }
 }
 
 /// `1 / (1 + e^{−x})` = `e^x / (e^x + 1)`, without overflow for large |x|.
-fn logistic(x: f32) -> f32 {
+fn logistic(x: f64) -> f64 {
     if x >= 0.0 {
         1.0 / (1.0 + (-x).exp())
     } else {
@@ -125,8 +219,8 @@ fn logistic(x: f32) -> f32 {
     }
 }
 
-fn dot(a: &[f32], b: &[f32]) -> f32 {
-    a.iter().zip(b).map(|(x, y)| f64::from(*x) * f64::from(*y)).sum::<f64>() as f32
+fn dot(a: &[f32], b: &[f32]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| f64::from(*x) * f64::from(*y)).sum::<f64>()
 }
 
 fn normalised(v: &[f32], what: &str) -> ModelsResult<Vec<f32>> {
@@ -227,6 +321,98 @@ mod tests {
         let top2 = rank(&[9, 1, 4, 7], &[axis(1), axis(1), axis(1), axis(1)], &axis(0), &[axis(2)], 2);
         assert_eq!(top2.iter().map(|r| r.id).collect::<Vec<_>>(), vec![1, 4]);
         assert!(rank(&[9], &[axis(0)], &axis(0), &[axis(2)], 0).is_empty());
+    }
+
+    #[test]
+    fn saturated_relevancies_keep_the_order_of_their_margins() {
+        // the query e0 against the negative −e0: margin = 2·cos. Object 7 along the query (margin 2)
+        // and object 5 at cos 0.95 (margin 1.9): σ(20) and σ(19) both round to 1.0 in f32, yet 7
+        // ranks first; equal margins go to the lower id
+        let minus = vec![-1.0, 0.0, 0.0, 0.0];
+        let c = (1.0f32 - 0.95 * 0.95).sqrt();
+        let ranked =
+            rank(&[5, 7], &[vec![0.95, c, 0.0, 0.0], axis(0)], &axis(0), std::slice::from_ref(&minus), 2);
+        assert_eq!(ranked.iter().map(|r| r.relevancy).collect::<Vec<_>>(), vec![1.0, 1.0], "{ranked:?}");
+        assert_eq!(ranked.iter().map(|r| r.id).collect::<Vec<_>>(), vec![7, 5], "{ranked:?}");
+        let tied = rank(&[9, 3], &[axis(0), axis(0)], &axis(0), &[minus], 2);
+        assert_eq!(tied.iter().map(|r| r.id).collect::<Vec<_>>(), vec![3, 9]);
+    }
+
+    #[test]
+    fn top_k_is_a_prefix_of_the_whole_ranking() {
+        let objects: Vec<Vec<f32>> = (0..9)
+            .map(|i| {
+                let t = i as f32 * 0.7;
+                vec![t.cos(), t.sin(), 0.3 * (i % 3) as f32, 0.2]
+            })
+            .collect();
+        let ids: Vec<u32> = (0..9).map(|i| 100 - 3 * i).collect();
+        let all = rank(&ids, &objects, &axis(0), &[axis(2), axis(3)], usize::MAX);
+        assert_eq!(all.len(), 9);
+        for k in 0..=10 {
+            assert_eq!(rank(&ids, &objects, &axis(0), &[axis(2), axis(3)], k), all[..k.min(9)], "k = {k}");
+        }
+        // and the order of the input rows does not matter
+        let mut rows: Vec<(u32, Vec<f32>)> = ids.iter().copied().zip(objects.clone()).collect();
+        rows.reverse();
+        let (rev_ids, rev_objects): (Vec<u32>, Vec<Vec<f32>>) = rows.into_iter().unzip();
+        assert_eq!(rank(&rev_ids, &rev_objects, &axis(0), &[axis(2), axis(3)], usize::MAX), all);
+    }
+
+    fn names(
+        ids: &[u32],
+        objects: &[Vec<f32>],
+        names: &[Vec<f32>],
+        negatives: &[Vec<f32>],
+    ) -> Vec<NamedObject> {
+        let (flat, text, negs) = (objects.concat(), names.concat(), negatives.concat());
+        best_names(
+            ids,
+            Embeddings::new(&flat, 4, "objects").unwrap(),
+            Embeddings::new(&text, 4, "names").unwrap(),
+            Embeddings::new(&negs, 4, "negatives").unwrap(),
+            LERF_SCALE,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn each_object_gets_the_name_it_is_most_relevant_to() {
+        // names: e0 "mug", e1 "chair", (e0 + e3)/√2 "cup"; negative e2
+        let s = 0.5f32.sqrt();
+        let list = vec![axis(0), axis(1), vec![s, 0.0, 0.0, s]];
+        let objects = vec![axis(1), vec![0.6, 0.0, 0.0, 0.8], axis(0), vec![0.0, 0.0, 1.0, 0.0]];
+        let named = names(&[4, 8, 15, 16], &objects, &list, &[axis(2)]);
+        assert_eq!(
+            named.iter().map(|n| (n.id, n.name)).collect::<Vec<_>>(),
+            vec![(4, 1), (8, 2), (15, 0), (16, 0)]
+        );
+        // object 8: cos(cup) = (0.6 + 0.8)/√2 = 0.99, cos(e2) = 0 → σ(9.9)
+        assert!((named[1].relevancy - sigmoid(10.0 * 1.4 / 2f64.sqrt())).abs() < 1e-6, "{named:?}");
+        // object 16 lies on the negative: every name has margin −1, the first name wins the tie
+        assert!((named[3].relevancy - sigmoid(-10.0)).abs() < 1e-6);
+        // each relevancy is the highest that the names, as queries, give the object
+        for (i, n) in named.iter().enumerate() {
+            let one = std::slice::from_ref(&objects[i]);
+            let best =
+                list.iter().map(|q| rank(&[n.id], one, q, &[axis(2)], 1)[0].relevancy).fold(0.0, f32::max);
+            assert_eq!(n.relevancy, best, "{n:?}");
+        }
+    }
+
+    #[test]
+    fn names_need_at_least_one_name_of_the_right_width() {
+        let objects = [1.0, 0.0, 0.0, 0.0];
+        let negs = [0.0, 0.0, 1.0, 0.0];
+        let o = Embeddings::new(&objects, 4, "objects").unwrap();
+        let n = Embeddings::new(&negs, 4, "negatives").unwrap();
+        let none = Embeddings::new(&[], 4, "names").unwrap();
+        let err = best_names(&[1], o, none, n, LERF_SCALE).unwrap_err().to_string();
+        assert!(err.contains("at least one name"), "{err}");
+        let narrow = Embeddings::new(&[1.0, 0.0], 2, "names").unwrap();
+        assert!(best_names(&[1], o, narrow, n, LERF_SCALE).is_err());
+        let zero = Embeddings::new(&[0.0; 4], 4, "names").unwrap();
+        assert!(best_names(&[1], o, zero, n, LERF_SCALE).unwrap_err().to_string().contains("name 0"));
     }
 
     #[test]

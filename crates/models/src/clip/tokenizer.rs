@@ -1,5 +1,12 @@
-//! CLIP's byte-level BPE tokenizer (Radford et al. 2021), read from the merges file a checkpoint comes
-//! with (`bpe_simple_vocab_16e6.txt.gz`, gzipped or plain).
+//! CLIP's byte-level BPE tokenizer (Radford et al. 2021), read from the vocabulary file a checkpoint
+//! comes with: OpenAI's and open_clip's merges file (`bpe_simple_vocab_16e6.txt.gz`, gzipped or plain),
+//! or a Hugging Face `tokenizer.json` (a `BPE` model with `vocab`, `merges` as `"a b"` strings or
+//! `["a", "b"]` pairs, `end_of_word_suffix` `</w>`, specials `<|startoftext|>` and `<|endoftext|>`), as
+//! the hub's CLIP repositories (OpenAI's and open_clip's) hold beside the weights. The file gives the
+//! ids and the merges; the text is cleaned and split as CLIP's own tokenizer does whichever file it is
+//! (Hugging Face's fast tokenizer only approximates the cleaning: NFC, whitespace and lower case, no
+//! ftfy fixes, so on text those fixes change, e.g. curly quotes or ligatures, its ids differ from the
+//! reference's and ours).
 //!
 //! The format's facts, as OpenAI's and open_clip's tokenizers define them:
 //! - every UTF-8 byte is a character: the printable Latin-1 bytes (`!`..`~`, `¡`..`¬`, `®`..`ÿ`) stand
@@ -19,15 +26,15 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::clean;
-use super::pretokens::pretokens;
+use super::pretokens::{pretokens, OPEN_CLIP_SPECIALS};
 use crate::error::{ModelsError, ModelsResult};
 
 /// Merge lines OpenAI's tokenizer reads (`49152 - 256 - 2`).
 pub const MAX_MERGES: usize = 48_894;
 /// The context length of every released CLIP.
 pub const CONTEXT_LENGTH: usize = 77;
-const START: &str = "<start_of_text>";
-const END: &str = "<end_of_text>";
+/// The special tokens of a Hugging Face `tokenizer.json` for CLIP.
+pub const HF_SPECIALS: [&str; 2] = ["<|startoftext|>", "<|endoftext|>"];
 
 /// A CLIP tokenizer.
 #[derive(Debug, Clone)]
@@ -40,11 +47,14 @@ pub struct ClipTokenizer {
     byte_chars: [char; 256],
     start: u32,
     end: u32,
+    /// The text of the start and end tokens (the file's: [`OPEN_CLIP_SPECIALS`] or [`HF_SPECIALS`]).
+    specials: [&'static str; 2],
     path: PathBuf,
 }
 
 impl ClipTokenizer {
-    /// Reads a merges file (gzip by its magic bytes, else plain UTF-8 text).
+    /// Reads a merges file (gzip by its magic bytes, else plain UTF-8 text) or a Hugging Face
+    /// `tokenizer.json` (UTF-8 text starting with `{`).
     pub fn load(path: &Path) -> ModelsResult<Self> {
         let error = |reason: String| ModelsError::Tokenizer { reason, path: path.to_path_buf() };
         let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
@@ -57,6 +67,9 @@ impl ClipTokenizer {
         } else {
             String::from_utf8(bytes).map_err(|_| error("not UTF-8 text".into()))?
         };
+        if text.trim_start().starts_with('{') {
+            return Self::from_tokenizer_json(&text, path);
+        }
         Self::from_merges_text(&text, path)
     }
 
@@ -90,19 +103,91 @@ impl ClipTokenizer {
                 "it holds no merges (a header line, then one `left right` pair per line)".into(),
             ));
         }
-        vocab.push(START.into());
-        vocab.push(END.into());
+        let [start, end] = OPEN_CLIP_SPECIALS;
+        vocab.push(start.into());
+        vocab.push(end.into());
         let mut ids = HashMap::with_capacity(vocab.len());
         for (id, token) in vocab.into_iter().enumerate() {
             // a later duplicate takes the id, as in the reference's dictionary
             ids.insert(token, id as u32);
         }
-        let start = ids[START];
-        let end = ids[END];
-        Ok(Self { ids, ranks, byte_chars, start, end, path: path.to_path_buf() })
+        let (start, end) = (ids[start], ids[end]);
+        let specials = OPEN_CLIP_SPECIALS;
+        Ok(Self { ids, ranks, byte_chars, start, end, specials, path: path.to_path_buf() })
     }
 
-    /// Vocabulary size (49,408 for OpenAI's file).
+    /// Builds the tokenizer from a Hugging Face `tokenizer.json`'s text: `model.vocab` (token → id),
+    /// `model.merges` (in rank order, `"left right"` or `["left", "right"]`), the specials from
+    /// `added_tokens` or the vocabulary (`path` is only used in messages).
+    pub fn from_tokenizer_json(text: &str, path: &Path) -> ModelsResult<Self> {
+        let error = |reason: String| ModelsError::Tokenizer { reason, path: path.to_path_buf() };
+        let doc: serde_json::Value = serde_json::from_str(text).map_err(|e| {
+            error(format!("not a JSON tokenizer file ({e}); expected a Hugging Face tokenizer.json"))
+        })?;
+        let model = &doc["model"];
+        if model["type"].as_str().is_some_and(|t| t != "BPE") {
+            return Err(error(format!("its model is `{}`, expected CLIP's byte-level `BPE`", model["type"])));
+        }
+        match model["end_of_word_suffix"].as_str() {
+            Some("</w>") => {}
+            other => {
+                return Err(error(format!(
+                "its BPE model's end_of_word_suffix is {other:?}, expected \"</w>\" (not a CLIP tokenizer?)"
+            )))
+            }
+        }
+        let vocab =
+            model["vocab"].as_object().ok_or_else(|| error("it has no `model.vocab` object".into()))?;
+        let mut ids = HashMap::with_capacity(vocab.len() + 2);
+        for (token, id) in vocab {
+            let id = id.as_u64().and_then(|id| u32::try_from(id).ok()).ok_or_else(|| {
+                error(format!("the id of `{token}` in `model.vocab` is {id}, expected a whole number"))
+            })?;
+            ids.insert(token.clone(), id);
+        }
+        let merges =
+            model["merges"].as_array().ok_or_else(|| error("it has no `model.merges` list".into()))?;
+        let mut ranks = HashMap::with_capacity(merges.len());
+        for (rank, merge) in merges.iter().enumerate() {
+            let pair = match merge {
+                serde_json::Value::String(line) => {
+                    line.split_once(' ').map(|(a, b)| (a.to_string(), b.to_string()))
+                }
+                serde_json::Value::Array(pair) => match pair.as_slice() {
+                    [serde_json::Value::String(a), serde_json::Value::String(b)] => {
+                        Some((a.clone(), b.clone()))
+                    }
+                    _ => None,
+                },
+                _ => None,
+            };
+            let pair = pair.filter(|(a, b)| !a.is_empty() && !b.is_empty()).ok_or_else(|| {
+                error(format!("merge {rank} is {merge}, expected \"left right\" or [\"left\", \"right\"]"))
+            })?;
+            // a later duplicate takes the rank, as in the references' maps of ranks
+            ranks.insert(pair, rank);
+        }
+        if ranks.is_empty() {
+            return Err(error("its `model.merges` list is empty".into()));
+        }
+        for added in doc["added_tokens"].as_array().into_iter().flatten() {
+            if let (Some(content), Some(id)) = (added["content"].as_str(), added["id"].as_u64()) {
+                if HF_SPECIALS.contains(&content) {
+                    ids.insert(content.to_string(), id as u32);
+                }
+            }
+        }
+        let special = |name: &str| {
+            ids.get(name)
+                .copied()
+                .ok_or_else(|| error(format!("it has no `{name}` token (not a CLIP tokenizer?)")))
+        };
+        let (start, end) = (special(HF_SPECIALS[0])?, special(HF_SPECIALS[1])?);
+        let byte_chars = byte_characters();
+        Ok(Self { ids, ranks, byte_chars, start, end, specials: HF_SPECIALS, path: path.to_path_buf() })
+    }
+
+    /// Vocabulary size (49,408 for OpenAI's file): one more than the largest id.
     pub fn vocab_size(&self) -> usize {
         self.ids.values().map(|&id| id as usize + 1).max().unwrap_or(0)
     }
@@ -121,9 +206,9 @@ impl ClipTokenizer {
     pub fn encode(&self, text: &str) -> ModelsResult<Vec<u32>> {
         let cleaned = clean::clean_lower(text);
         let mut out = Vec::new();
-        for piece in pretokens(&cleaned) {
-            if piece == START || piece == END {
-                out.push(if piece == START { self.start } else { self.end });
+        for piece in pretokens(&cleaned, &self.specials) {
+            if piece == self.specials[0] || piece == self.specials[1] {
+                out.push(if piece == self.specials[0] { self.start } else { self.end });
                 continue;
             }
             let chars: String = piece.bytes().map(|b| self.byte_chars[b as usize]).collect();

@@ -24,11 +24,6 @@ pub struct DemoArgs {
     /// the rest the joint optimisation of object features seeded by the lifted ids.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 300))]
     pub train_iterations: usize,
-    /// Instead of the train stage, compare its joint optimisation with the 3D terms only and with the
-    /// 3D terms plus the 2D identity maps (every read-back) against the ground truth, as one table
-    /// (trains twice; `BENCHMARKS.md` records it over several seeds).
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub identity_study: bool,
 }
 
 impl DemoArgs {
@@ -40,8 +35,15 @@ impl DemoArgs {
             views: 12,
             size: (320, 240),
             train_iterations: self.train_iterations,
-            identity_study: self.identity_study,
+            identity_study: false,
             options,
         }
     }
+}
+
+/// The identity study of `splatseg bench identity` on the demo's scene of `seed` (12 views of
+/// 320×240, 300 iterations, as the demo trains), into `out`: the joint stage with the 3D terms only
+/// against the 3D terms plus the 2D identity maps, every read-back, against the ground truth.
+pub fn identity_study_request(seed: u64, out: PathBuf, options: RunOptions) -> DemoRequest {
+    DemoArgs { out, seed, train_iterations: 300 }.request(options).with_identity_study()
 }

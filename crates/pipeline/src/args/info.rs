@@ -16,11 +16,14 @@ Per-view inputs are matched by image stem: IMG_0001.jpg <-> sam/IMG_0001.json, \
 features/IMG_0001.npy, depth/IMG_0001.npy. Folders named sam, masks, features and depth inside \
 PATH are checked automatically.
 
-Exits with an error when an image cannot be loaded at its camera's size.
+Images are checked at full resolution against their cameras, and the down-scaled copies that \
+3DGS's --resolution 2, 4 or 8 reads (images_2/, images_4/, images_8/ beside images/), when there \
+are any, against the cameras down-scaled as much. Exits with an error when an image cannot be \
+loaded at its camera's size.
 
 Examples:
   splatseg info data/garden
-  splatseg info data/garden --resolution 4 --gaussians output/point_cloud.ply --masks sam_out
+  splatseg info data/garden --gaussians output/point_cloud.ply --masks sam_out
   splatseg info data/lego --json";
 
 /// Show what a scene folder holds: format, cameras, views, missing or mis-sized images, sparse
@@ -37,23 +40,20 @@ pub struct InfoArgs {
     /// Folder of per-view SAM masks (`<stem>.json`, or `<stem>/metadata.csv` PNG folders).
     #[cfg_attr(feature = "cli", arg(long))]
     pub masks: Option<PathBuf>,
-    /// Image down-scaling factor as 3DGS's `--resolution` (1, 2, 4 or 8): cameras are scaled and
-    /// `images_<f>/` is used when present.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1))]
-    pub resolution: u32,
     /// Print the report as JSON on stdout (warnings included) instead of text.
     #[cfg_attr(feature = "cli", arg(long))]
     pub json: bool,
 }
 
 impl InfoArgs {
-    /// What to inspect (Blender scenes: the train split, as `run`).
+    /// What to inspect (at full resolution, with every down-scaled copy found; Blender scenes: the
+    /// train split, as `run`).
     pub fn request(&self, strict: bool) -> InfoRequest {
         InfoRequest {
             path: self.path.clone(),
             gaussians: self.gaussians.clone(),
             masks: self.masks.clone(),
-            resolution: self.resolution,
+            resolution: 1,
             split: "train".into(),
             strict,
         }

@@ -8,10 +8,10 @@ mod merge;
 mod render;
 mod train;
 
-pub use demo::DemoArgs;
+pub use demo::{identity_study_request, DemoArgs};
 pub use info::{InfoArgs, INFO_LONG_ABOUT};
 pub use merge::{DepthMeaning, MergeArgs};
-pub use render::{parse_rgb, RenderArgs, What};
+pub use render::{RenderArgs, What};
 pub use train::TrainArgs;
 
 use crate::PipelineConfig;

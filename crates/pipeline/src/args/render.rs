@@ -1,4 +1,4 @@
-//! `splatseg render`'s arguments and the parser of `--background`.
+//! `splatseg render`'s arguments.
 
 use crate::render_views::RenderViews;
 use crate::RunOptions;
@@ -23,7 +23,9 @@ pub enum What {
 
 /// Render every camera of a scene from its Gaussians (CPU rasteriser, gsplat's math).
 ///
-/// Lens distortion is ignored (the views are rendered as pinholes with the same intrinsics).
+/// Lens distortion is ignored (the views are rendered as pinholes with the same intrinsics). Colour
+/// is rendered over black, as 3DGS's render.py does by default; `--what alpha` writes the accumulated
+/// opacity to composite the RGB over any other background.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct RenderArgs {
@@ -44,9 +46,6 @@ pub struct RenderArgs {
     /// Image down-scaling factor, as 3DGS's `--resolution` (1, 2, 4 or 8).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 1))]
     pub resolution: u32,
-    /// Background colour R,G,B in [0, 1] (e.g. `1,1,1` for white).
-    #[cfg_attr(feature = "cli", arg(long, default_value = "0,0,0", value_parser = parse_rgb))]
-    pub background: [f32; 3],
 }
 
 impl RenderArgs {
@@ -58,7 +57,7 @@ impl RenderArgs {
             depth: want(What::Depth),
             alpha: want(What::Alpha),
             max_weight_ids: want(What::Ids),
-            background: self.background,
+            background: [0.0; 3],
             ..RenderRequest::default()
         };
         RenderViews {
@@ -72,18 +71,6 @@ impl RenderArgs {
     }
 }
 
-/// Parses `R,G,B` with each channel in [0, 1].
-pub fn parse_rgb(text: &str) -> Result<[f32; 3], String> {
-    let values: Vec<f32> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f32>().map_err(|_| format!("`{v}` is not a number")))
-        .collect::<Result<_, _>>()?;
-    match values[..] {
-        [r, g, b] if values.iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
-        _ => Err(format!("expected R,G,B with each channel in [0, 1], got `{text}`")),
-    }
-}
-
 impl RenderArgs {
     /// Refuses an --out (a folder of `<stem>_<what>.png` files) equal to SCENE or the PLY, or
     /// holding either, before anything is read.
@@ -93,18 +80,5 @@ impl RenderArgs {
             &[Role::folder("SCENE", &self.scene), Role::file("--gaussians", &self.gaussians)],
             &[Role::tree("--out", &self.out)],
         )
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_background_is_three_channels_in_zero_to_one() {
-        assert_eq!(parse_rgb("1,0.5, 0"), Ok([1.0, 0.5, 0.0]));
-        assert!(parse_rgb("1,1").is_err());
-        assert!(parse_rgb("2,0,0").is_err());
-        assert!(parse_rgb("a,0,0").unwrap_err().contains("`a` is not a number"));
     }
 }

@@ -43,7 +43,7 @@ class RunResult:
             the same ids in every view; equal to ``OUT/masks/<stem>.png``.
         object_ids: ``int32[N]`` object id of every row of the input PLY (-1 = unreliable), as
             ``OUT/gaussians.ply``'s ``object_id``; ``None`` when the run had no Gaussians.
-        objects: one dict per object, as ``splatseg objects OUT/gaussians.ply --masks OUT/masks
+        objects: one dict per object, as ``splatseg objects OUT/gaussians.ply
             --json`` lists them: ``id``, ``gaussian_count``, ``bbox_min`` and ``bbox_max``
             (``[x, y, z]`` of the centres), ``colour`` (``[r, g, b]``, the overlays' colour),
             ``views_seen`` (label maps showing it).
