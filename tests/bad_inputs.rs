@@ -463,7 +463,7 @@ fn cases() -> Vec<Case> {
             name: "Gaussians that reconstruct nothing the views show",
             damage: gaussians_elsewhere,
             args: RUN,
-            expect: Expect::Warning(&["the final label maps label", "reconstruct the scene poorly"]),
+            expect: Expect::Warning(&["the Gaussians label", "reconstruct the scene poorly"]),
         },
         Case {
             name: "a PLY without Gaussians",

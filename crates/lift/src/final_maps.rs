@@ -120,6 +120,9 @@ pub struct LiftOutput {
     pub maps: Vec<RunLengths>,
     /// `new_of_old[id]`: final id of an id of `maps` (0 for the dropped specks).
     pub new_of_old: Vec<u32>,
+    /// Pixels over all views the Gaussians left without an id that took their merged region's
+    /// matched object (step 6): the rest of the labelled pixels are the Gaussians' own.
+    pub filled_px: u64,
 }
 
 impl LiftOutput {
@@ -159,12 +162,12 @@ impl LiftStage<'_> {
             })
             .collect::<Result<_, S::Error>>()?;
         let (snapped, left): (Vec<SnappedRuns>, Vec<LeftEmpty>) = snapped.into_iter().unzip();
-        let maps = fill_from_matches(give_unowned_ids_back(snapped), left);
+        let (maps, filled_px) = fill_from_matches(give_unowned_ids_back(snapped), left);
         let mean_view_px =
             maps.iter().map(|m| (m.width * m.height) as u64).sum::<u64>() / maps.len().max(1) as u64;
         let min_px = self.config.min_object_px_for(mean_view_px);
         let new_of_old = drop_specks_and_number(&maps, &mut lifted.object_ids, min_px);
-        Ok(LiftOutput { lifted, maps, new_of_old })
+        Ok(LiftOutput { lifted, maps, new_of_old, filled_px })
     }
 
     /// The views with masks, in view order, with their label → global id tables.
@@ -372,8 +375,8 @@ impl LeftEmpty {
 /// over all views (ties: the smaller id) when that id covers at least as many of `g`'s pixels as
 /// are left empty (snapping's rule for a region), else `g` itself (an object the Gaussians do
 /// not hold, or only a neighbour's bleed covers: kept, not lost). One table for all views, so
-/// the fill is the same object in every view. Returns the final maps.
-fn fill_from_matches(maps: Vec<RunLengths>, left: Vec<LeftEmpty>) -> Vec<RunLengths> {
+/// the fill is the same object in every view. Returns the final maps and the pixels filled.
+fn fill_from_matches(maps: Vec<RunLengths>, left: Vec<LeftEmpty>) -> (Vec<RunLengths>, u64) {
     let mut labelled_as: BTreeMap<(u32, u32), u64> = BTreeMap::new();
     for l in &left {
         for (&key, &n) in &l.labelled_as {
@@ -421,7 +424,7 @@ fn fill_from_matches(maps: Vec<RunLengths>, left: Vec<LeftEmpty>) -> Vec<RunLeng
     tracing::info!(
         "{filled} pixels without an id from the Gaussians took their merged region's matched object"
     );
-    maps
+    (maps, filled)
 }
 
 #[cfg(test)]
@@ -446,13 +449,14 @@ mod tests {
         let v1 = (plane(vec![0, 8, 0, 0]), plane(vec![1, 1, 3, 0]));
         let left: Vec<LeftEmpty> = [&v0, &v1].iter().map(|(l, m)| LeftEmpty::new(l, m, &table)).collect();
         let maps = vec![RunLengths::encode(&v0.0), RunLengths::encode(&v1.0)];
-        let filled = fill_from_matches(maps, left);
+        let (filled, n) = fill_from_matches(maps, left);
+        assert_eq!(n, 5);
         assert_eq!(filled[0].decode(|id| id).data, vec![7, 7, 8, 7, 5, 6, 5, 30, 0]);
         assert_eq!(filled[1].decode(|id| id).data, vec![7, 8, 30, 0]);
         // Object 20 with a third empty pixel: its one labelled pixel of 5 is outnumbered.
         let v2 = (plane(vec![0, 0]), plane(vec![2, 2]));
         let left: Vec<LeftEmpty> = [&v0, &v2].iter().map(|(l, m)| LeftEmpty::new(l, m, &table)).collect();
-        let filled = fill_from_matches(vec![RunLengths::encode(&v0.0), RunLengths::encode(&v2.0)], left);
+        let (filled, _) = fill_from_matches(vec![RunLengths::encode(&v0.0), RunLengths::encode(&v2.0)], left);
         assert_eq!(filled[0].decode(|id| id).data, vec![7, 7, 8, 7, 5, 6, 20, 30, 0]);
         assert_eq!(filled[1].decode(|id| id).data, vec![20, 20]);
     }

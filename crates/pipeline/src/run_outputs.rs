@@ -38,23 +38,28 @@ pub struct Written {
     pub warnings: Vec<String>,
 }
 
-/// The final maps label less than this fraction of the pixels SAM's masks cover (over the views
-/// with masks): warned, as the Gaussians then say little about the scene (a poor or partial
-/// reconstruction; on a real capture with a failed reconstruction `run` labelled 0.26 % of the
-/// pixels and said nothing).
+/// The Gaussians label less than this fraction of the pixels SAM's masks cover (over the views
+/// with masks; the pixels the final maps take from the matched masks where the Gaussians say
+/// nothing not counted): warned, as the Gaussians then say little about the scene (a poor or
+/// partial reconstruction; on a real capture with a failed reconstruction `run` once labelled
+/// 0.26 % of the pixels and said nothing).
 const LOW_COVERAGE: f64 = 0.5;
 
-/// The warning when the final maps label much less than the masks cover: `labelled` and
-/// `masked` pixels summed over the views with masks, out of `pixels`.
-fn coverage_warning(labelled: usize, masked: usize, pixels: usize) -> Option<String> {
+/// The warning when the Gaussians label much less than the masks cover: `labelled` pixels of the
+/// final maps, of which `filled` took the matched masks' ids, and `masked` pixels, summed over the
+/// views with masks, out of `pixels`.
+fn coverage_warning(labelled: usize, filled: usize, masked: usize, pixels: usize) -> Option<String> {
     let share = |n: usize| 100.0 * n as f64 / pixels.max(1) as f64;
-    ((labelled as f64) < LOW_COVERAGE * masked as f64).then(|| {
+    let own = labelled.saturating_sub(filled);
+    ((own as f64) < LOW_COVERAGE * masked as f64).then(|| {
         format!(
-            "the final label maps label {:.1} % of the pixels of the views with masks, where SAM's masks \
-             cover {:.1} %: the Gaussians may reconstruct the scene poorly (check the PLY's held-out \
-             PSNR, e.g. with `splatseg train`)",
-            share(labelled),
-            share(masked)
+            "the Gaussians label {:.1} % of the pixels of the views with masks, where SAM's masks cover \
+             {:.1} % (the final label maps label {:.1} %, taking the matched masks' ids where the \
+             Gaussians say nothing): the Gaussians may reconstruct the scene poorly (check the PLY's \
+             held-out PSNR, e.g. with `splatseg train`)",
+            share(own),
+            share(masked),
+            share(labelled)
         )
     })
 }
@@ -167,7 +172,8 @@ pub fn write_outputs(
         .iter()
         .filter_map(|(_, _, c)| *c)
         .fold((0, 0, 0), |(a, b, c), (l, m, p)| (a + l, b + m, c + p));
-    let warnings: Vec<String> = coverage_warning(labelled, masked, pixels).into_iter().collect();
+    let filled = lifted.as_ref().map_or(0, |l| l.filled_px as usize);
+    let warnings: Vec<String> = coverage_warning(labelled, filled, masked, pixels).into_iter().collect();
     let report = match &inputs.gt {
         Some(gt) => {
             let counts: Vec<Vec<ViewCounts>> = per_view.into_iter().filter_map(|(_, c, _)| c).collect();
@@ -204,10 +210,11 @@ mod coverage_tests {
 
     #[test]
     fn final_maps_labelling_under_half_of_what_the_masks_cover_are_warned() {
-        assert!(coverage_warning(90, 100, 200).is_none());
-        assert!(coverage_warning(50, 100, 200).is_none());
-        let w = coverage_warning(1, 100, 400).expect("a warning");
+        assert!(coverage_warning(90, 0, 100, 200).is_none());
+        assert!(coverage_warning(50, 0, 100, 200).is_none());
+        assert!(coverage_warning(90, 41, 100, 200).is_some(), "filled pixels are not the Gaussians'");
+        let w = coverage_warning(1, 0, 100, 400).expect("a warning");
         assert!(w.contains("0.2 %") && w.contains("25.0 %"), "{w}");
-        assert!(coverage_warning(0, 0, 0).is_none(), "no masks: nothing promised");
+        assert!(coverage_warning(0, 0, 0, 0).is_none(), "no masks: nothing promised");
     }
 }
