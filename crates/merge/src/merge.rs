@@ -11,6 +11,7 @@ use crate::config::MergeConfig;
 use crate::error::{MergeError, MergeResultOf};
 use crate::graph::{build_edges, sorted_union, Edge, Junctions};
 use crate::score::{evaluate, BoundaryMaps, Outcome, RegionState, ScoreTerms, Scratch, SurfaceMaps};
+use crate::wholes::ViewWholes;
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{region_normal_at, DepthJumps, NormalWindow, RegionDescriptors, Regions};
 use splatseg_scene::Plane;
@@ -257,10 +258,30 @@ fn band_normals(points: &Plane<[f32; 3]>, labels: &Plane<u32>, edges: &[Edge]) -
     normals
 }
 
-/// Runs Multi-Cue-Guided Mask Merging on one view.
+/// Runs Multi-Cue-Guided Mask Merging on one view (without other views: no separate-wholes
+/// gate).
 pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<MergeResult> {
+    merge_view_with_wholes(inputs, config, None)
+}
+
+/// [`merge_view`] with the other views' SAM masks through the Gaussians (`wholes`, this view's
+/// handle): the separate-wholes gate ([`crate::wholes`]) is on when `config.separate_wholes`.
+pub fn merge_view_with_wholes(
+    inputs: &ViewInputs,
+    config: &MergeConfig,
+    wholes: Option<&ViewWholes<'_>>,
+) -> MergeResultOf<MergeResult> {
     config.validate()?;
     check_inputs(inputs)?;
+    if let Some(w) = wholes {
+        if w.size != inputs.regions.labels.size() {
+            return Err(MergeError::Inputs(format!(
+                "the other views' evidence is for a {:?} image but the label map is {:?}",
+                w.size,
+                inputs.regions.labels.size()
+            )));
+        }
+    }
     let n = inputs.regions.count();
     let labels = &inputs.regions.labels;
     let (built, junctions) = build_edges(labels, crate::config::DILATION_STEPS as usize);
@@ -318,7 +339,8 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
                 (r == a || r == b).then_some(r == a)
             }
         };
-        let (terms, outcome) = evaluate(config, (sa, sb), (&e.band, &boundary), side, &maps, &mut scratch);
+        let (terms, outcome) =
+            evaluate(config, (sa, sb), (&e.band, &boundary), side, &maps, wholes, &mut scratch);
         log.decisions.push(Decision { a, b, after_merges: log.merges, terms, outcome, merged: false });
         if outcome == Outcome::Accepted {
             heap.push(Candidate {

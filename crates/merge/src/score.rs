@@ -76,10 +76,19 @@
 //! depths (no depth gate: 13.7 masks/view, mIoU 0.964; normalised gate: 14.4 / 0.946). The
 //! default keeps the paper's gate.
 //!
+//!
+//! # Separate wholes
+//!
+//! The last gate (not in the paper; when the pipeline gives the other views' SAM masks through
+//! the Gaussians, [`crate::ViewWholes`]): a pair every other rule accepts is refused when other
+//! views' masks hold its two sides in different wholes and seldom in one
+//! ([`crate::wholes`] has the rule and why; [`ScoreTerms::wholes`] the counts).
+//!
 //! [`Literal`]: crate::Profile::Literal
 //! [`Paper`]: crate::Profile::Paper
 
 use crate::config::{BoundaryStatistic, DepthGapAt, MergeConfig, Profile, TAU_CONTACT, TAU_GAP_PX};
+use crate::wholes::{ViewWholes, WholesScratch};
 use serde::{Deserialize, Serialize};
 use splatseg_scene::Plane;
 
@@ -108,6 +117,10 @@ pub struct ScoreTerms {
     pub crease_deg: Option<f32>,
     /// The composite score `S`.
     pub score: f32,
+    /// Other views where SAM's masks hold both sides, and where they hold them apart in a whole
+    /// (`[together, apart]`, [`crate::wholes`]); taken only for a pair every other rule accepts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wholes: Option<[u32; 2]>,
 }
 
 /// What was decided for a pair.
@@ -126,6 +139,8 @@ pub enum Outcome {
     ConcaveCrease,
     /// `S ≤ τ_merge`.
     BelowThreshold,
+    /// Other views' SAM masks hold the two sides in different wholes ([`crate::wholes`]).
+    SeparateWholes,
 }
 
 /// What the scorer needs to know about one region.
@@ -274,6 +289,7 @@ pub(crate) struct Scratch {
     values: Vec<f32>,
     side_a: Vec<f32>,
     side_b: Vec<f32>,
+    wholes: WholesScratch,
 }
 
 impl Scratch {
@@ -306,12 +322,14 @@ impl Scratch {
 /// Scores the pair `(a, b)`. `band` is `dil(a) ∩ dil(b)` (contact ratio, the sides' depth
 /// medians); `boundary` the part of it where the LoG and `∇D` statistics are taken. `side(p)` tells
 /// which region a band pixel belongs to (`Some(true)` = a, `Some(false)` = b, `None` = neither).
+/// `wholes`: the other views' masks, when known.
 pub(crate) fn evaluate(
     config: &MergeConfig,
     (a, b): (&RegionState, &RegionState),
     (band, boundary): (&[u32], &[u32]),
     mut side: impl FnMut(u32) -> Option<bool>,
     maps: &BoundaryMaps<'_>,
+    wholes: Option<&ViewWholes<'_>>,
     scratch: &mut Scratch,
 ) -> (ScoreTerms, Outcome) {
     let cos = splatseg_cues::cosine(&a.descriptor_sum, &b.descriptor_sum);
@@ -346,7 +364,7 @@ pub(crate) fn evaluate(
         Some(_) => crease_deg(maps, band, &mut side),
         None => None,
     };
-    let terms = ScoreTerms {
+    let mut terms = ScoreTerms {
         cos,
         depth_gap,
         depth_affinity,
@@ -356,6 +374,7 @@ pub(crate) fn evaluate(
         bbox_gap_px,
         crease_deg,
         score,
+        wholes: None,
     };
     let outcome = if band.is_empty() || bbox_gap_px > TAU_GAP_PX || contact < TAU_CONTACT {
         Outcome::NotAdjacent
@@ -366,7 +385,18 @@ pub(crate) fn evaluate(
     } else if matches!((crease_deg, config.max_concave_crease_deg), (Some(c), Some(t)) if c < -t) {
         Outcome::ConcaveCrease
     } else if score > config.tau_merge {
-        Outcome::Accepted
+        match wholes.filter(|_| config.separate_wholes) {
+            Some(w) => {
+                let count = w.count(band, &mut side, &mut scratch.wholes);
+                terms.wholes = Some([count.together, count.apart]);
+                if count.separate() {
+                    Outcome::SeparateWholes
+                } else {
+                    Outcome::Accepted
+                }
+            }
+            None => Outcome::Accepted,
+        }
     } else {
         Outcome::BelowThreshold
     };
