@@ -117,10 +117,11 @@ pub struct ScoreTerms {
     pub crease_deg: Option<f32>,
     /// The composite score `S`.
     pub score: f32,
-    /// Other views where SAM's masks hold both sides, and where they hold them apart in a whole
-    /// (`[together, apart]`, [`crate::wholes`]); taken only for a pair every other rule accepts.
+    /// Other views where SAM's masks hold both sides, where they hold them apart in a whole, and
+    /// that see both sides (`[together, apart, seen]`, [`crate::wholes`]); taken only for a pair
+    /// every other rule accepts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub wholes: Option<[u32; 2]>,
+    pub wholes: Option<[u32; 3]>,
 }
 
 /// What was decided for a pair.
@@ -388,7 +389,7 @@ pub(crate) fn evaluate(
         match wholes.filter(|_| config.separate_wholes) {
             Some(w) => {
                 let count = w.count(band, &mut side, &mut scratch.wholes);
-                terms.wholes = Some([count.together, count.apart]);
+                terms.wholes = Some([count.together, count.apart, count.seen]);
                 if count.separate() {
                     Outcome::SeparateWholes
                 } else {

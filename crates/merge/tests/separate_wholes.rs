@@ -108,34 +108,44 @@ fn sides_other_views_hold_in_different_wholes_stay_apart() {
     assert_eq!(regions, 3, "two objects and the background");
     assert!(pair.iter().all(|d| !d.merged));
     assert_eq!(pair[0].outcome, Outcome::SeparateWholes);
-    assert_eq!(pair[0].terms.wholes, Some([0, 4]));
+    assert_eq!(pair[0].terms.wholes, Some([0, 4, 4]));
 }
 
 #[test]
 fn sides_one_whole_holds_in_other_views_merge() {
     let (regions, pair) = merge(&[Sam::OneWhole, Sam::Parts, Sam::Parts, Sam::Parts]);
     assert_eq!(regions, 2);
-    assert_eq!((pair[0].outcome, pair[0].terms.wholes), (Outcome::Accepted, Some([1, 0])));
+    assert_eq!((pair[0].outcome, pair[0].terms.wholes), (Outcome::Accepted, Some([1, 0, 4])));
 }
 
 #[test]
 fn masks_without_nesting_say_nothing_and_the_score_decides() {
     let (regions, pair) = merge(&[Sam::Parts; 4]);
     assert_eq!(regions, 2);
-    assert_eq!((pair[0].outcome, pair[0].terms.wholes), (Outcome::Accepted, Some([0, 0])));
+    assert_eq!((pair[0].outcome, pair[0].terms.wholes), (Outcome::Accepted, Some([0, 0, 4])));
 }
 
 #[test]
 fn the_gate_refuses_only_when_apart_views_outnumber_together_ones() {
     use Sam::*;
     // Two apart, two together: not refused. Three apart, two together: refused. One apart only:
-    // too little evidence.
+    // too little evidence. Two apart among nine views: under a quarter of them.
     let (regions, pair) = merge(&[TwoWholes, TwoWholes, OneWhole, OneWhole]);
-    assert_eq!((regions, pair[0].terms.wholes), (2, Some([2, 2])));
+    assert_eq!((regions, pair[0].terms.wholes), (2, Some([2, 2, 4])));
     let (regions, pair) = merge(&[TwoWholes, TwoWholes, TwoWholes, OneWhole, OneWhole]);
-    assert_eq!((regions, pair[0].outcome, pair[0].terms.wholes), (3, Outcome::SeparateWholes, Some([2, 3])));
+    assert_eq!(
+        (regions, pair[0].outcome, pair[0].terms.wholes),
+        (3, Outcome::SeparateWholes, Some([2, 3, 5]))
+    );
     let (regions, pair) = merge(&[TwoWholes, Parts, Parts, Parts]);
-    assert_eq!((regions, pair[0].terms.wholes), (2, Some([0, 1])));
+    assert_eq!((regions, pair[0].terms.wholes), (2, Some([0, 1, 4])));
+    let (regions, pair) = merge(&[TwoWholes, TwoWholes, Parts, Parts, Parts, Parts, Parts, Parts, Parts]);
+    assert_eq!((regions, pair[0].terms.wholes), (2, Some([0, 2, 9])));
+    let (regions, pair) = merge(&[TwoWholes, TwoWholes, Parts, Parts, Parts, Parts]);
+    assert_eq!(
+        (regions, pair[0].outcome, pair[0].terms.wholes),
+        (3, Outcome::SeparateWholes, Some([0, 2, 6]))
+    );
 }
 
 #[test]
