@@ -82,13 +82,14 @@
 //! The last gate (not in the paper; when the pipeline gives the other views' SAM masks through
 //! the Gaussians, [`crate::ViewWholes`]): a pair every other rule accepts is refused when other
 //! views' masks hold its two sides in different wholes and seldom in one
-//! ([`crate::wholes`] has the rule and why; [`ScoreTerms::wholes`] the counts).
+//! ([`crate::wholes`] has the rule and why; [`ScoreTerms::wholes`] the counts). It is asked when
+//! the pair comes up for merging, not when it is scored: the answer is the same (neither region
+//! has changed since), and most accepted evaluations are superseded before they come up.
 //!
 //! [`Literal`]: crate::Profile::Literal
 //! [`Paper`]: crate::Profile::Paper
 
 use crate::config::{BoundaryStatistic, DepthGapAt, MergeConfig, Profile, TAU_CONTACT, TAU_GAP_PX};
-use crate::wholes::{ViewWholes, WholesScratch};
 use serde::{Deserialize, Serialize};
 use splatseg_scene::Plane;
 
@@ -119,7 +120,7 @@ pub struct ScoreTerms {
     pub score: f32,
     /// Other views where SAM's masks hold both sides, where they hold them apart in a whole, and
     /// that see both sides (`[together, apart, seen]`, [`crate::wholes`]); taken only for a pair
-    /// every other rule accepts.
+    /// every other rule accepts, when it comes up for merging.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wholes: Option<[u32; 3]>,
 }
@@ -290,7 +291,6 @@ pub(crate) struct Scratch {
     values: Vec<f32>,
     side_a: Vec<f32>,
     side_b: Vec<f32>,
-    wholes: WholesScratch,
 }
 
 impl Scratch {
@@ -323,14 +323,13 @@ impl Scratch {
 /// Scores the pair `(a, b)`. `band` is `dil(a) ∩ dil(b)` (contact ratio, the sides' depth
 /// medians); `boundary` the part of it where the LoG and `∇D` statistics are taken. `side(p)` tells
 /// which region a band pixel belongs to (`Some(true)` = a, `Some(false)` = b, `None` = neither).
-/// `wholes`: the other views' masks, when known.
+/// The separate-wholes gate is not asked here (see the module docs).
 pub(crate) fn evaluate(
     config: &MergeConfig,
     (a, b): (&RegionState, &RegionState),
     (band, boundary): (&[u32], &[u32]),
     mut side: impl FnMut(u32) -> Option<bool>,
     maps: &BoundaryMaps<'_>,
-    wholes: Option<&ViewWholes<'_>>,
     scratch: &mut Scratch,
 ) -> (ScoreTerms, Outcome) {
     let cos = splatseg_cues::cosine(&a.descriptor_sum, &b.descriptor_sum);
@@ -365,7 +364,7 @@ pub(crate) fn evaluate(
         Some(_) => crease_deg(maps, band, &mut side),
         None => None,
     };
-    let mut terms = ScoreTerms {
+    let terms = ScoreTerms {
         cos,
         depth_gap,
         depth_affinity,
@@ -386,18 +385,7 @@ pub(crate) fn evaluate(
     } else if matches!((crease_deg, config.max_concave_crease_deg), (Some(c), Some(t)) if c < -t) {
         Outcome::ConcaveCrease
     } else if score > config.tau_merge {
-        match wholes.filter(|_| config.separate_wholes) {
-            Some(w) => {
-                let count = w.count(band, &mut side, &mut scratch.wholes);
-                terms.wholes = Some([count.together, count.apart, count.seen]);
-                if count.separate() {
-                    Outcome::SeparateWholes
-                } else {
-                    Outcome::Accepted
-                }
-            }
-            None => Outcome::Accepted,
-        }
+        Outcome::Accepted
     } else {
         Outcome::BelowThreshold
     };

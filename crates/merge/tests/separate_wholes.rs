@@ -84,14 +84,21 @@ fn evidence(others: &[Sam]) -> WholesEvidence {
     WholesEvidence::new(W * H, 1, views)
 }
 
-/// The merge of view 0 with `others`' masks: (number of regions, the decisions of the pair 1–2).
-fn merge(others: &[Sam]) -> (usize, Vec<splatseg_merge::Decision>) {
+/// The merge of view 0 with `others`' masks: the number of regions, and the decision the gate
+/// took on the pair 1–2 when it came up for merging (the merge, or the refusal), the only
+/// decision of the pair with the gate's counts.
+fn merge(others: &[Sam]) -> (usize, splatseg_merge::Decision) {
     let evidence = evidence(others);
     let all: Vec<u32> = (0..(W * H) as u32).collect();
     let wholes = ViewWholes::new(&evidence, 0, (&all, &all), (W, H));
     let r = merge_view_with_wholes(&view(), &MergeConfig::default(), Some(&wholes)).unwrap();
-    let pair = r.log.decisions.iter().filter(|d| (d.a, d.b) == (1, 2)).cloned().collect();
-    (r.regions.len(), pair)
+    let pair: Vec<_> = r.log.decisions.iter().filter(|d| (d.a, d.b) == (1, 2)).collect();
+    assert_eq!(pair[0].terms.wholes, None, "scored without the gate, which is asked at merge time");
+    let gated: Vec<_> = pair.iter().filter(|d| d.terms.wholes.is_some()).collect();
+    assert_eq!(gated.len(), 1, "{pair:?}");
+    let gated = (*gated[0]).clone();
+    assert_eq!(gated.merged, gated.outcome == Outcome::Accepted);
+    (r.regions.len(), gated)
 }
 
 #[test]
@@ -104,25 +111,23 @@ fn without_other_views_the_two_sides_merge() {
 
 #[test]
 fn sides_other_views_hold_in_different_wholes_stay_apart() {
-    let (regions, pair) = merge(&[Sam::TwoWholes; 4]);
+    let (regions, gated) = merge(&[Sam::TwoWholes; 4]);
     assert_eq!(regions, 3, "two objects and the background");
-    assert!(pair.iter().all(|d| !d.merged));
-    assert_eq!(pair[0].outcome, Outcome::SeparateWholes);
-    assert_eq!(pair[0].terms.wholes, Some([0, 4, 4]));
+    assert_eq!((gated.outcome, gated.terms.wholes), (Outcome::SeparateWholes, Some([0, 4, 4])));
 }
 
 #[test]
 fn sides_one_whole_holds_in_other_views_merge() {
-    let (regions, pair) = merge(&[Sam::OneWhole, Sam::Parts, Sam::Parts, Sam::Parts]);
+    let (regions, gated) = merge(&[Sam::OneWhole, Sam::Parts, Sam::Parts, Sam::Parts]);
     assert_eq!(regions, 2);
-    assert_eq!((pair[0].outcome, pair[0].terms.wholes), (Outcome::Accepted, Some([1, 0, 4])));
+    assert_eq!((gated.outcome, gated.terms.wholes), (Outcome::Accepted, Some([1, 0, 4])));
 }
 
 #[test]
 fn masks_without_nesting_say_nothing_and_the_score_decides() {
-    let (regions, pair) = merge(&[Sam::Parts; 4]);
+    let (regions, gated) = merge(&[Sam::Parts; 4]);
     assert_eq!(regions, 2);
-    assert_eq!((pair[0].outcome, pair[0].terms.wholes), (Outcome::Accepted, Some([0, 0, 4])));
+    assert_eq!((gated.outcome, gated.terms.wholes), (Outcome::Accepted, Some([0, 0, 4])));
 }
 
 #[test]
@@ -130,22 +135,16 @@ fn the_gate_refuses_only_when_apart_views_outnumber_together_ones() {
     use Sam::*;
     // Two apart, two together: not refused. Three apart, two together: refused. One apart only:
     // too little evidence. Two apart among nine views: under a quarter of them.
-    let (regions, pair) = merge(&[TwoWholes, TwoWholes, OneWhole, OneWhole]);
-    assert_eq!((regions, pair[0].terms.wholes), (2, Some([2, 2, 4])));
-    let (regions, pair) = merge(&[TwoWholes, TwoWholes, TwoWholes, OneWhole, OneWhole]);
-    assert_eq!(
-        (regions, pair[0].outcome, pair[0].terms.wholes),
-        (3, Outcome::SeparateWholes, Some([2, 3, 5]))
-    );
-    let (regions, pair) = merge(&[TwoWholes, Parts, Parts, Parts]);
-    assert_eq!((regions, pair[0].terms.wholes), (2, Some([0, 1, 4])));
-    let (regions, pair) = merge(&[TwoWholes, TwoWholes, Parts, Parts, Parts, Parts, Parts, Parts, Parts]);
-    assert_eq!((regions, pair[0].terms.wholes), (2, Some([0, 2, 9])));
-    let (regions, pair) = merge(&[TwoWholes, TwoWholes, Parts, Parts, Parts, Parts]);
-    assert_eq!(
-        (regions, pair[0].outcome, pair[0].terms.wholes),
-        (3, Outcome::SeparateWholes, Some([0, 2, 6]))
-    );
+    let (regions, gated) = merge(&[TwoWholes, TwoWholes, OneWhole, OneWhole]);
+    assert_eq!((regions, gated.terms.wholes), (2, Some([2, 2, 4])));
+    let (regions, gated) = merge(&[TwoWholes, TwoWholes, TwoWholes, OneWhole, OneWhole]);
+    assert_eq!((regions, gated.outcome, gated.terms.wholes), (3, Outcome::SeparateWholes, Some([2, 3, 5])));
+    let (regions, gated) = merge(&[TwoWholes, Parts, Parts, Parts]);
+    assert_eq!((regions, gated.terms.wholes), (2, Some([0, 1, 4])));
+    let (regions, gated) = merge(&[TwoWholes, TwoWholes, Parts, Parts, Parts, Parts, Parts, Parts, Parts]);
+    assert_eq!((regions, gated.terms.wholes), (2, Some([0, 2, 9])));
+    let (regions, gated) = merge(&[TwoWholes, TwoWholes, Parts, Parts, Parts, Parts]);
+    assert_eq!((regions, gated.outcome, gated.terms.wholes), (3, Outcome::SeparateWholes, Some([0, 2, 6])));
 }
 
 #[test]
