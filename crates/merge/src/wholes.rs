@@ -8,7 +8,7 @@
 //! in depth, the crease between the sides is faint or unreliable, and the region descriptors of
 //! parts of one object differ as much as those of two similar objects. On the blind families the
 //! merge joined such pairs in 22–24 of 24 views although SAM kept them apart
-//! (`docs/benchmarks/16-touching-objects.md`).
+//! (`docs/benchmarks/15-touching-objects.md`).
 //!
 //! SAM's automatic masks are multi-granular: besides a mask per part they often hold a larger
 //! mask over a whole object (the masks overlap). Such a whole holds both parts of a
@@ -27,7 +27,7 @@
 //! near the contact (what is measured is the contact, not the whole regions, which other views
 //! may cut anywhere) but leaves out the boundary itself, where SAM's outlines and the centres'
 //! pixels are uncertain by a pixel. Measured on the tuning families
-//! (`docs/benchmarks/16-touching-objects.md`): the band itself (0–2 px) refused fewer wrong merges
+//! (`docs/benchmarks/15-touching-objects.md`): the band itself (0–2 px) refused fewer wrong merges
 //! of touching objects; a zone that also leaves out the pixels next to any third region refused
 //! fewer correct merges in a replay of the merges, but scored lower end to end (mean mIoU 0.972
 //! against 0.976: a thin post has no pixel off every outline, so it has no evidence).
@@ -56,7 +56,7 @@
 //! of their pixels) and 201 of the 51,103 correct merges (0.1 % of their pixels; 47 of 13,604
 //! between parts of patterned objects). No single-view cue tried (the minima rule on the union's
 //! outline, the descriptor cosine, the score, the crease) separated them
-//! (`docs/benchmarks/16-touching-objects.md`).
+//! (`docs/benchmarks/15-touching-objects.md`).
 //!
 //! # Cost
 //!

@@ -1,5 +1,5 @@
 """Every merge a scene's per-view merge executed, with its ground truth and the candidate cues of
-docs/benchmarks/16-touching-objects.md: the minima rule (disc fractions of the union at the ends
+docs/benchmarks/15-touching-objects.md: the minima rule (disc fractions of the union at the ends
 of the boundary), SAM's masks in this view, and SAM's masks in the other views (whole regions and
 2–4 px from the contact; together / apart in a whole), through ground-truth depth.
 

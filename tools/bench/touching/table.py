@@ -1,4 +1,4 @@
-"""The cue-separation table of docs/benchmarks/16-touching-objects.md from rec/ (GT-depth cues) and recg42/ (the gate as built)."""
+"""The cue-separation table of docs/benchmarks/15-touching-objects.md from rec/ (GT-depth cues) and recg42/ (the gate as built)."""
 import glob
 import json
 import numpy as np
