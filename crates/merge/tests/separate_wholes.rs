@@ -41,7 +41,6 @@ fn view() -> ViewInputs {
         depth_gradient: depth_gradient(&depth, DEPTH_GRADIENT_SIGMA_PX),
         depth,
         edges: log_edges(&plane(|_, _| 0.5f32), LOG_SIGMA_PX),
-        metric_depth: None,
         points: None,
     }
 }
