@@ -95,7 +95,8 @@ views). Blind families, for judging and never for choosing a setting (their own 
 statistics no tuning family uses; report them apart): blind_cues (noisier features, parts and \
 objects closer in feature space, a worse monocular depth, more nested and wrong SAM merges), \
 blind_lens (40°–75° lenses), blind_512 (512×384, both), blind_hires (1280×960, fine stripes and \
-checkers on objects).
+checkers on objects), blind_sam (SAM seldom nests whole-object masks and often covers two touching \
+objects with one; 400×300, 16 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

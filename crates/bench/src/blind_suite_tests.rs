@@ -3,10 +3,12 @@
 //! Floors on the worst decile and the minimum over the scenes, never on one chosen seed.
 //!
 //! No setting is ever chosen on these scenes (issue 27): the floors are what the pipeline measured
-//! when the families were first run (commit b703467, BENCHMARKS.md "Blind families"; these six
+//! less a margin of 0.02–0.03. First run (commit b703467, BENCHMARKS.md "Blind families"; these six
 //! scenes: mIoU min 0.864, p10 0.918, mean 0.964; consistency min 0.971; ids / GT max 1.13; 3D
-//! accuracy min 0.942) less a margin of 0.02–0.03. Raise them as quality improves, never lower them. They sit far below issue 27's
-//! targets (mean mIoU ≥ 0.96, p10 ≥ 0.92, min ≥ 0.85, consistency ≥ 0.97, ids ≤ 1.15 × GT).
+//! accuracy min 0.942); raised after the merge's separate-wholes gate (these six scenes: mIoU min
+//! 0.963, p10 0.968, mean 0.983; consistency min 0.974; ids / GT max 1.18; 3D accuracy min 0.964).
+//! Raise them as quality improves, never lower them. Issue 27's targets, on the full blind report
+//! seeds: mean mIoU ≥ 0.96, p10 ≥ 0.92, min ≥ 0.85, consistency ≥ 0.97, ids ≤ 1.15 × GT.
 
 use crate::suite::{score_scene, Descriptors, Distribution, SceneOverrides};
 use splatseg_synth::Family;
@@ -25,17 +27,17 @@ const SCENES: [(Family, u64); 6] = [
 const VIEWS: usize = 12;
 
 /// Worst-decile (p10) mIoU over the scenes.
-const FLOOR_P10_MIOU: f64 = 0.89;
+const FLOOR_P10_MIOU: f64 = 0.94;
 /// Lowest mIoU of any scene.
-const FLOOR_MIN_MIOU: f64 = 0.84;
+const FLOOR_MIN_MIOU: f64 = 0.93;
 /// Mean mIoU.
-const FLOOR_MEAN_MIOU: f64 = 0.94;
+const FLOOR_MEAN_MIOU: f64 = 0.96;
 /// Lowest consistency.
 const FLOOR_MIN_CONSISTENCY: f64 = 0.95;
 /// Highest ids / GT instances of any scene.
 const CEILING_MAX_IDS_PER_GT: f64 = 1.2;
 /// Lowest 3D label accuracy.
-const FLOOR_MIN_ACCURACY_3D: f64 = 0.92;
+const FLOOR_MIN_ACCURACY_3D: f64 = 0.94;
 
 #[test]
 fn reduced_blind_suite_meets_its_floors_on_the_worst_decile() {

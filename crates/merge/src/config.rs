@@ -76,8 +76,8 @@ pub const MAX_MERGES: usize = 1000;
 pub const CONCAVE_CREASE_DEG: f32 = 45.0;
 
 /// All parameters of Multi-Cue-Guided Mask Merging. The `[merge]` keys are the fields up to
-/// `max_concave_crease_deg`; `boundary_statistic` and `depth_gap_at` follow the profile (code
-/// such as `splatseg ablate` may set them).
+/// `max_concave_crease_deg`; `boundary_statistic`, `depth_gap_at` and `separate_wholes` follow
+/// the profile (code such as `splatseg ablate` may set them).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(from = "MergeConfigTable")]
 pub struct MergeConfig {
@@ -113,6 +113,10 @@ pub struct MergeConfig {
     pub boundary_statistic: BoundaryStatistic,
     /// Where `Δd` is measured. Follows the profile: `contact` (paper), `region-means` (literal).
     pub depth_gap_at: DepthGapAt,
+    /// Refuse pairs other views' SAM masks hold in different wholes, when the caller gives them
+    /// ([`crate::merge_view_with_wholes`], [`crate::wholes`]). Follows the profile: on (paper),
+    /// off (literal); code may set it, files cannot.
+    pub separate_wholes: bool,
 }
 
 /// A [`MergeConfig`] as written in a file (the `[merge]` table): every key optional; missing
@@ -196,6 +200,7 @@ impl Default for MergeConfig {
             max_concave_crease_deg: Some(CONCAVE_CREASE_DEG),
             boundary_statistic: BoundaryStatistic::Quantile(0.5),
             depth_gap_at: DepthGapAt::Contact,
+            separate_wholes: true,
         }
     }
 }
@@ -245,6 +250,7 @@ impl MergeConfig {
                 depth_gap_at: DepthGapAt::RegionMeans,
                 max_depth_boundary: None,
                 max_concave_crease_deg: None,
+                separate_wholes: false,
                 ..paper
             },
         }

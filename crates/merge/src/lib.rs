@@ -4,7 +4,8 @@
 //! Entry point: [`merge_view`] on a [`ViewInputs`] (regions from SAM masks, descriptors, depth,
 //! `∇D`, LoG edges; built by [`cues::build_view_inputs`] from raw cues) with a [`MergeConfig`].
 //! The score, its profiles and the reasons for the default reading (with measured numbers) are
-//! documented in [`score`]; the adjacency graph in `graph`; the greedy loop in `merge`;
+//! documented in [`score`]; the other views' SAM wholes, which [`merge_view_with_wholes`] reads,
+//! in [`wholes`]; the adjacency graph in `graph`; the greedy loop in `merge`;
 //! measuring against ground truth (ablation, sensitivity) in [`study`], printed by
 //! `splatseg ablate`. Speed and quality tables: the merge section of the workspace `BENCHMARKS.md`.
 
@@ -15,6 +16,7 @@ mod graph;
 mod merge;
 pub mod score;
 pub mod study;
+pub mod wholes;
 
 pub use config::{
     retired_merge_setting, BoundaryStatistic, DepthGapAt, MergeConfig, MergeConfigTable, Profile,
@@ -22,5 +24,8 @@ pub use config::{
 };
 pub use cues::{build_view_inputs, CueRequest};
 pub use error::{MergeError, MergeResultOf};
-pub use merge::{merge_view, Decision, MergeLog, MergeResult, RegionSummary, ViewInputs};
+pub use merge::{
+    merge_view, merge_view_with_wholes, Decision, MergeLog, MergeResult, RegionSummary, ViewInputs,
+};
 pub use score::{Outcome, ScoreTerms};
+pub use wholes::{ViewMaskSets, ViewWholes, WholesCount, WholesEvidence};

@@ -11,6 +11,7 @@ use crate::config::MergeConfig;
 use crate::error::{MergeError, MergeResultOf};
 use crate::graph::{build_edges, sorted_union, Edge, Junctions};
 use crate::score::{evaluate, BoundaryMaps, Outcome, RegionState, ScoreTerms, Scratch, SurfaceMaps};
+use crate::wholes::{ViewWholes, WholesScratch};
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{region_normal_at, DepthJumps, NormalWindow, RegionDescriptors, Regions};
 use splatseg_scene::Plane;
@@ -257,10 +258,30 @@ fn band_normals(points: &Plane<[f32; 3]>, labels: &Plane<u32>, edges: &[Edge]) -
     normals
 }
 
-/// Runs Multi-Cue-Guided Mask Merging on one view.
+/// Runs Multi-Cue-Guided Mask Merging on one view (without other views: no separate-wholes
+/// gate).
 pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<MergeResult> {
+    merge_view_with_wholes(inputs, config, None)
+}
+
+/// [`merge_view`] with the other views' SAM masks through the Gaussians (`wholes`, this view's
+/// handle): the separate-wholes gate ([`crate::wholes`]) is on when `config.separate_wholes`.
+pub fn merge_view_with_wholes(
+    inputs: &ViewInputs,
+    config: &MergeConfig,
+    wholes: Option<&ViewWholes<'_>>,
+) -> MergeResultOf<MergeResult> {
     config.validate()?;
     check_inputs(inputs)?;
+    if let Some(w) = wholes {
+        if w.size != inputs.regions.labels.size() {
+            return Err(MergeError::Inputs(format!(
+                "the other views' evidence is for a {:?} image but the label map is {:?}",
+                w.size,
+                inputs.regions.labels.size()
+            )));
+        }
+    }
     let n = inputs.regions.count();
     let labels = &inputs.regions.labels;
     let (built, junctions) = build_edges(labels, crate::config::DILATION_STEPS as usize);
@@ -296,6 +317,7 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
     let mut log = MergeLog { regions_before: n, ..MergeLog::default() };
     let mut heap = BinaryHeap::new();
     let mut scratch = Scratch::default();
+    let mut wholes_scratch = WholesScratch::default();
     let mut boundary: Vec<u32> = Vec::new();
 
     // Scores edge `ei` and queues it if accepted.
@@ -346,6 +368,35 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
         {
             continue;
         }
+        // The separate-wholes gate, asked now rather than when the pair was scored: neither
+        // region has changed since, so the answer is the same, for far fewer pairs.
+        let mut terms = c.terms;
+        if let Some(w) = wholes.filter(|_| config.separate_wholes) {
+            let e = neighbours[a].get(&(b as u32)).and_then(|&ei| edges[ei].as_ref());
+            let band = &e.expect("a current pair's edge is alive").band;
+            let mut side = |p: u32| match labels.data[p as usize] {
+                0 => None,
+                l => {
+                    let r = find(&mut parent, l) as usize;
+                    (r == a || r == b).then_some(r == a)
+                }
+            };
+            let count = w.count(band, &mut side, &mut wholes_scratch);
+            terms.wholes = Some([count.together, count.apart, count.seen]);
+            if count.separate() {
+                let (a, b) = (c.a, c.b);
+                let outcome = Outcome::SeparateWholes;
+                log.decisions.push(Decision {
+                    a,
+                    b,
+                    after_merges: log.merges,
+                    terms,
+                    outcome,
+                    merged: false,
+                });
+                continue;
+            }
+        }
         // Merge b into a.
         let absorbed = states[b].take().expect("checked alive");
         states[a].as_mut().expect("checked alive").absorb(&absorbed);
@@ -356,7 +407,7 @@ pub fn merge_view(inputs: &ViewInputs, config: &MergeConfig) -> MergeResultOf<Me
             a: c.a,
             b: c.b,
             after_merges: log.merges - 1,
-            terms: c.terms,
+            terms,
             outcome: Outcome::Accepted,
             merged: true,
         });

@@ -76,6 +76,16 @@
 //! depths (no depth gate: 13.7 masks/view, mIoU 0.964; normalised gate: 14.4 / 0.946). The
 //! default keeps the paper's gate.
 //!
+//!
+//! # Separate wholes
+//!
+//! The last gate (not in the paper; when the pipeline gives the other views' SAM masks through
+//! the Gaussians, [`crate::ViewWholes`]): a pair every other rule accepts is refused when other
+//! views' masks hold its two sides in different wholes and seldom in one
+//! ([`crate::wholes`] has the rule and why; [`ScoreTerms::wholes`] the counts). It is asked when
+//! the pair comes up for merging, not when it is scored: the answer is the same (neither region
+//! has changed since), and most accepted evaluations are superseded before they come up.
+//!
 //! [`Literal`]: crate::Profile::Literal
 //! [`Paper`]: crate::Profile::Paper
 
@@ -108,6 +118,11 @@ pub struct ScoreTerms {
     pub crease_deg: Option<f32>,
     /// The composite score `S`.
     pub score: f32,
+    /// Other views where SAM's masks hold both sides, where they hold them apart in a whole, and
+    /// that see both sides (`[together, apart, seen]`, [`crate::wholes`]); taken only for a pair
+    /// every other rule accepts, when it comes up for merging.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wholes: Option<[u32; 3]>,
 }
 
 /// What was decided for a pair.
@@ -126,6 +141,8 @@ pub enum Outcome {
     ConcaveCrease,
     /// `S ≤ τ_merge`.
     BelowThreshold,
+    /// Other views' SAM masks hold the two sides in different wholes ([`crate::wholes`]).
+    SeparateWholes,
 }
 
 /// What the scorer needs to know about one region.
@@ -306,6 +323,7 @@ impl Scratch {
 /// Scores the pair `(a, b)`. `band` is `dil(a) ∩ dil(b)` (contact ratio, the sides' depth
 /// medians); `boundary` the part of it where the LoG and `∇D` statistics are taken. `side(p)` tells
 /// which region a band pixel belongs to (`Some(true)` = a, `Some(false)` = b, `None` = neither).
+/// The separate-wholes gate is not asked here (see the module docs).
 pub(crate) fn evaluate(
     config: &MergeConfig,
     (a, b): (&RegionState, &RegionState),
@@ -356,6 +374,7 @@ pub(crate) fn evaluate(
         bbox_gap_px,
         crease_deg,
         score,
+        wholes: None,
     };
     let outcome = if band.is_empty() || bbox_gap_px > TAU_GAP_PX || contact < TAU_CONTACT {
         Outcome::NotAdjacent

@@ -4,4 +4,5 @@
 //! checks that none is left out).
 
 mod hand_built;
+mod separate_wholes;
 mod synthetic;

@@ -54,6 +54,7 @@ pub mod progress_log;
 pub mod render_views;
 mod results;
 mod run_outputs;
+mod sam_wholes;
 pub mod scene_info;
 pub mod shard;
 #[cfg(test)]
@@ -222,22 +223,46 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .map(|(v, p)| PosedCamera { camera: scene.camera(v), world_from_cam: p })
         .collect();
 
-    profiler.next("per view: depth, merge, visibility");
-    let times = PartTimes::default();
+    profiler.next("other views' SAM masks (separate wholes)");
     let sources = per_view::MergeSources::new(
         config,
         &per_view::ply_key(inputs.ply_path.as_deref(), &config.pipeline.lift)?,
     );
-    let ctx = sources.context(scene, &load, config);
+    let sharded = shard::expected_shards(&config.out, "merge")?;
+    let sample_stride = prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len()));
+    let (wholes_key, evidence) = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
+        Some(p) => {
+            let request = sam_wholes::WholesRequest {
+                scene,
+                prepared: p,
+                masks_dir: &config.masks,
+                has_masks: &inputs.has_masks,
+                lift: &config.pipeline.lift,
+                stride: sample_stride,
+            };
+            // Merges from shards need no evidence: their keys already hold it.
+            let check =
+                if sharded.is_some() { vec![false; scene.views.len()] } else { inputs.has_masks.clone() };
+            let probe = sources.context(scene, &load, config);
+            sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
+        }
+        None => (String::new(), None),
+    };
+    let mut ctx = sources.context(scene, &load, config);
+    ctx.wholes_key = wholes_key;
+    ctx.wholes = evidence.as_ref();
+
+    profiler.next("per view: depth, merge, visibility");
+    let times = PartTimes::default();
     let per_view = per_view::PerView {
         prepared: prepared.as_ref(),
         cams: &cams,
         sources: &sources,
         ctx: &ctx,
-        sharded: shard::expected_shards(&config.out, "merge")?,
+        sharded,
         lift: &config.pipeline.lift,
         out: &config.out,
-        sample_stride: prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len())),
+        sample_stride,
         times: &times,
     };
     let mut views = every_view(&per_view, &inputs.has_masks, config.options)?;

@@ -5,10 +5,10 @@
 use super::cache::{read_json, write_json, KeyHasher};
 use super::read_view_mask_inputs;
 use crate::view_data::ViewImage;
-use crate::view_merge::{merge_view_arrays, ViewArrays};
+use crate::view_merge::{merge_view_arrays_with_wholes, ViewArrays};
 use serde::{Deserialize, Serialize};
 use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions, RegionSource};
-use splatseg_merge::{MergeConfig, MergeLog, RegionSummary};
+use splatseg_merge::{MergeConfig, MergeLog, RegionSummary, ViewWholes, WholesEvidence};
 use splatseg_scene::labels::{read_label_png, write_label_png};
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene, View};
@@ -82,9 +82,14 @@ pub struct MergeContext<'a> {
     /// Keep each view's decisions ([`MergedView::log`]) in the cache too; a cached view without
     /// them is merged again (to the same maps).
     pub keep_log: bool,
+    /// Every view's SAM masks through the Gaussians, for the separate-wholes gate (`None`: the
+    /// gate is off, or every view's merge is in the cache and it was not built).
+    pub wholes: Option<&'a WholesEvidence>,
+    /// [`crate::sam_wholes::wholes_key`] when the gate is on (then in every view's key), else empty.
+    pub wholes_key: String,
 }
 
-/// The depth inputs of one view.
+/// The depth inputs of one view, and the other views' masks through the Gaussians it sees.
 pub struct ViewDepth<'a> {
     /// Depth for the merge cues.
     pub depth: &'a DepthMap,
@@ -92,12 +97,15 @@ pub struct ViewDepth<'a> {
     pub metric: Option<&'a Plane<f32>>,
     /// Identifies where the depth came from, for the cache key.
     pub key: String,
+    /// The separate-wholes gate's evidence for this view (its visible Gaussians), when built.
+    pub wholes: Option<ViewWholes<'a>>,
 }
 
 /// The cache key of one view's merge.
 fn view_key(ctx: &MergeContext, view: &View, depth_key: &str) -> crate::Result<String> {
     let mut h = KeyHasher::default();
     h.text("merge-v1").text(&view.stem).json(ctx.config).json(&ctx.region_options).text(depth_key);
+    h.text(&ctx.wholes_key);
     h.folder_entry(ctx.masks_dir, &view.stem)?;
     h.file(&view.image_path)?;
     if let Some(dir) = ctx.features_dir {
@@ -140,6 +148,18 @@ fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> crate
     Ok(masks.unwrap_or_default())
 }
 
+/// True when the cache holds view `view`'s merge made from the same inputs and settings
+/// (`depth_key` as [`ViewDepth::key`]); reads the small entry only, not the maps.
+pub fn is_cached(ctx: &MergeContext, view: &View, depth_key: &str) -> crate::Result<bool> {
+    let key = view_key(ctx, view, depth_key)?;
+    let entry: Option<CacheEntry> = read_json(&ctx.cache_dir.join(format!("{}.json", view.stem)));
+    let logged = || {
+        let log: Option<LogEntry> = read_json(&ctx.cache_dir.join(format!("{}.log.json", view.stem)));
+        log.is_some_and(|l| l.key == key)
+    };
+    Ok(entry.is_some_and(|e| e.key == key) && (!ctx.keep_log || logged()))
+}
+
 /// The merge of one view from the cache, when an entry made from the same inputs and settings
 /// is there.
 pub fn merge_cached(ctx: &MergeContext, view: &View, depth: &ViewDepth) -> crate::Result<Option<MergedView>> {
@@ -165,19 +185,22 @@ pub fn merge_one(
     let image = image.rgb()?;
     let masks = read_masks(ctx, view, camera.width, camera.height)?;
     let empty_masks = masks.iter().filter(|m| m.runs.is_empty()).count();
-    let result = merge_view_arrays(&ViewArrays {
-        stem: &view.stem,
-        rgb: &image.data,
-        width: size.0,
-        height: size.1,
-        masks: &masks,
-        depth: depth.depth,
-        metric: depth.metric,
-        descriptors: ctx.descriptors,
-        config: ctx.config,
-        region_options: ctx.region_options,
-        intrinsics: Some(splatseg_cues::Intrinsics::of_camera(camera, size.0, size.1)),
-    })?;
+    let result = merge_view_arrays_with_wholes(
+        &ViewArrays {
+            stem: &view.stem,
+            rgb: &image.data,
+            width: size.0,
+            height: size.1,
+            masks: &masks,
+            depth: depth.depth,
+            metric: depth.metric,
+            descriptors: ctx.descriptors,
+            config: ctx.config,
+            region_options: ctx.region_options,
+            intrinsics: Some(splatseg_cues::Intrinsics::of_camera(camera, size.0, size.1)),
+        },
+        depth.wholes.as_ref(),
+    )?;
     let log = ctx.keep_log.then_some(ViewMergeLog { input_regions: result.input_regions, log: result.log });
     let merged = MergedView {
         raw: result.raw,

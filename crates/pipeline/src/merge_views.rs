@@ -73,25 +73,51 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
     let lift = &config.pipeline.lift;
     let ply_key = ply_key(ply_path.as_deref(), lift)?;
     let sources = MergeSources::new(config, &ply_key);
-    let mut ctx = sources.context(&scene, load, config);
     let export = request.shard.is_none();
-    ctx.keep_log = export;
     let mine: Vec<usize> = (0..scene.views.len()).filter(|&v| shard.contains(v) && has_masks[v]).collect();
+    // The separate-wholes gate reads every view's masks, not only this shard's (as `run` does).
+    let (wholes_key, evidence) = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
+        Some(p) => {
+            let stride = crate::visible::sample_stride(p.len(), scene.views.len());
+            let request = crate::sam_wholes::WholesRequest {
+                scene: &scene,
+                prepared: p,
+                masks_dir: &config.masks,
+                has_masks: &has_masks,
+                lift,
+                stride,
+            };
+            let mut check = vec![false; scene.views.len()];
+            mine.iter().for_each(|&v| check[v] = true);
+            let mut probe = sources.context(&scene, load, config);
+            probe.keep_log = export;
+            crate::sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
+        }
+        None => (String::new(), None),
+    };
+    let mut ctx = sources.context(&scene, load, config);
+    ctx.keep_log = export;
+    ctx.wholes_key = wholes_key;
+    ctx.wholes = evidence.as_ref();
     let bar = crate::progress(mine.len(), if export { "merge" } else { "merge shard" }, config.options);
     let counts = mine
         .par_iter()
         .map(|&v| -> crate::Result<(bool, usize, usize, usize)> {
             let view = &scene.views[v];
-            let metric = prepared.as_ref().and_then(|p| {
-                let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
-                pass.surface_depth.as_ref().map(finite_depth)
-            });
+            let (metric, visible) = match prepared.as_ref() {
+                Some(p) => {
+                    let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
+                    (pass.surface_depth.as_ref().map(finite_depth), Some(pass.visible))
+                }
+                None => (None, None),
+            };
+            let visible = visible.as_ref();
             let image = ViewImage::new(&scene, view, load);
             let merged = match request.shard {
-                Some(shard) => {
-                    sources.merge(&ctx, v, metric, &image).with_context(|| format!("shard {shard}"))?
-                }
-                None => sources.merge(&ctx, v, metric, &image)?,
+                Some(shard) => sources
+                    .merge(&ctx, v, metric, visible, &image)
+                    .with_context(|| format!("shard {shard}"))?,
+                None => sources.merge(&ctx, v, metric, visible, &image)?,
             };
             let before = match &merged.log {
                 Some(log) => log.log.regions_before,

@@ -5,7 +5,7 @@
 use crate::cache::KeyHasher;
 use crate::error::bail;
 use crate::lift_stage::ViewResult;
-use crate::merge_stage::{merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
+use crate::merge_stage::{is_cached, merge_cached, merge_one, MergeContext, MergedView, ViewDepth};
 use crate::profile::PartTimes;
 use crate::shard::Shard;
 use crate::view_data::{self, ViewImage};
@@ -14,7 +14,8 @@ use splatseg_cues::{
     ColourTextureDescriptors, DenseFeatureDescriptors, DepthKind, DepthMap, DepthSource, DescriptorSource,
     FeatureGrids, NpyDepthSource,
 };
-use splatseg_lift::{view_visibility, LiftConfig, PosedCamera, PreparedGaussians};
+use splatseg_lift::{view_visibility, LiftConfig, PosedCamera, PreparedGaussians, ViewVisibility};
+use splatseg_merge::ViewWholes;
 use splatseg_scene::load::LoadOptions;
 use splatseg_scene::{Plane, Scene};
 use std::path::Path;
@@ -81,7 +82,31 @@ impl MergeSources {
             region_options: config.pipeline.regions,
             cache_dir: config.out.join("cache").join("merge"),
             keep_log: false,
+            wholes: None,
+            wholes_key: String::new(),
         }
+    }
+
+    /// [`ViewDepth::key`] of every view: from `--depth`, or rendered when `metric` (there are
+    /// Gaussians); `None` without either.
+    fn depth_key(&self, metric: bool) -> Option<String> {
+        match (&self.npy_depth, metric) {
+            (Some(src), _) => Some(format!("npy:{:?}:{}", src.kind, self.ply_key)),
+            (None, true) => Some(format!("rendered:{}", self.ply_key)),
+            (None, false) => None,
+        }
+    }
+
+    /// True when the cache holds the merge of every view with masks (`has_masks: [n_views]`)
+    /// made from the same inputs and settings; `metric`: depth is rendered from Gaussians.
+    pub fn all_cached(&self, ctx: &MergeContext, has_masks: &[bool], metric: bool) -> crate::Result<bool> {
+        let Some(key) = self.depth_key(metric) else { return Ok(false) };
+        for (view, _) in ctx.scene.views.iter().zip(has_masks).filter(|(_, &m)| m) {
+            if !is_cached(ctx, view, &key)? {
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 
     /// The depth of view `v` for its merge, with its cache key; `metric`: `[H, W]` z rendered
@@ -94,29 +119,32 @@ impl MergeSources {
     ) -> crate::Result<(DepthMap, String)> {
         let view = &ctx.scene.views[v];
         let camera = ctx.scene.camera(view);
+        let Some(key) = self.depth_key(metric.is_some()) else { bail!("no depth for view `{}`", view.stem) };
         Ok(match (&self.npy_depth, metric) {
-            (Some(src), _) => (
-                src.depth(&view.stem, camera.width as usize, camera.height as usize)?,
-                format!("npy:{:?}:{}", src.kind, self.ply_key),
-            ),
-            (None, Some(m)) => (
-                DepthMap { values: m.clone(), kind: DepthKind::MetricZ },
-                format!("rendered:{}", self.ply_key),
-            ),
+            (Some(src), _) => (src.depth(&view.stem, camera.width as usize, camera.height as usize)?, key),
+            (None, Some(m)) => (DepthMap { values: m.clone(), kind: DepthKind::MetricZ }, key),
             (None, None) => bail!("no depth for view `{}`", view.stem),
         })
     }
 
-    /// Merges view `v` (or reads it from the cache); `image` is its image, decoded if needed.
+    /// Merges view `v` (or reads it from the cache); `image` is its image, decoded if needed;
+    /// `visible`: the Gaussians it sees (for the separate-wholes gate, when `ctx` has its evidence).
     pub fn merge(
         &self,
         ctx: &MergeContext,
         v: usize,
         metric: Option<Plane<f32>>,
+        visible: Option<&ViewVisibility>,
         image: &ViewImage,
     ) -> crate::Result<MergedView> {
         let (depth, key) = self.depth(ctx, v, metric.as_ref())?;
-        let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key };
+        let camera = ctx.scene.camera(&ctx.scene.views[v]);
+        let size = (camera.width as usize, camera.height as usize);
+        let wholes = ctx
+            .wholes
+            .zip(visible)
+            .map(|(evidence, vis)| ViewWholes::new(evidence, v, (&vis.gaussians, &vis.pixels), size));
+        let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key, wholes };
         merge_one(ctx, &ctx.scene.views[v], &depth, image)
     }
 
@@ -131,7 +159,11 @@ impl MergeSources {
     ) -> crate::Result<MergedView> {
         let (depth, key) = self.depth(ctx, v, metric.as_ref())?;
         let view = &ctx.scene.views[v];
-        match merge_cached(ctx, view, &ViewDepth { depth: &depth, metric: metric.as_ref(), key })? {
+        match merge_cached(
+            ctx,
+            view,
+            &ViewDepth { depth: &depth, metric: metric.as_ref(), key, wholes: None },
+        )? {
             Some(hit) => Ok(hit),
             None => bail!(
                 "view `{}` has no merge results from shard {shard} made with these inputs and settings: \
@@ -192,7 +224,7 @@ impl PerView<'_> {
         let merged =
             self.times.time("merge (inputs, cues, merging; or the cache)", || match self.sharded {
                 Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count }),
-                None => self.sources.merge(self.ctx, v, metric, &image),
+                None => self.sources.merge(self.ctx, v, metric, visibility.as_ref(), &image),
             })?;
         let data = view_data::spill_path(self.out, &view.stem);
         self.times.time("spill the view's image and maps", || {

@@ -4,7 +4,9 @@
 
 use crate::error::{bail, Context};
 use splatseg_cues::{DepthMap, DescriptorSource, Intrinsics, MaskInput, RegionOptions, RegionSource};
-use splatseg_merge::{build_view_inputs, merge_view, CueRequest, MergeConfig, MergeLog, RegionSummary};
+use splatseg_merge::{
+    build_view_inputs, merge_view_with_wholes, CueRequest, MergeConfig, MergeLog, RegionSummary, ViewWholes,
+};
 use splatseg_scene::Plane;
 
 /// One view's cues, held in memory.
@@ -56,6 +58,15 @@ pub struct ViewMerge {
 /// masks become regions, the cues are computed (descriptors, normalised depth, `∇D`, LoG
 /// edges) and the regions merged. Errors name the view.
 pub fn merge_view_arrays(view: &ViewArrays) -> crate::Result<ViewMerge> {
+    merge_view_arrays_with_wholes(view, None)
+}
+
+/// [`merge_view_arrays`] with the other views' SAM masks through the Gaussians this view sees
+/// (the merge's separate-wholes gate, [`splatseg_merge::wholes`]).
+pub fn merge_view_arrays_with_wholes(
+    view: &ViewArrays,
+    wholes: Option<&ViewWholes>,
+) -> crate::Result<ViewMerge> {
     let (w, h) = (view.width, view.height);
     if view.rgb.len() != w * h * 3 {
         bail!("image of view `{}` holds {} bytes, expected {h}×{w}×3", view.stem, view.rgb.len());
@@ -76,7 +87,8 @@ pub fn merge_view_arrays(view: &ViewArrays) -> crate::Result<ViewMerge> {
         intrinsics: view.intrinsics,
     })
     .with_context(|| format!("preparing the merge cues of view `{}`", view.stem))?;
-    let result = merge_view(&inputs, view.config).with_context(|| format!("merging view `{}`", view.stem))?;
+    let result = merge_view_with_wholes(&inputs, view.config, wholes)
+        .with_context(|| format!("merging view `{}`", view.stem))?;
     Ok(ViewMerge {
         raw: inputs.regions.labels,
         merged: result.labels,

@@ -16,6 +16,7 @@
 //! | `blind_lens` | **blind**: rooms seen through lenses of 40°–75° horizontal field of view |
 //! | `blind_512` | **blind**: rooms at 512×384, harsher cues, lenses of 40°–75° |
 //! | `blind_hires` | **blind**: rooms at 1280×960 with fine stripes and checkers on most objects, harsher cues |
+//! | `blind_sam` | **blind**: rooms whose SAM output seldom nests a whole-object mask over an object's parts and often has one mask over two touching objects; 400×300, 16 views, lenses of 45°–70°, harsher cues |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
 //!
@@ -60,11 +61,14 @@ pub enum Family {
     Blind512,
     /// Blind: 1280×960, fine patterns on objects, harsher cues.
     BlindHires,
+    /// Blind: SAM with few whole-object masks and more masks over touching objects (added after
+    /// the merge's separate-wholes gate, which reads SAM's wholes, was motivated by blind results).
+    BlindSam,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 13] = [
+    pub const ALL: [Family; 14] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -78,11 +82,12 @@ impl Family {
         Family::BlindLens,
         Family::Blind512,
         Family::BlindHires,
+        Family::BlindSam,
     ];
 
     /// The blind families: scored and reported apart, never used to choose a setting.
-    pub const BLIND: [Family; 4] =
-        [Family::BlindCues, Family::BlindLens, Family::Blind512, Family::BlindHires];
+    pub const BLIND: [Family; 5] =
+        [Family::BlindCues, Family::BlindLens, Family::Blind512, Family::BlindHires, Family::BlindSam];
 
     /// True for the blind families.
     pub fn is_blind(self) -> bool {
@@ -105,6 +110,7 @@ impl Family {
             Family::BlindLens => "blind_lens",
             Family::Blind512 => "blind_512",
             Family::BlindHires => "blind_hires",
+            Family::BlindSam => "blind_sam",
         }
     }
 
@@ -180,6 +186,18 @@ impl Family {
                 r.pattern_scale = rng.gen_range(0.35..0.6);
                 resize(&mut c, 1280, 960);
                 harsher_cues(&mut c, &mut rng);
+            }
+            Family::BlindSam => {
+                c.fov_x_deg = rng.gen_range(45.0..70.0);
+                c.views = 16;
+                resize(&mut c, 400, 300);
+                harsher_cues(&mut c, &mut rng);
+                // SAM's hierarchy at its weakest: an object cut into parts seldom gets a mask
+                // over the whole (tuning 0.45, the other blind families 0.8), and touching
+                // objects often share one wrong mask (tuning 0.1; replacing their masks half
+                // the time), which says "together" where the objects are two.
+                c.sam.whole_object_probability = 0.15;
+                c.sam.adjacent_merge_probability = 0.35;
             }
         }
         c
@@ -322,6 +340,9 @@ mod tests {
             let lens = Family::BlindLens.config(seed).fov_x_deg;
             assert!((40.0..75.0).contains(&lens));
             assert_eq!(Family::Blind512.config(seed).width, 512);
+            let sam = Family::BlindSam.config(seed);
+            assert_eq!((sam.width, sam.height, sam.views), (400, 300, 16));
+            assert!(sam.sam.whole_object_probability < 0.2 && sam.sam.adjacent_merge_probability > 0.3);
         }
     }
 }

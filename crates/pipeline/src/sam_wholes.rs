@@ -1,0 +1,89 @@
+//! The other views' SAM masks, through the Gaussians, for the merge's separate-wholes gate
+//! ([`splatseg_merge::wholes`]): before any view is merged, one visibility pass over every view
+//! with masks records which of its masks (all of them, overlapping: parts and wholes) hold each
+//! sampled visible Gaussian's centre pixel. The merge of a view then asks, for a pair of its
+//! regions, what the other views' masks say about the Gaussians either side of their contact.
+
+use crate::cache::KeyHasher;
+use crate::merge_stage::MergeContext;
+use crate::per_view::MergeSources;
+use crate::{read_view_mask_inputs, RunOptions};
+use rayon::prelude::*;
+use splatseg_lift::{view_visibility, LiftConfig, PreparedGaussians};
+use splatseg_merge::{ViewMaskSets, WholesEvidence};
+use splatseg_scene::Scene;
+use std::path::Path;
+
+/// The part of every view's merge key that the gate's evidence adds: every view's masks (the
+/// Gaussians and the visibility settings are in the depth key already) and the sampling stride.
+/// Empty when the gate is off.
+pub fn wholes_key(scene: &Scene, masks_dir: &Path, has_masks: &[bool], stride: u32) -> crate::Result<String> {
+    let mut h = KeyHasher::default();
+    h.text("sam-wholes-v1").text(&stride.to_string());
+    for (view, _) in scene.views.iter().zip(has_masks).filter(|(_, &m)| m) {
+        h.text(&view.stem).folder_entry(masks_dir, &view.stem)?;
+    }
+    Ok(h.finish())
+}
+
+/// What [`wholes_evidence`] reads.
+pub struct WholesRequest<'a> {
+    /// The scene (cameras, views).
+    pub scene: &'a Scene,
+    /// Its Gaussians.
+    pub prepared: &'a PreparedGaussians,
+    /// The SAM masks folder.
+    pub masks_dir: &'a Path,
+    /// `[n_views]` which views have masks.
+    pub has_masks: &'a [bool],
+    /// Visibility settings (as the per-view pass).
+    pub lift: &'a LiftConfig,
+    /// Every `stride`-th Gaussian is kept ([`crate::visible::sample_stride`]).
+    pub stride: u32,
+}
+
+/// Every view's mask sets at its sampled visible Gaussians, grouped by Gaussian; a view without
+/// masks contributes nothing. One visibility pass per view (the same one `run` makes before
+/// merging it), views in parallel, with a progress bar.
+pub fn wholes_evidence(request: &WholesRequest, options: RunOptions) -> crate::Result<WholesEvidence> {
+    let WholesRequest { scene, prepared, masks_dir, has_masks, lift, stride } = *request;
+    let bar = crate::progress(scene.views.len(), "masks across views", options);
+    let views: Vec<crate::Result<ViewMaskSets>> = (0..scene.views.len())
+        .into_par_iter()
+        .map(|v| {
+            let view = &scene.views[v];
+            let sets = if has_masks[v] {
+                let camera = scene.camera(view);
+                let (w, h) = (camera.width as usize, camera.height as usize);
+                let masks = read_view_mask_inputs(masks_dir, &view.stem, w, h)?.unwrap_or_default();
+                let pass = view_visibility(prepared, camera, &view.world_from_cam, None, lift);
+                ViewMaskSets::new(&masks, &pass.visible.gaussians, &pass.visible.pixels, stride)
+            } else {
+                ViewMaskSets::default()
+            };
+            bar.inc(1);
+            Ok(sets)
+        })
+        .collect();
+    bar.finish_and_clear();
+    let views = views.into_iter().collect::<crate::Result<Vec<_>>>()?;
+    Ok(WholesEvidence::new(prepared.len(), stride, views))
+}
+
+/// The gate's key (for every view's merge key) and its evidence, which is built only when a
+/// view of `check` (`[n_views]`, the views this call will merge) is not in the cache: merges
+/// from the cache or from shards already hold it in their keys. `probe`: the merges' context
+/// (without the gate), which checks the cache.
+pub fn prepare(
+    request: &WholesRequest,
+    sources: &MergeSources,
+    mut probe: MergeContext,
+    check: &[bool],
+    options: RunOptions,
+) -> crate::Result<(String, Option<WholesEvidence>)> {
+    let key = wholes_key(request.scene, request.masks_dir, request.has_masks, request.stride)?;
+    probe.wholes_key = key.clone();
+    let cached = sources.all_cached(&probe, check, true)?;
+    let evidence = if cached { None } else { Some(wholes_evidence(request, options)?) };
+    Ok((key, evidence))
+}
