@@ -10,7 +10,7 @@
 //! Raise them as quality improves, never lower them. Issue 27's targets, on the full blind report
 //! seeds: mean mIoU ≥ 0.96, p10 ≥ 0.92, min ≥ 0.85, consistency ≥ 0.97, ids ≤ 1.15 × GT.
 
-use crate::suite::{score_scene, Descriptors, Distribution, SceneOverrides};
+use crate::reduced::{run_scenes, Floors};
 use splatseg_synth::Family;
 
 /// The blind scenes of the reduced set: (family, seed). blind_hires is left to `bench quality`
@@ -41,37 +41,18 @@ const FLOOR_MIN_ACCURACY_3D: f64 = 0.94;
 
 #[test]
 fn reduced_blind_suite_meets_its_floors_on_the_worst_decile() {
-    let tmp = tempfile::tempdir().expect("temp dir");
-    let overrides = SceneOverrides { size: None, views: Some(VIEWS) };
-    let mut scores = Vec::new();
-    for (family, seed) in SCENES {
-        assert!(family.is_blind());
-        let work = tmp.path().join(format!("{family}_{seed}"));
-        scores.extend(
-            score_scene(family, seed, overrides, &[Descriptors::Features], &Default::default(), &work)
-                .expect("scene runs"),
-        );
-        std::fs::remove_dir_all(&work).expect("clean up");
-    }
-    let table = crate::suite::markdown(&scores, 4);
-    println!("{table}");
-    let dist =
-        |f: fn(&crate::suite::SceneScore) -> f64| Distribution::of(scores.iter().map(f)).expect("scores");
-    let miou = dist(|s| s.miou);
-    let mut failures = Vec::new();
-    let mut check = |ok: bool, what: String| {
-        if !ok {
-            failures.push(what);
-        }
-    };
-    check(miou.p10 >= FLOOR_P10_MIOU, format!("p10 mIoU {:.3} < {FLOOR_P10_MIOU}", miou.p10));
-    check(miou.min >= FLOOR_MIN_MIOU, format!("min mIoU {:.3} < {FLOOR_MIN_MIOU}", miou.min));
-    check(miou.mean >= FLOOR_MEAN_MIOU, format!("mean mIoU {:.3} < {FLOOR_MEAN_MIOU}", miou.mean));
-    let consistency = dist(|s| s.consistency).min;
-    check(consistency >= FLOOR_MIN_CONSISTENCY, format!("min consistency {consistency:.3}"));
-    let ids = dist(|s| s.ids_per_gt).max;
-    check(ids <= CEILING_MAX_IDS_PER_GT, format!("max ids / GT {ids:.2}"));
-    let acc = dist(|s| s.accuracy_3d).min;
-    check(acc >= FLOOR_MIN_ACCURACY_3D, format!("min 3D label accuracy {acc:.3}"));
-    assert!(failures.is_empty(), "floors not met: {}\n{table}", failures.join("; "));
+    assert!(SCENES.iter().all(|(family, _)| family.is_blind()));
+    let (scores, table) = run_scenes(&SCENES, VIEWS, |_, _| {});
+    let mut floors = Floors::new(&scores);
+    let miou = floors.dist(|s| s.miou);
+    floors.check(miou.p10 >= FLOOR_P10_MIOU, format!("p10 mIoU {:.3} < {FLOOR_P10_MIOU}", miou.p10));
+    floors.check(miou.min >= FLOOR_MIN_MIOU, format!("min mIoU {:.3} < {FLOOR_MIN_MIOU}", miou.min));
+    floors.check(miou.mean >= FLOOR_MEAN_MIOU, format!("mean mIoU {:.3} < {FLOOR_MEAN_MIOU}", miou.mean));
+    let consistency = floors.dist(|s| s.consistency).min;
+    floors.check(consistency >= FLOOR_MIN_CONSISTENCY, format!("min consistency {consistency:.3}"));
+    let ids = floors.dist(|s| s.ids_per_gt).max;
+    floors.check(ids <= CEILING_MAX_IDS_PER_GT, format!("max ids / GT {ids:.2}"));
+    let acc = floors.dist(|s| s.accuracy_3d).min;
+    floors.check(acc >= FLOOR_MIN_ACCURACY_3D, format!("min 3D label accuracy {acc:.3}"));
+    floors.assert_met(&table);
 }

@@ -16,6 +16,8 @@ mod blind_suite_tests;
 pub mod ceiling;
 mod error;
 pub mod quality;
+#[cfg(test)]
+mod reduced;
 pub mod scale;
 pub mod suite;
 #[cfg(test)]
