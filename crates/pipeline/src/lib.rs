@@ -230,7 +230,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     );
     let sharded = shard::expected_shards(&config.out, "merge")?;
     let sample_stride = prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len()));
-    let (wholes_key, evidence) = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
+    let wholes = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
         Some(p) => {
             let request = sam_wholes::WholesRequest {
                 scene,
@@ -239,6 +239,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
                 has_masks: &inputs.has_masks,
                 lift: &config.pipeline.lift,
                 stride: sample_stride,
+                out: &config.out,
             };
             // Merges from shards need no evidence: their keys already hold it.
             let check =
@@ -246,26 +247,31 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
             let probe = sources.context(scene, &load, config);
             sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
         }
-        None => (String::new(), None),
+        None => sam_wholes::Wholes::off(scene.views.len()),
     };
-    let mut ctx = sources.context(scene, &load, config);
-    ctx.wholes_key = wholes_key;
-    ctx.wholes = evidence.as_ref();
 
     profiler.next("per view: depth, merge, visibility");
     let times = PartTimes::default();
-    let per_view = per_view::PerView {
-        prepared: prepared.as_ref(),
-        cams: &cams,
-        sources: &sources,
-        ctx: &ctx,
-        sharded,
-        lift: &config.pipeline.lift,
-        out: &config.out,
-        sample_stride,
-        times: &times,
+    let mut views = {
+        let mut ctx = sources.context(scene, &load, config);
+        ctx.wholes_key = wholes.key.clone();
+        ctx.wholes = wholes.evidence.as_ref();
+        let per_view = per_view::PerView {
+            prepared: prepared.as_ref(),
+            cams: &cams,
+            sources: &sources,
+            ctx: &ctx,
+            sharded,
+            lift: &config.pipeline.lift,
+            out: &config.out,
+            sample_stride,
+            spilled: &wholes.spilled,
+            times: &times,
+        };
+        every_view(&per_view, &inputs.has_masks, config.options)?
     };
-    let mut views = every_view(&per_view, &inputs.has_masks, config.options)?;
+    // The gate's evidence is read by the merges only.
+    drop(wholes);
     let regions = RegionCounts::of(&views);
     let empty_masks = empty_masks_warning(&views, scene, &config.masks);
     if let Some(w) = &empty_masks {
@@ -280,6 +286,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
 
     profiler.next("lift and render back");
+    let ctx = sources.context(scene, &load, config);
     let lifted = prepared
         .as_ref()
         .map(|p| lift_stage::lift_views(p, &cams, &views, &matching, &ctx, config, &times))

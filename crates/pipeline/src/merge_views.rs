@@ -8,8 +8,10 @@
 use crate::error::{bail, Context};
 use crate::merge_stage::{MergedView, ViewMergeLog};
 use crate::per_view::{finite_depth, ply_key, MergeSources};
+use crate::sam_wholes::Wholes;
 use crate::shard::{write_manifest, Shard, ShardManifest};
 use crate::view_data::ViewImage;
+use crate::visible::pass_or;
 use crate::{inputs, lock, RunConfig};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -76,7 +78,7 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
     let export = request.shard.is_none();
     let mine: Vec<usize> = (0..scene.views.len()).filter(|&v| shard.contains(v) && has_masks[v]).collect();
     // The separate-wholes gate reads every view's masks, not only this shard's (as `run` does).
-    let (wholes_key, evidence) = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
+    let wholes = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
         Some(p) => {
             let stride = crate::visible::sample_stride(p.len(), scene.views.len());
             let request = crate::sam_wholes::WholesRequest {
@@ -86,6 +88,7 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
                 has_masks: &has_masks,
                 lift,
                 stride,
+                out: &config.out,
             };
             let mut check = vec![false; scene.views.len()];
             mine.iter().for_each(|&v| check[v] = true);
@@ -93,12 +96,12 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
             probe.keep_log = export;
             crate::sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
         }
-        None => (String::new(), None),
+        None => Wholes::off(scene.views.len()),
     };
     let mut ctx = sources.context(&scene, load, config);
     ctx.keep_log = export;
-    ctx.wholes_key = wholes_key;
-    ctx.wholes = evidence.as_ref();
+    ctx.wholes_key = wholes.key.clone();
+    ctx.wholes = wholes.evidence.as_ref();
     let bar = crate::progress(mine.len(), if export { "merge" } else { "merge shard" }, config.options);
     let counts = mine
         .par_iter()
@@ -106,7 +109,9 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
             let view = &scene.views[v];
             let (metric, visible) = match prepared.as_ref() {
                 Some(p) => {
-                    let pass = view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift);
+                    let pass = pass_or(&config.out, &view.stem, wholes.spilled[v], || {
+                        view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift)
+                    })?;
                     (pass.surface_depth.as_ref().map(finite_depth), Some(pass.visible))
                 }
                 None => (None, None),

@@ -176,7 +176,8 @@ impl MergeSources {
 }
 
 /// What `run` does per view, one view at a time on each thread: surface depth from the
-/// Gaussians and the visibility test against it (one projection), the merge (computed, from the
+/// Gaussians and the visibility test against it (one projection, or the one the separate-wholes
+/// gate's evidence pass spilled), the merge (computed, from the
 /// cache, or — after `merge --shard` — from the shard that made it); only the compact [`ViewResult`] is kept, the merged maps stay in
 /// `OUT/cache/merge/`, the visible Gaussians are spilled to `OUT/cache/visible/`.
 pub struct PerView<'a> {
@@ -196,6 +197,9 @@ pub struct PerView<'a> {
     pub out: &'a Path,
     /// Matching samples every `sample_stride`-th Gaussian ([`visible::sample_stride`]).
     pub sample_stride: u32,
+    /// `[n_views]` the views whose visibility pass the gate's evidence spilled
+    /// ([`crate::sam_wholes::Wholes::spilled`]).
+    pub spilled: &'a [bool],
     /// Thread time of the parts of the per-view pass.
     pub times: &'a PartTimes,
 }
@@ -204,19 +208,21 @@ impl PerView<'_> {
     /// The compact result of view `v` (which has masks).
     pub fn result(&self, v: usize) -> crate::Result<ViewResult> {
         let c = &self.cams[v];
+        let view = &self.ctx.scene.views[v];
         // One projection of the Gaussians: the surface depth and the visibility test against it.
         let (depth, visibility, bins) = match self.prepared {
             Some(p) => {
                 let pass = self.times.time("surface depth and visibility", || {
-                    view_visibility(p, c.camera, c.world_from_cam, None, self.lift)
-                });
+                    visible::pass_or(self.out, &view.stem, self.spilled[v], || {
+                        view_visibility(p, c.camera, c.world_from_cam, None, self.lift)
+                    })
+                })?;
                 (pass.surface_depth, Some(pass.visible), Some(pass.tile_lists))
             }
             None => (None, None, None),
         };
         let metric = depth.as_ref().map(finite_depth);
         drop(depth);
-        let view = &self.ctx.scene.views[v];
         // The view's image, decoded once for this run: the merge, the lift stage and the outputs
         // all take it from here (the latter two from the view's spill).
         let image = ViewImage::new(self.ctx.scene, view, self.ctx.load_options);
@@ -235,7 +241,7 @@ impl PerView<'_> {
         let (observations, spill) = match visibility {
             Some(vis) => {
                 let labels: Vec<u32> = vis.pixels.iter().map(|&p| merged.merged.data[p as usize]).collect();
-                let path = visible::spill_path(self.out, &self.ctx.scene.views[v].stem);
+                let path = visible::spill_path(self.out, &view.stem);
                 self.times.time("spill the visible Gaussians", || -> crate::Result<()> {
                     visible::write(&path, &vis, &labels)?;
                     // The tile lists too: rendering the labels back reuses them.

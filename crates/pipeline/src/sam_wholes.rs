@@ -3,6 +3,10 @@
 //! with masks records which of its masks (all of them, overlapping: parts and wholes) hold each
 //! sampled visible Gaussian's centre pixel. The merge of a view then asks, for a pair of its
 //! regions, what the other views' masks say about the Gaussians either side of their contact.
+//!
+//! The pass of each view the caller merges next is spilled to `OUT/cache/visible/`
+//! ([`crate::visible::write_pass`]): its merge reads it back instead of projecting the Gaussians
+//! again, so a view's visibility is computed once per run.
 
 use crate::cache::KeyHasher;
 use crate::merge_stage::MergeContext;
@@ -40,13 +44,37 @@ pub struct WholesRequest<'a> {
     pub lift: &'a LiftConfig,
     /// Every `stride`-th Gaussian is kept ([`crate::visible::sample_stride`]).
     pub stride: u32,
+    /// The output folder, whose `cache/visible/` receives the spilled passes.
+    pub out: &'a Path,
+}
+
+/// What [`prepare`] gives the merges.
+pub struct Wholes {
+    /// The gate's part of every view's merge key ([`wholes_key`]).
+    pub key: String,
+    /// The evidence, when a view to merge was not in the cache.
+    pub evidence: Option<WholesEvidence>,
+    /// `[n_views]` the views whose visibility pass was spilled to `OUT/cache/visible/` for their
+    /// merge to read back ([`crate::visible::pass_or`]).
+    pub spilled: Vec<bool>,
+}
+
+impl Wholes {
+    /// The gate off (or no Gaussians): no key, no evidence, no spilled pass, for `n_views` views.
+    pub fn off(n_views: usize) -> Self {
+        Wholes { key: String::new(), evidence: None, spilled: vec![false; n_views] }
+    }
 }
 
 /// Every view's mask sets at its sampled visible Gaussians, grouped by Gaussian; a view without
-/// masks contributes nothing. One visibility pass per view (the same one `run` makes before
-/// merging it), views in parallel, with a progress bar.
-pub fn wholes_evidence(request: &WholesRequest, options: RunOptions) -> crate::Result<WholesEvidence> {
-    let WholesRequest { scene, prepared, masks_dir, has_masks, lift, stride } = *request;
+/// masks contributes nothing. One visibility pass per view (the one its merge needs), views in
+/// parallel, with a progress bar; the passes of the views of `spill` (`[n_views]`) are spilled.
+pub fn wholes_evidence(
+    request: &WholesRequest,
+    spill: &[bool],
+    options: RunOptions,
+) -> crate::Result<WholesEvidence> {
+    let WholesRequest { scene, prepared, masks_dir, has_masks, lift, stride, out } = *request;
     let bar = crate::progress(scene.views.len(), "masks across views", options);
     let views: Vec<crate::Result<ViewMaskSets>> = (0..scene.views.len())
         .into_par_iter()
@@ -57,7 +85,11 @@ pub fn wholes_evidence(request: &WholesRequest, options: RunOptions) -> crate::R
                 let (w, h) = (camera.width as usize, camera.height as usize);
                 let masks = read_view_mask_inputs(masks_dir, &view.stem, w, h)?.unwrap_or_default();
                 let pass = view_visibility(prepared, camera, &view.world_from_cam, None, lift);
-                ViewMaskSets::new(&masks, &pass.visible.gaussians, &pass.visible.pixels, stride)
+                let sets = ViewMaskSets::new(&masks, &pass.visible.gaussians, &pass.visible.pixels, stride);
+                if spill[v] {
+                    crate::visible::write_pass(&crate::visible::pass_path(out, &view.stem), &pass)?;
+                }
+                sets
             } else {
                 ViewMaskSets::default()
             };
@@ -72,18 +104,22 @@ pub fn wholes_evidence(request: &WholesRequest, options: RunOptions) -> crate::R
 
 /// The gate's key (for every view's merge key) and its evidence, which is built only when a
 /// view of `check` (`[n_views]`, the views this call will merge) is not in the cache: merges
-/// from the cache or from shards already hold it in their keys. `probe`: the merges' context
-/// (without the gate), which checks the cache.
+/// from the cache or from shards already hold it in their keys. When it is built, the passes of
+/// the views of `check` with masks are spilled. `probe`: the merges' context (without the gate),
+/// which checks the cache.
 pub fn prepare(
     request: &WholesRequest,
     sources: &MergeSources,
     mut probe: MergeContext,
     check: &[bool],
     options: RunOptions,
-) -> crate::Result<(String, Option<WholesEvidence>)> {
+) -> crate::Result<Wholes> {
     let key = wholes_key(request.scene, request.masks_dir, request.has_masks, request.stride)?;
     probe.wholes_key = key.clone();
-    let cached = sources.all_cached(&probe, check, true)?;
-    let evidence = if cached { None } else { Some(wholes_evidence(request, options)?) };
-    Ok((key, evidence))
+    let spilled: Vec<bool> = check.iter().zip(request.has_masks).map(|(&c, &m)| c && m).collect();
+    if sources.all_cached(&probe, check, true)? {
+        return Ok(Wholes { key, ..Wholes::off(spilled.len()) });
+    }
+    let evidence = wholes_evidence(request, &spilled, options)?;
+    Ok(Wholes { key, evidence: Some(evidence), spilled })
 }

@@ -9,15 +9,23 @@
 //! which rendering the labels back reuses instead of sorting the splats again (≈ 8 MB per
 //! 1280×960 view of 1M Gaussians).
 //!
+//! With the separate-wholes gate on, the pass that finds a view's visible Gaussians is made
+//! before any view is merged ([`crate::sam_wholes`]): the whole pass (surface depth, visible
+//! Gaussians with their pixels and weights, tile lists) is spilled to `<stem>.pass`
+//! ([`write_pass`]) and read back, then removed, by the view's merge ([`pass_or`]), instead of
+//! being made twice.
+//!
 //! Matching keeps, in memory, a deterministic sample of every view's list instead
 //! ([`sample_stride`]): the Gaussians whose index is a multiple of a power-of-two stride chosen
 //! from the number of Gaussians and views alone, so the sample is the same whatever order the
 //! views finish in and whichever shard merged them.
 
 use crate::error::{bail, Context};
-use splatseg_lift::{ViewVisibility, VisibleGaussians};
+use splatseg_lift::{ViewVisibility, VisibilityPass, VisibleGaussians};
 use splatseg_match::ViewObservations;
 use splatseg_render::bin::TileBins;
+use splatseg_scene::Plane;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"SSVIS1\0\0";
@@ -132,6 +140,159 @@ pub fn read_bins(path: &Path) -> crate::Result<TileBins> {
     Ok(TileBins { tiles_x: tiles_x as usize, tiles_y: tiles_y as usize, offsets, ids })
 }
 
+/// Where the evidence pass of the separate-wholes gate spills view `stem`'s whole visibility
+/// pass under `out` for the view's merge to read back ([`pass_or`]).
+pub fn pass_path(out: &Path, stem: &str) -> PathBuf {
+    out.join("cache").join("visible").join(format!("{stem}.pass"))
+}
+
+const PASS_MAGIC: &[u8; 8] = b"SSPAS1\0\0";
+
+/// Writes a view's visibility pass to `path`, streamed (no second copy in memory). Layout
+/// (little-endian): `b"SSPAS1\0\0"`, `width`, `height` (both 0 without a surface depth), `n`,
+/// `tiles_x`, `tiles_y`, `n_ids` (u64 each), `surface_depth: [height · width] f32`,
+/// `gaussians: [n] u32`, `pixels: [n] u32`, `weights: [n] f32`,
+/// `offsets: [tiles_x · tiles_y + 1] u64`, `ids: [n_ids] u32`.
+pub fn write_pass(path: &Path, pass: &VisibilityPass) -> crate::Result<()> {
+    let VisibilityPass { surface_depth, visible: vis, tile_lists: bins } = pass;
+    let n = vis.gaussians.len();
+    if vis.pixels.len() != n
+        || vis.weights.len() != n
+        || bins.offsets.len() != bins.tiles_x * bins.tiles_y + 1
+    {
+        bail!("a visibility pass of unequal lengths for {}", path.display());
+    }
+    let (width, height, depth) = match surface_depth {
+        Some(d) => (d.width, d.height, &d.data[..]),
+        None => (0, 0, &[][..]),
+    };
+    splatseg_scene::atomic::write_atomic(path, |w| {
+        w.write_all(PASS_MAGIC)?;
+        let header = [width, height, n, bins.tiles_x, bins.tiles_y, bins.ids.len()].map(|v| v as u64);
+        stream_words(w, &header, u64::to_le_bytes)?;
+        stream_words(w, depth, f32::to_le_bytes)?;
+        stream_words(w, &vis.gaussians, u32::to_le_bytes)?;
+        stream_words(w, &vis.pixels, u32::to_le_bytes)?;
+        stream_words(w, &vis.weights, f32::to_le_bytes)?;
+        let offsets: Vec<u64> = bins.offsets.iter().map(|&o| o as u64).collect();
+        stream_words(w, &offsets, u64::to_le_bytes)?;
+        stream_words(w, &bins.ids, u32::to_le_bytes)
+    })
+    .with_context(|| format!("writing the visibility pass to {}", path.display()))?;
+    Ok(())
+}
+
+/// Reads back what [`write_pass`] wrote; a file of another size than its header declares is an
+/// error naming it, found before anything is allocated.
+pub fn read_pass(path: &Path) -> crate::Result<VisibilityPass> {
+    let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let len = file.metadata().with_context(|| format!("reading {}", path.display()))?.len();
+    let mut r = std::io::BufReader::new(file);
+    let mut magic = [0u8; 8];
+    if len < 56 || r.read_exact(&mut magic).is_err() || &magic != PASS_MAGIC {
+        bail!("not a view's visibility pass (bad header): {}", path.display());
+    }
+    let reading = || format!("reading {}", path.display());
+    let words: [u64; 6] =
+        read_words(&mut r, 6, u64::from_le_bytes).with_context(reading)?.try_into().unwrap_or_default();
+    let [width, height, n, tiles_x, tiles_y, n_ids] = words;
+    let expected = width
+        .checked_mul(height)
+        .and_then(|pixels| pixels.checked_add(n.checked_mul(3)?))
+        .and_then(|words| words.checked_add(n_ids)?.checked_mul(4))
+        .and_then(|b| b.checked_add(tiles_x.checked_mul(tiles_y)?.checked_add(1)?.checked_mul(8)?))
+        .and_then(|b| b.checked_add(56));
+    if expected != Some(len) {
+        bail!(
+            "visibility pass truncated or malformed ({n} Gaussians, {width}×{height} px, \
+             {tiles_x}×{tiles_y} tiles declared, {len} bytes): {}",
+            path.display()
+        );
+    }
+    let [width, height, n, tiles_x, tiles_y, n_ids] = words.map(|v| v as usize);
+    read_pass_arrays(&mut r, Header { width, height, n, tiles_x, tiles_y, n_ids }).with_context(reading)
+}
+
+/// The sizes a pass's header declares ([`write_pass`]).
+struct Header {
+    width: usize,
+    height: usize,
+    n: usize,
+    tiles_x: usize,
+    tiles_y: usize,
+    n_ids: usize,
+}
+
+/// The arrays of a pass after its header, in the order [`write_pass`] writes them.
+fn read_pass_arrays(r: &mut impl Read, h: Header) -> std::io::Result<VisibilityPass> {
+    let data = read_words(r, h.width * h.height, f32::from_le_bytes)?;
+    let surface_depth = (!data.is_empty()).then_some(Plane { width: h.width, height: h.height, data });
+    let visible = ViewVisibility {
+        gaussians: read_words(r, h.n, u32::from_le_bytes)?,
+        pixels: read_words(r, h.n, u32::from_le_bytes)?,
+        weights: read_words(r, h.n, f32::from_le_bytes)?,
+    };
+    let offsets = read_words(r, h.tiles_x * h.tiles_y + 1, u64::from_le_bytes)?;
+    let tile_lists = TileBins {
+        tiles_x: h.tiles_x,
+        tiles_y: h.tiles_y,
+        offsets: offsets.into_iter().map(|o| o as usize).collect(),
+        ids: read_words(r, h.n_ids, u32::from_le_bytes)?,
+    };
+    Ok(VisibilityPass { surface_depth, visible, tile_lists })
+}
+
+/// View `stem`'s visibility pass: when `spilled`, the one the evidence pass spilled under `out`
+/// ([`pass_path`]), read back and removed; otherwise `make()`'s.
+pub fn pass_or(
+    out: &Path,
+    stem: &str,
+    spilled: bool,
+    make: impl FnOnce() -> VisibilityPass,
+) -> crate::Result<VisibilityPass> {
+    if !spilled {
+        return Ok(make());
+    }
+    let path = pass_path(out, stem);
+    let pass = read_pass(&path)?;
+    std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
+    Ok(pass)
+}
+
+/// Writes `values` (`[n]`) as `N n` little-endian bytes, a block of words at a time.
+fn stream_words<T: Copy, const N: usize>(
+    w: &mut dyn Write,
+    values: &[T],
+    le: impl Fn(T) -> [u8; N],
+) -> std::io::Result<()> {
+    let mut block = [0u8; 8192];
+    for part in values.chunks(8192 / N) {
+        for (slot, &v) in block.chunks_exact_mut(N).zip(part) {
+            slot.copy_from_slice(&le(v));
+        }
+        w.write_all(&block[..N * part.len()])?;
+    }
+    Ok(())
+}
+
+/// Reads `n` words of `N` little-endian bytes, a block at a time.
+fn read_words<T, const N: usize>(
+    r: &mut impl Read,
+    n: usize,
+    from_le: impl Fn([u8; N]) -> T,
+) -> std::io::Result<Vec<T>> {
+    let mut values = Vec::with_capacity(n);
+    let mut block = [0u8; 8192];
+    let mut left = n;
+    while left > 0 {
+        let k = left.min(8192 / N);
+        r.read_exact(&mut block[..N * k])?;
+        values.extend(block[..N * k].chunks_exact(N).map(|c| from_le(c.try_into().unwrap_or([0; N]))));
+        left -= k;
+    }
+    Ok(values)
+}
+
 /// Reads back what [`write`] wrote.
 pub fn read(path: &Path) -> crate::Result<VisibleGaussians> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
@@ -206,6 +367,37 @@ mod tests {
         huge[8..16].copy_from_slice(&u64::MAX.to_le_bytes());
         std::fs::write(&path, &huge).expect("writes");
         assert!(read_bins(&path).expect_err("huge").to_string().contains("malformed"));
+    }
+
+    #[test]
+    fn a_spilled_pass_reads_back_once_and_a_truncated_one_is_an_error() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = pass_path(dir.path(), "view_2");
+        let depth = Plane { width: 3, height: 2, data: vec![1.5, f32::INFINITY, 0.0, 2.0, 3.0, 4.0] };
+        let pass = VisibilityPass {
+            surface_depth: Some(depth),
+            visible: ViewVisibility { gaussians: vec![1, 4], pixels: vec![0, 5], weights: vec![0.5, 2.0] },
+            tile_lists: TileBins { tiles_x: 2, tiles_y: 1, offsets: vec![0, 1, 3], ids: vec![4, 1, 4] },
+        };
+        write_pass(&path, &pass).expect("writes");
+        let bytes = std::fs::read(&path).expect("bytes");
+        let never = || -> VisibilityPass { unreachable!("the spilled pass is read back") };
+        let back = pass_or(dir.path(), "view_2", true, never).expect("reads");
+        assert_eq!(back.surface_depth, pass.surface_depth);
+        assert_eq!(back.visible, pass.visible);
+        let bins = |b: &TileBins| (b.tiles_x, b.tiles_y, b.offsets.clone(), b.ids.clone());
+        assert_eq!(bins(&back.tile_lists), bins(&pass.tile_lists));
+        assert!(!path.exists(), "read once, then removed");
+        let made = pass_or(dir.path(), "view_2", false, || pass.clone()).expect("made");
+        assert_eq!(made.visible, pass.visible);
+        // Without a surface depth (a given depth map) the pass reads back without one.
+        write_pass(&path, &VisibilityPass { surface_depth: None, ..pass.clone() }).expect("writes");
+        assert_eq!(read_pass(&path).expect("reads").surface_depth, None);
+        for cut in [4, bytes.len() - 60] {
+            std::fs::write(&path, &bytes[..bytes.len() - cut]).expect("truncates");
+            let err = read_pass(&path).expect_err("truncated").report();
+            assert!(err.contains("view_2.pass"), "{err}");
+        }
     }
 
     #[test]
