@@ -75,7 +75,8 @@ fn joint_optimisation_fills_unreliable_ids_and_fixes_wrong_votes() {
         .collect();
     let mut start = s.gaussians.clone();
     start.object_ids = Some(lifted.clone());
-    let mut config = TrainConfig { iterations: 600, ..TrainConfig::default() };
+    // 100 joint iterations: accuracy 0.950, against 0.951 after 500 (600 in all) at three times the cost
+    let mut config = TrainConfig { iterations: 200, ..TrainConfig::default() };
     config.densify.until = 100; // geometry alone for 100 iterations, then the joint stage
     let last = std::sync::Mutex::new(None);
     let trained =
@@ -93,7 +94,7 @@ fn joint_optimisation_fills_unreliable_ids_and_fixes_wrong_votes() {
         last.semantic_loss, last.reg_loss
     );
     assert!(last.semantic_loss > 0.0 && last.reg_loss > 0.0, "the joint terms were active");
-    // measured: 0.701 → 0.951, none left unlabelled
+    // measured: 0.701 → 0.950, none left unlabelled
     assert!(after > before + 0.2 && after > 0.92, "accuracy {before:.3} → {after:.3}");
     assert!(unlabelled_after < 0.02, "{unlabelled_after:.3} still unlabelled");
 }
@@ -110,16 +111,14 @@ fn training_is_deterministic_with_densification_and_the_joint_stage() {
     config.densify.interval = 20;
     config.densify.until = 41;
     config.densify.grad_threshold = 1e-5;
-    let run = || train(start.clone(), &train_views, &config, &|_| {}).expect("train");
-    let (a, b) = (run(), run());
+    let a = train(start.clone(), &train_views, &config, &|_| {}).expect("train");
     assert!(a.densify_reports.iter().any(|(_, r)| r.cloned + r.split > 0), "{:?}", a.densify_reports);
     assert_ne!(a.gaussians.len(), start.len());
-    assert_eq!(a.gaussians, b.gaussians);
-    assert_eq!(a.object_features, b.object_features);
-    assert_eq!(a.densify_reports, b.densify_reports);
     assert_eq!(a.object_features.len(), a.gaussians.len() * 16, "features follow densification");
 
-    // checkpoints: the Gaussians of iteration 20 (after its densification), not of the last one
+    // The second run saves checkpoints: the Gaussians of iteration 20 (after its densification), not
+    // of the last one. It must end bit for bit where the first ended: training is deterministic and
+    // saving changes nothing (one run fewer than comparing two plain runs and then a saving one).
     let with_saves = TrainConfig { save_iterations: vec![20, 60, 500], ..config.clone() };
     let mut saved = Vec::new();
     let c = splatseg_train::train_with_checkpoints(
@@ -133,7 +132,9 @@ fn training_is_deterministic_with_densification_and_the_joint_stage() {
         },
     )
     .expect("train");
-    assert_eq!(c.gaussians, a.gaussians, "checkpoints do not change training");
+    assert_eq!(c.gaussians, a.gaussians, "deterministic, and checkpoints do not change training");
+    assert_eq!(c.object_features, a.object_features);
+    assert_eq!(c.densify_reports, a.densify_reports);
     let after_first_densify = a.densify_reports[0].1;
     let expected =
         start.len() + after_first_densify.cloned + after_first_densify.split - after_first_densify.pruned;
