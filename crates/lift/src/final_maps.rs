@@ -3,7 +3,8 @@
 //!
 //! 1. votes, fusion and variance filter ([`VoteAccumulator`]), with each Gaussian's [`Facing`];
 //! 2. touching objects joined ([`join_touching_objects`], from per-view [`ViewCounts`]);
-//! 3. objects split where their Gaussians lie apart in 3D ([`split_disconnected_objects`]);
+//! 3. objects split where their Gaussians lie apart in 3D, a piece that continues another
+//!    object's surface joining it ([`split_disconnected_objects`]);
 //! 4. every view's labels rendered back ([`render_label_map`]), snapped onto its regions
 //!    ([`snap_view`], with `final_maps = "snapped"` / `"snapped-raw"`) and refined by its
 //!    colours ([`refine_boundaries`]);
@@ -148,9 +149,11 @@ impl LiftStage<'_> {
             split_disconnected_objects(self.gaussians, &mut lifted, reserved, self.config)
         });
         tracing::info!(
-            "split {} objects into {} more, whose Gaussians lie apart in 3D",
+            "split {} objects into {} more, whose Gaussians lie apart in 3D ({} of them joined the \
+             object whose surface they continue)",
             split.objects_split,
-            split.parents.len()
+            split.parents.len(),
+            split.continued.len()
         );
         let votes = render_votes(&lifted, self.config);
         let snapped: Vec<(SnappedRuns, LeftEmpty)> = (0..self.cams.len())

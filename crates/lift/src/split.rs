@@ -15,13 +15,23 @@
 //! two voxels off its plane connect only among themselves, so a post standing on a piece of floor
 //! that the per-view merge joined to it splits off, though it touches the floor.
 //!
+//! A cluster split off is a new object only when it does not continue another object's surface:
+//! its identity features are its parent's (its own Gaussians voted with the parent's masks), so
+//! they say nothing of what it is, and a piece of floor or wall that the per-view merge joined
+//! to a box in most views is, in 3D, a plane flush with the floor or wall around it. A split-off
+//! cluster that meets another object along a smooth seam (the seam join's test without its
+//! feature cosine: both planes with parallel normals, at least `SEAM_SMOOTH_SHARE` of at least
+//! `MIN_SEAM_CONTACTS` measured contact voxel pairs smooth) joins that object (the one with the
+//! most smooth contacts; ties: the smaller id). A post or box split off a floor meets the floor at
+//! a crease and is no plane, so it stays an object of its own.
+//!
 //! Deterministic: clusters are ordered by their smallest Gaussian index and new ids are handed out
 //! in order of (object id, cluster), whatever the thread count.
 
 use crate::config::LiftConfig;
 use crate::lifting::Lifted;
 use crate::project::PreparedGaussians;
-use crate::shape::{SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE};
+use crate::shape::{contacts, planarity, SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE};
 use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
@@ -40,7 +50,14 @@ pub struct SplitStats {
     pub objects_split: usize,
     /// `[new_objects]` (new id, the id it was split from), new ids ascending.
     pub parents: Vec<(u32, u32)>,
+    /// (new id, the object it joined) for the split-off clusters that continue another object's
+    /// surface (module docs), new ids ascending: these ids are gone again.
+    pub continued: Vec<(u32, u32)>,
 }
+
+/// Measured contact voxel pairs a split-off cluster needs with an object to continue its
+/// surface: as many as two objects need to touch in the joins (`touching::MIN_CONTACT_VOXELS`).
+const MIN_SEAM_CONTACTS: u32 = 8;
 
 /// Splits the objects of `lifted` whose labelled Gaussians form separate clusters in 3D (module
 /// docs). New ids follow the largest id in use or `reserved` (callers with `[n_objects, dim]` object
@@ -133,7 +150,82 @@ pub fn split_disconnected_objects(
             }
         }
     }
+    stats.continued = join_continued_surfaces(gaussians, lifted, &stats.parents, voxel, config);
     stats
+}
+
+/// The split-off clusters (`parents`: (new id, parent)) that continue another object's surface
+/// join it (module docs): `object_ids` and `majority_ids` of `lifted` take its id. Returns (new
+/// id, the id it joined), new ids ascending.
+fn join_continued_surfaces(
+    gaussians: &PreparedGaussians,
+    lifted: &mut Lifted,
+    parents: &[(u32, u32)],
+    voxel: f32,
+    config: &LiftConfig,
+) -> Vec<(u32, u32)> {
+    if parents.is_empty() {
+        return Vec::new();
+    }
+    let ids = &lifted.object_ids;
+    let planes = planarity(gaussians, ids, SEAM_MAX_ANGLE_DEG);
+    let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
+    let coplanar = |a: u32, b: u32| match (planes.get(&a), planes.get(&b)) {
+        (Some(&(na, pa)), Some(&(nb, pb))) => {
+            pa >= SEAM_SMOOTH_SHARE && pb >= SEAM_SMOOTH_SHARE && na.dot(nb).abs() >= cos_max_angle
+        }
+        _ => false,
+    };
+    let new_ids: BTreeMap<u32, u32> = parents.iter().copied().collect();
+    // Per new id: (smooth contacts, the object) of its best seam, most smooth first, then the
+    // smaller id.
+    let mut best: BTreeMap<u32, (u32, u32)> = BTreeMap::new();
+    for ((a, b), c) in contacts(gaussians, ids, voxel, None, config) {
+        let seam = c.measured >= MIN_SEAM_CONTACTS
+            && c.smooth as f32 >= SEAM_SMOOTH_SHARE * c.measured as f32
+            && coplanar(a, b);
+        if !seam {
+            continue;
+        }
+        for (piece, other) in [(a, b), (b, a)] {
+            if !new_ids.contains_key(&piece) {
+                continue;
+            }
+            let e = best.entry(piece).or_insert((c.smooth, other));
+            if c.smooth > e.0 || (c.smooth == e.0 && other < e.1) {
+                *e = (c.smooth, other);
+            }
+        }
+    }
+    if best.is_empty() {
+        return Vec::new();
+    }
+    // Each piece has one edge, so a group holds at most one object that is not a piece, and
+    // pieces' ids follow every other id: the smallest id of a group is what its pieces join.
+    let top = new_ids.keys().next_back().copied().unwrap_or(0);
+    let mut sets = DisjointSets::new(top as usize + 1);
+    for (&piece, &(_, other)) in &best {
+        sets.union(piece, other);
+    }
+    let joined: BTreeMap<u32, u32> = new_ids
+        .keys()
+        .map(|&piece| (piece, sets.find(piece)))
+        .filter(|&(piece, root)| root != piece)
+        .collect();
+    for (&piece, &root) in &joined {
+        tracing::debug!("piece {piece} split off {} continues the surface of object {root}", new_ids[&piece]);
+    }
+    for id in lifted.object_ids.iter_mut().filter(|id| **id > 0) {
+        if let Some(&root) = joined.get(&(*id as u32)) {
+            *id = root as i32;
+        }
+    }
+    for id in lifted.majority_ids.iter_mut() {
+        if let Some(&root) = joined.get(id) {
+            *id = root;
+        }
+    }
+    joined.into_iter().collect()
 }
 
 /// Objects that are planes (a floor, a wall; by their normals, as the seam join decides) and the

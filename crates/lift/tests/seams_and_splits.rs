@@ -288,3 +288,41 @@ fn two_pieces_of_one_post_join_and_two_posts_side_by_side_do_not() {
     let ids: Vec<i32> = (0..360).map(|i| if i < 180 { 1 } else { 2 }).collect();
     assert_eq!(join(&prepared, ids.clone()), (0, lifted(ids)));
 }
+
+#[test]
+fn a_piece_split_off_an_object_that_continues_the_floor_joins_the_floor() {
+    // Floor (object 1, normal y); object 3: a box side 2 m away (normal x) and a strip flush with
+    // the floor, continuing it (the per-view merge gave a piece of floor the box's mask). The
+    // strip splits off the box and, being the floor's surface continued across a smooth seam,
+    // joins the floor rather than becoming an object of its own (its features are the box's).
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    let mut normals = vec![Y; means.len()];
+    means.extend(grid([2.0, 0.0, 0.0], Y, Z, 20, 20));
+    normals.extend(vec![X; 400]);
+    let strip = means.len();
+    means.extend(grid([0.4, 0.0, 0.0], X, Z, 10, 20));
+    normals.extend(vec![Y; 200]);
+    let ids: Vec<i32> = (0..means.len()).map(|i| if i < 400 { 1 } else { 3 }).collect();
+    let mut l = lifted(ids);
+    let stats = split_disconnected_objects(&flat(&means, &normals), &mut l, 3, &LiftConfig::default());
+    assert_eq!(stats.parents, vec![(4, 3)]);
+    assert_eq!(stats.continued, vec![(4, 1)]);
+    assert!(l.object_ids[..400].iter().all(|&i| i == 1));
+    assert!(l.object_ids[400..strip].iter().all(|&i| i == 3));
+    assert!(l.object_ids[strip..].iter().all(|&i| i == 1), "the strip is the floor's");
+    assert!(l.majority_ids[strip..].iter().all(|&i| i == 1));
+
+    // The same piece standing upright on the floor (a crease, not a seam) stays an object.
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    let mut normals = vec![Y; means.len()];
+    means.extend(grid([2.0, 0.0, 0.0], Y, Z, 20, 20));
+    normals.extend(vec![X; 400]);
+    means.extend(grid([0.2, STEP, 0.2], X, Y, 10, 20));
+    normals.extend(vec![Z; 200]);
+    let ids: Vec<i32> = (0..means.len()).map(|i| if i < 400 { 1 } else { 3 }).collect();
+    let mut l = lifted(ids);
+    let stats = split_disconnected_objects(&flat(&means, &normals), &mut l, 3, &LiftConfig::default());
+    assert_eq!(stats.parents, vec![(4, 3)]);
+    assert!(stats.continued.is_empty());
+    assert!(l.object_ids[800..].iter().all(|&i| i == 4));
+}
