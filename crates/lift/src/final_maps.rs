@@ -31,7 +31,7 @@ use crate::render_labels::{render_label_map, render_votes, RenderVotes};
 use crate::run_lengths::RunLengths;
 use crate::snap::snap_view;
 use crate::split::split_disconnected_objects;
-use crate::touching::{join_touching_objects, ViewCounts};
+use crate::touching::{join_touching_objects, SeparateWholes, ViewCounts};
 use crate::PosedCamera;
 use rayon::prelude::*;
 use splatseg_render::bin::TileBins;
@@ -111,6 +111,8 @@ pub struct LiftStage<'a> {
     pub matched: MatchedViews<'a>,
     /// Lift settings.
     pub config: &'a LiftConfig,
+    /// Other views' SAM masks over objects' Gaussians, for the touching joins (`None`: not used).
+    pub wholes: Option<&'a dyn SeparateWholes>,
 }
 
 /// What the stage produced.
@@ -229,7 +231,15 @@ impl LiftStage<'_> {
             })
             .collect::<Result<_, S::Error>>()?;
         let objects = self.matched.objects;
-        Ok(join_touching_objects(self.gaussians, lifted, objects, &counts, Some(facing), self.config))
+        Ok(join_touching_objects(
+            self.gaussians,
+            lifted,
+            objects,
+            &counts,
+            Some(facing),
+            self.wholes,
+            self.config,
+        ))
     }
 
     /// Step 4 for view `v`: rendered back, snapped (a view with masks) and refined.

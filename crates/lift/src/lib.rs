@@ -58,7 +58,7 @@ pub use render_labels::{render_label_map, render_votes, RenderVotes};
 pub use run_lengths::RunLengths;
 pub use snap::{snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};
-pub use touching::{join_touching_objects, ViewCounts};
+pub use touching::{join_touching_objects, SeparateWholes, ViewCounts};
 pub use visibility::{view_visibility, ViewVisibility, VisibilityPass};
 
 use splatseg_scene::{Camera, Pose};

@@ -305,7 +305,9 @@ fn the_stage_labels_the_objects_with_or_without_kept_tile_lists() {
             let store = MemoryViews { passes: passes.clone(), regions: truth_maps.clone(), keep_tile_lists };
             let matched =
                 MatchedViews { global_of_label: vec![Some(&table[..]); cams.len()], objects: features() };
-            LiftStage { gaussians: &prepared, cams: &cams, matched, config: &config }.run(&store).unwrap()
+            LiftStage { gaussians: &prepared, cams: &cams, matched, config: &config, wholes: None }
+                .run(&store)
+                .unwrap()
         };
         let (kept, sorted) = (run(true), run(false));
         assert_eq!(kept.lifted, sorted.lifted, "{final_maps:?}");
@@ -362,8 +364,9 @@ fn an_object_without_gaussians_keeps_its_matched_id_in_every_view() {
             MemoryViews { passes: passes.clone(), regions: truth_maps.clone(), keep_tile_lists: true };
         let matched =
             MatchedViews { global_of_label: vec![Some(&table[..]); cams.len()], objects: features() };
-        let out =
-            LiftStage { gaussians: &only_first, cams: &cams, matched, config: &config }.run(&store).unwrap();
+        let out = LiftStage { gaussians: &only_first, cams: &cams, matched, config: &config, wholes: None }
+            .run(&store)
+            .unwrap();
         // Pixels per final id of each sphere's truth pixels, over all views.
         let mut px_of: [BTreeMap<u32, usize>; 2] = [BTreeMap::new(), BTreeMap::new()];
         for (v, t) in truth_maps.iter().enumerate() {

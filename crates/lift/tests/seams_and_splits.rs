@@ -48,7 +48,8 @@ fn join(prepared: &PreparedGaussians, ids: Vec<i32>) -> (usize, Lifted) {
     let all: Vec<u32> = (0..prepared.len() as u32).collect();
     let mut facing = Facing::new(prepared.len());
     facing.add_view(prepared, &all, glam::Vec3::new(0.3, 1.5, -1.5));
-    let joins = join_touching_objects(prepared, &mut l, features, &[], Some(&facing), &LiftConfig::default());
+    let joins =
+        join_touching_objects(prepared, &mut l, features, &[], Some(&facing), None, &LiftConfig::default());
     (joins, l)
 }
 
@@ -227,7 +228,7 @@ fn join_parts_with(
     let mut l = lifted(ids);
     let features = ObjectFeatures { dim: 2, values: &PART_FEATURES };
     let facing = with_facing.then_some(&facing);
-    join_touching_objects(prepared, &mut l, features, &counts, facing, config)
+    join_touching_objects(prepared, &mut l, features, &counts, facing, None, config)
 }
 
 #[test]

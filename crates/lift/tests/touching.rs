@@ -2,7 +2,8 @@
 
 use crate::common::{gaussians, lifted};
 use splatseg_lift::{
-    join_touching_objects, Facing, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians, ViewCounts,
+    join_touching_objects, Facing, LiftConfig, Lifted, ObjectFeatures, PreparedGaussians, SeparateWholes,
+    ViewCounts,
 };
 
 /// A 20 × 20 grid of Gaussians (spacing 0.02) at x offset `x0` and depth `z`.
@@ -32,6 +33,7 @@ fn run(means: Vec<[f32; 3]>, ids: Vec<i32>) -> (usize, Lifted) {
         features,
         &[],
         Some(&facing_camera(&prepared)),
+        None,
         &LiftConfig::default(),
     );
     (joins, l)
@@ -86,9 +88,50 @@ fn views_that_keep_the_pieces_apart_block_the_join() {
     // One view of three unites them: share 1/3 < 0.5, no join.
     let views = [counts(&apart), counts(&apart), counts(&together)];
     let mut l = lifted(ids.clone());
-    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), &config), 0);
+    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), None, &config), 0);
     // Two of three: share 2/3, joined.
     let views = [counts(&apart), counts(&together), counts(&together)];
     let mut l = lifted(ids.clone());
-    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), &config), 1);
+    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), None, &config), 1);
+}
+
+/// SAM's wholes (a stand-in for the merge's evidence): object 1's Gaussians (0..400) and object
+/// 3's (800..1200) are in different wholes, so any two sets holding one each are.
+struct OneAndThreeApart;
+
+impl SeparateWholes for OneAndThreeApart {
+    fn separate(&self, a: &[u32], b: &[u32]) -> bool {
+        let has = |s: &[u32], r: std::ops::Range<u32>| s.iter().any(|g| r.contains(g));
+        (has(a, 0..400) && has(b, 800..1200)) || (has(b, 0..400) && has(a, 800..1200))
+    }
+}
+
+#[test]
+fn sam_wholes_veto_a_chain_of_joins_through_a_piece_touching_both() {
+    // Three look-alike patches in a row on one plane: 1 | 2 | 3, seams at x = 0.4 and 0.8. Pair
+    // (2, 3) is the better one (cos 0.998, then (1, 2) 0.990); 1 and 3 never touch.
+    let mut means = patch(0.0, 2.0);
+    means.extend(patch(0.4, 2.0));
+    means.extend(patch(0.8, 2.0));
+    let ids: Vec<i32> = (0..1200).map(|i| 1 + i / 400).collect();
+    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
+    let features = ObjectFeatures { dim: 2, values: &[1.0, 0.0, 0.99, 0.141_07, 0.98, 0.198_99] };
+    let facing = facing_camera(&prepared);
+    let join = |wholes: Option<&dyn SeparateWholes>| {
+        let mut l = lifted(ids.clone());
+        let config = LiftConfig::default();
+        let joins = join_touching_objects(&prepared, &mut l, features, &[], Some(&facing), wholes, &config);
+        (joins, l.object_ids)
+    };
+    // Without SAM's wholes the chain makes one object.
+    let (joins, joined) = join(None);
+    assert_eq!(joins, 2);
+    assert!(joined.iter().all(|&i| i == 1));
+    // With them: (2, 3) joins (neither side holds object 1), then (1, 2) would put 1 with 3 through
+    // 2, which the wholes keep apart, although the pair (1, 2) alone is not.
+    assert!(!OneAndThreeApart.separate(&(0..400).collect::<Vec<_>>(), &(400..800).collect::<Vec<_>>()));
+    let (joins, joined) = join(Some(&OneAndThreeApart));
+    assert_eq!(joins, 1);
+    assert!(joined[..400].iter().all(|&i| i == 1));
+    assert!(joined[400..].iter().all(|&i| i == 2));
 }

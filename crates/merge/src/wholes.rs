@@ -339,42 +339,73 @@ impl<'a> ViewWholes<'a> {
                 }
             }
         }
+        classify(n_views, &scratch.seen, &mut scratch.held, &mut scratch.masks)
+    }
+}
+
+impl WholesEvidence {
+    /// What every view's masks say about two sets of Gaussians (`sides`: Gaussian indices, any
+    /// order; only the sampled ones count), e.g. two objects of the lift: the same counts as a
+    /// pair's zones in [`ViewWholes`], over whole sets and all views.
+    pub fn count_gaussians(&self, sides: [&[u32]; 2]) -> WholesCount {
+        let n_views = self.views();
+        let mut seen = [vec![0u32; n_views], vec![0u32; n_views]];
+        let mut held: [Vec<(u32, u32)>; 2] = Default::default();
         for k in 0..2 {
-            scratch.held[k].sort_unstable();
-        }
-        let mut count = WholesCount::default();
-        let mut at = [0usize; 2];
-        for w in 0..n_views as u32 {
-            let seen = [scratch.seen[0][w as usize], scratch.seen[1][w as usize]];
-            for k in 0..2 {
-                // The masks of view w holding side k: at least half of its Gaussians seen by w.
-                scratch.masks[k].clear();
-                let list = &scratch.held[k];
-                while at[k] < list.len() && list[at[k]].0 == w {
-                    let m = list[at[k]].1;
-                    let mut n = 0;
-                    while at[k] < list.len() && list[at[k]] == (w, m) {
-                        n += 1;
-                        at[k] += 1;
-                    }
-                    if 2 * n >= seen[k] {
-                        scratch.masks[k].push(m);
-                    }
+            for row in sides[k].iter().filter_map(|&g| self.row(g)) {
+                for &(w, set) in self.entries(row) {
+                    seen[k][w as usize] += 1;
+                    held[k].extend(self.views[w as usize].set(set).iter().map(|&m| (w, m)));
                 }
             }
-            if seen[0] < MIN_SIDE_GAUSSIANS || seen[1] < MIN_SIDE_GAUSSIANS {
-                continue;
-            }
-            count.seen += 1;
-            let [a, b] = &scratch.masks;
-            if a.iter().any(|m| b.binary_search(m).is_ok()) {
-                count.together += 1;
-            } else if a.len() >= 2 || b.len() >= 2 {
-                count.apart += 1;
+        }
+        classify(n_views, &seen, &mut held, &mut Default::default())
+    }
+}
+
+/// The counts from each side's observations: `seen[k][w]` the side's Gaussians view `w` sees,
+/// `held[k]` a `(view, mask)` per observation inside a mask (sorted here). `masks`: scratch.
+fn classify(
+    n_views: usize,
+    seen: &[Vec<u32>; 2],
+    held: &mut [Vec<(u32, u32)>; 2],
+    masks: &mut [Vec<u32>; 2],
+) -> WholesCount {
+    for list in held.iter_mut() {
+        list.sort_unstable();
+    }
+    let mut count = WholesCount::default();
+    let mut at = [0usize; 2];
+    for w in 0..n_views as u32 {
+        let seen = [seen[0][w as usize], seen[1][w as usize]];
+        for k in 0..2 {
+            // The masks of view w holding side k: at least half of its Gaussians seen by w.
+            masks[k].clear();
+            let list = &held[k];
+            while at[k] < list.len() && list[at[k]].0 == w {
+                let m = list[at[k]].1;
+                let mut n = 0;
+                while at[k] < list.len() && list[at[k]] == (w, m) {
+                    n += 1;
+                    at[k] += 1;
+                }
+                if 2 * n >= seen[k] {
+                    masks[k].push(m);
+                }
             }
         }
-        count
+        if seen[0] < MIN_SIDE_GAUSSIANS || seen[1] < MIN_SIDE_GAUSSIANS {
+            continue;
+        }
+        count.seen += 1;
+        let [a, b] = &*masks;
+        if a.iter().any(|m| b.binary_search(m).is_ok()) {
+            count.together += 1;
+        } else if a.len() >= 2 || b.len() >= 2 {
+            count.apart += 1;
+        }
     }
+    count
 }
 
 #[cfg(test)]
@@ -399,5 +430,27 @@ mod tests {
         let held: Vec<&[u32]> = sets.set_of.iter().map(|&s| sets.set(s)).collect();
         assert_eq!(held, vec![&[0, 1][..], &[1, 2][..], &[0, 1][..], &[0, 1][..]]);
         assert_eq!(sets.set(0), &[] as &[u32]);
+    }
+
+    #[test]
+    fn two_sets_of_gaussians_are_separate_when_views_nest_one_and_no_mask_holds_both() {
+        // Gaussian g at pixel g of an 8 × 1 image; sides 0..4 and 4..8.
+        let gaussians: Vec<u32> = (0..8).collect();
+        let nested = [columns(8, 1, 0, 4), columns(8, 1, 0, 2), columns(8, 1, 4, 8)];
+        let one_mask = [columns(8, 1, 0, 8)];
+        let plain = [columns(8, 1, 0, 4), columns(8, 1, 4, 8)];
+        let sets = |masks: &[MaskInput]| ViewMaskSets::new(masks, &gaussians, &gaussians, 1);
+        let (a, b): (Vec<u32>, Vec<u32>) = ((0..4).collect(), (4..8).collect());
+        let count = |views: Vec<ViewMaskSets>| WholesEvidence::new(8, 1, views).count_gaussians([&a, &b]);
+        // Apart in a whole in two views, together in one, no hierarchy in one: separate.
+        let c = count(vec![sets(&nested), sets(&one_mask), sets(&nested), sets(&plain)]);
+        assert_eq!(c, WholesCount { together: 1, apart: 2, seen: 4 });
+        assert!(c.separate());
+        // As many views together as apart: not separate.
+        let c = count(vec![sets(&nested), sets(&one_mask), sets(&nested), sets(&one_mask)]);
+        assert_eq!(c, WholesCount { together: 2, apart: 2, seen: 4 });
+        assert!(!c.separate());
+        // One mask each everywhere: SAM says nothing about wholes.
+        assert_eq!(count(vec![sets(&plain); 3]), WholesCount { together: 0, apart: 0, seen: 3 });
     }
 }

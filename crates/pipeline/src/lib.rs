@@ -241,11 +241,10 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
                 stride: sample_stride,
                 out: &config.out,
             };
-            // Merges from shards need no evidence: their keys already hold it.
-            let check =
-                if sharded.is_some() { vec![false; scene.views.len()] } else { inputs.has_masks.clone() };
+            // Built in every run: the lift stage's touching joins read it (every view with masks
+            // takes its pass over the Gaussians, so each view's spilled pass is read back).
             let probe = sources.context(scene, &load, config);
-            sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
+            sam_wholes::prepare(&request, &sources, probe, &inputs.has_masks, true, config.options)?
         }
         None => sam_wholes::Wholes::off(scene.views.len()),
     };
@@ -270,8 +269,6 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         };
         every_view(&per_view, &inputs.has_masks, config.options)?
     };
-    // The gate's evidence is read by the merges only.
-    drop(wholes);
     let regions = RegionCounts::of(&views);
     let empty_masks = empty_masks_warning(&views, scene, &config.masks);
     if let Some(w) = &empty_masks {
@@ -286,11 +283,13 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     tracing::info!("matched into {} global objects ({:?})", matching.n_objects, matching.stats);
 
     profiler.next("lift and render back");
-    let ctx = sources.context(scene, &load, config);
+    let mut ctx = sources.context(scene, &load, config);
+    ctx.wholes = wholes.evidence.as_ref();
     let lifted = prepared
         .as_ref()
         .map(|p| lift_stage::lift_views(p, &cams, &views, &matching, &ctx, config, &times))
         .transpose()?;
+    drop(wholes);
     profiler.parts(times.take());
     remove_spills(&cache_dir.join("visible"))?;
 

@@ -129,7 +129,8 @@ pub fn check_descriptor_lengths(
 
 /// The lift stage on `run`'s per-view results (views with masks vote and are snapped; every
 /// view is rendered back): the Gaussians labelled and every view's final map. With model-free
-/// descriptors (no `features`), the lift settings for them.
+/// descriptors (no `features`), the lift settings for them. `ctx.wholes`: the separate-wholes
+/// evidence, which vetoes touching joins (`None`: the gate is off).
 pub fn lift_views(
     prepared: &PreparedGaussians,
     cams: &[PosedCamera],
@@ -178,10 +179,27 @@ pub fn lift_views(
             .collect(),
         objects: ObjectFeatures { dim: matching.dim, values: &matching.object_features },
     };
-    let stage = LiftStage { gaussians: prepared, cams, matched, config: &lift_config };
+    let wholes = ctx.wholes.map(ObjectWholes);
+    let stage = LiftStage {
+        gaussians: prepared,
+        cams,
+        matched,
+        config: &lift_config,
+        wholes: wholes.as_ref().map(|w| w as &dyn splatseg_lift::SeparateWholes),
+    };
     let output = stage.run(&store)?;
     store.bar.finish_and_clear();
     Ok(output)
+}
+
+/// The merge's separate-wholes evidence, asked about two objects' Gaussians (the touching joins'
+/// veto, [`splatseg_lift::SeparateWholes`]).
+struct ObjectWholes<'a>(&'a splatseg_merge::WholesEvidence);
+
+impl splatseg_lift::SeparateWholes for ObjectWholes<'_> {
+    fn separate(&self, a: &[u32], b: &[u32]) -> bool {
+        self.0.count_gaussians([a, b]).separate()
+    }
 }
 
 /// The lift stage's [`ViewStore`] over `run`'s per-view results: the visible Gaussians and tile

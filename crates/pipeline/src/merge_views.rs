@@ -94,7 +94,7 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
             mine.iter().for_each(|&v| check[v] = true);
             let mut probe = sources.context(&scene, load, config);
             probe.keep_log = export;
-            crate::sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
+            crate::sam_wholes::prepare(&request, &sources, probe, &check, false, config.options)?
         }
         None => Wholes::off(scene.views.len()),
     };

@@ -2,7 +2,9 @@
 //! ([`splatseg_merge::wholes`]): before any view is merged, one visibility pass over every view
 //! with masks records which of its masks (all of them, overlapping: parts and wholes) hold each
 //! sampled visible Gaussian's centre pixel. The merge of a view then asks, for a pair of its
-//! regions, what the other views' masks say about the Gaussians either side of their contact.
+//! regions, what the other views' masks say about the Gaussians either side of their contact,
+//! and the lift stage asks it about two touching objects before joining them
+//! ([`splatseg_lift::SeparateWholes`]); the evidence lives until the lift stage is done.
 //!
 //! The pass of each view the caller merges next is spilled to `OUT/cache/visible/`
 //! ([`crate::visible::write_pass`]): its merge reads it back instead of projecting the Gaussians
@@ -102,22 +104,24 @@ pub fn wholes_evidence(
     Ok(WholesEvidence::new(prepared.len(), stride, views))
 }
 
-/// The gate's key (for every view's merge key) and its evidence, which is built only when a
-/// view of `check` (`[n_views]`, the views this call will merge) is not in the cache: merges
-/// from the cache or from shards already hold it in their keys. When it is built, the passes of
-/// the views of `check` with masks are spilled. `probe`: the merges' context (without the gate),
-/// which checks the cache.
+/// The gate's key (for every view's merge key) and its evidence, which is built when the lift
+/// stage follows (`for_lift`: it vetoes the touching joins with it) or a view of `check`
+/// (`[n_views]`, the views this call will merge or pass over) is not in the cache: merges from the
+/// cache or from shards already hold it in their keys. When it is built, the passes of the views
+/// of `check` with masks are spilled. `probe`: the merges' context (without the gate), which checks
+/// the cache.
 pub fn prepare(
     request: &WholesRequest,
     sources: &MergeSources,
     mut probe: MergeContext,
     check: &[bool],
+    for_lift: bool,
     options: RunOptions,
 ) -> crate::Result<Wholes> {
     let key = wholes_key(request.scene, request.masks_dir, request.has_masks, request.stride)?;
     probe.wholes_key = key.clone();
     let spilled: Vec<bool> = check.iter().zip(request.has_masks).map(|(&c, &m)| c && m).collect();
-    if sources.all_cached(&probe, check, true)? {
+    if !for_lift && sources.all_cached(&probe, check, true)? {
         return Ok(Wholes { key, ..Wholes::off(spilled.len()) });
     }
     let evidence = wholes_evidence(request, &spilled, options)?;
