@@ -17,6 +17,7 @@
 //! | `blind_512` | **blind**: rooms at 512×384, harsher cues, lenses of 40°–75° |
 //! | `blind_hires` | **blind**: rooms at 1280×960 with fine stripes and checkers on most objects, harsher cues |
 //! | `blind_sam` | **blind**: rooms whose SAM output seldom nests a whole-object mask over an object's parts and often has one mask over two touching objects; 400×300, 16 views, lenses of 45°–70°, harsher cues |
+//! | `blind_capture` | **blind**: a capture as a person takes it — 100 views of 1280×960 through lenses of 50°–70°, 10–14 objects with touching and stacked ones, harsher cues, SAM nesting wholes half the time |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
 //!
@@ -64,11 +65,14 @@ pub enum Family {
     /// Blind: SAM with few whole-object masks and more masks over touching objects (added after
     /// the merge's separate-wholes gate, which reads SAM's wholes, was motivated by blind results).
     BlindSam,
+    /// Blind: 100 views of 1280×960, cluttered rooms (added after the touching joins' veto by
+    /// SAM's wholes, which was motivated by blind results).
+    BlindCapture,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 14] = [
+    pub const ALL: [Family; 15] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -83,11 +87,18 @@ impl Family {
         Family::Blind512,
         Family::BlindHires,
         Family::BlindSam,
+        Family::BlindCapture,
     ];
 
     /// The blind families: scored and reported apart, never used to choose a setting.
-    pub const BLIND: [Family; 5] =
-        [Family::BlindCues, Family::BlindLens, Family::Blind512, Family::BlindHires, Family::BlindSam];
+    pub const BLIND: [Family; 6] = [
+        Family::BlindCues,
+        Family::BlindLens,
+        Family::Blind512,
+        Family::BlindHires,
+        Family::BlindSam,
+        Family::BlindCapture,
+    ];
 
     /// True for the blind families.
     pub fn is_blind(self) -> bool {
@@ -111,6 +122,7 @@ impl Family {
             Family::Blind512 => "blind_512",
             Family::BlindHires => "blind_hires",
             Family::BlindSam => "blind_sam",
+            Family::BlindCapture => "blind_capture",
         }
     }
 
@@ -198,6 +210,18 @@ impl Family {
                 // the time), which says "together" where the objects are two.
                 c.sam.whole_object_probability = 0.15;
                 c.sam.adjacent_merge_probability = 0.35;
+            }
+            Family::BlindCapture => {
+                let r = &mut c.room;
+                r.objects = [10, 14];
+                r.stacked = rng.gen_range(1..=2);
+                r.touching = rng.gen_range(1..=2);
+                c.fov_x_deg = rng.gen_range(50.0..70.0);
+                c.views = 100;
+                resize(&mut c, 1280, 960);
+                harsher_cues(&mut c, &mut rng);
+                c.sam.whole_object_probability = 0.5;
+                c.sam.adjacent_merge_probability = 0.2;
             }
         }
         c
@@ -343,6 +367,9 @@ mod tests {
             let sam = Family::BlindSam.config(seed);
             assert_eq!((sam.width, sam.height, sam.views), (400, 300, 16));
             assert!(sam.sam.whole_object_probability < 0.2 && sam.sam.adjacent_merge_probability > 0.3);
+            let capture = Family::BlindCapture.config(seed);
+            assert_eq!((capture.width, capture.height, capture.views), (1280, 960, 100));
+            assert!((50.0..70.0).contains(&capture.fov_x_deg) && capture.room.touching >= 1);
         }
     }
 }
