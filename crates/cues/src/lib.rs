@@ -12,6 +12,8 @@ pub mod depth;
 pub mod descriptors;
 pub mod edges;
 pub mod error;
+#[cfg(test)]
+mod files_tests;
 pub mod filter;
 pub mod regions;
 pub mod surface;

@@ -13,6 +13,8 @@ pub mod error;
 pub mod io;
 pub mod objects;
 pub mod recolor;
+#[cfg(test)]
+mod round_trip_tests;
 pub mod select;
 #[cfg(test)]
 mod testing;

@@ -30,6 +30,8 @@ pub mod error;
 pub mod evidence;
 pub mod input;
 pub mod matching;
+#[cfg(test)]
+mod matching_tests;
 
 pub use config::MatchConfig;
 pub use error::{MatchError, MatchResult};

@@ -43,7 +43,7 @@ fn every_corpus_folder_has_a_target() {
     for dir in std::fs::read_dir(corpus_root()).expect("fuzz/corpus").map(|e| e.expect("entry").path()) {
         let name = dir.file_name().expect("name").to_string_lossy().to_string();
         // config_toml is the pipeline crate's reader: its replay is a test of crates/pipeline/src/config.rs;
-        // view_request is the viewer's server: replayed by crates/view/tests/request_rules.rs.
+        // view_request is the viewer's server: replayed by crates/view/src/request_rules_tests.rs.
         assert!(
             name == "config_toml" || name == "view_request" || TARGETS.iter().any(|(t, _)| *t == name),
             "fuzz/corpus/{name} has no target in splatseg_scene::fuzzing::TARGETS"

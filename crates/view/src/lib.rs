@@ -28,6 +28,8 @@ pub mod fuzzing;
 pub mod manifest;
 pub mod pack;
 pub mod request;
+#[cfg(test)]
+mod request_rules_tests;
 pub mod routes;
 pub mod search;
 pub mod server;

@@ -1,8 +1,8 @@
 //! Cue files on disk: `.npy` depth and feature folders, bad inputs rejected with clear errors, and
 //! COCO RLE from SAM JSON read the same as the scene crate decodes it.
 
-use splatseg_cues::descriptors::read_feature_grid;
-use splatseg_cues::{CuesError, DepthKind, DepthSource, MaskInput, NpyDepthSource};
+use crate::descriptors::read_feature_grid;
+use crate::{CuesError, DepthKind, DepthSource, MaskInput, NpyDepthSource};
 use splatseg_scene::npy::write_npy_f32;
 use splatseg_scene::rle::Rle;
 use splatseg_scene::Plane;

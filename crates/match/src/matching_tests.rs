@@ -1,8 +1,8 @@
 //! Behaviour of `match_masks` on hand-made views.
 
+use crate::{match_masks, MatchConfig, MatchError, MatchInput, ViewMasks, ViewObservations};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use splatseg_match::{match_masks, MatchConfig, MatchError, MatchInput, ViewMasks, ViewObservations};
 
 /// A view whose masks have the given 2D descriptors and area 100.
 fn view(features: &[[f32; 2]]) -> ViewMasks {

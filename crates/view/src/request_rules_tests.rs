@@ -2,7 +2,7 @@
 //! target runs it): `Host`, bounded bodies, the page's token and `Origin` for exports; and every
 //! committed `fuzz/corpus/view_request` input replayed.
 
-use splatseg_view::fuzzing::{request_bytes, site, ADDR, TOKEN};
+use crate::fuzzing::{request_bytes, site, ADDR, TOKEN};
 use std::io::Read;
 use std::path::Path;
 
@@ -117,10 +117,10 @@ fn bodies_are_read_up_to_their_length_and_never_over_the_limit() {
         );
         let mut input = std::io::BufReader::new(std::io::Cursor::new(head.into_bytes()).chain(endless));
         let mut out = Vec::new();
-        splatseg_view::wire::exchange(&site, &access, &mut input, &mut out).expect("exchange");
+        crate::wire::exchange(&site, &access, &mut input, &mut out).expect("exchange");
         status(&out)
     };
-    let limit = splatseg_view::routes::MAX_BODY_BYTES;
+    let limit = crate::routes::MAX_BODY_BYTES;
     for claim in
         ["1000000000000", "18446744073709551615", "99999999999999999999999", &(limit + 1).to_string()]
     {
@@ -158,9 +158,9 @@ fn the_committed_fuzz_corpus_replays() {
 /// query reaches the function decoded.
 #[test]
 fn searches_need_the_token_and_a_bounded_query() {
-    use splatseg_view::search::{SearchHit, MAX_QUERY_CHARS};
+    use crate::search::{SearchHit, MAX_QUERY_CHARS};
     let tmp = tempfile::tempdir().expect("temp dir");
-    let find = |site: &splatseg_view::Site, access, query: &str, token: Option<&str>| {
+    let find = |site: &crate::Site, access, query: &str, token: Option<&str>| {
         let mut head = format!("GET /api/find?q={query} HTTP/1.1\r\nHost: {ADDR}\r\n");
         if let Some(token) = token {
             head.push_str(&format!("X-Splatseg-Token: {token}\r\n"));
@@ -206,10 +206,10 @@ fn searches_need_the_token_and_a_bounded_query() {
 
 #[test]
 fn the_names_of_view_names_go_into_the_manifest_objects() {
-    use splatseg_view::search::ObjectName;
+    use crate::search::ObjectName;
     let tmp = tempfile::tempdir().expect("temp dir");
     let (site, access) = site(tmp.path().to_path_buf());
-    let manifest = |site: &splatseg_view::Site| -> serde_json::Value {
+    let manifest = |site: &crate::Site| -> serde_json::Value {
         let reply = request_bytes(
             site,
             &access,

@@ -1,8 +1,8 @@
 //! Extract / remove through real PLY files: what comes back is bit-for-bit the selected subset.
 
+use crate::io::{read_labelled_ply, write_edited_ply};
+use crate::{extract, remove, EditError, ExtraFields};
 use rand::{Rng, SeedableRng};
-use splatseg_edit::io::{read_labelled_ply, write_edited_ply};
-use splatseg_edit::{extract, remove, EditError, ExtraFields};
 use splatseg_scene::gaussians::{ExtraProperty, FeatureBlock};
 use splatseg_scene::Gaussians;
 
