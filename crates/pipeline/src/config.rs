@@ -208,7 +208,7 @@ const RETIRED: &[(&str, &str, &str)] = &[
     ("lift", "seam_max_angle_deg", "is now a constant (splatseg_lift::shape, 10°)"),
     ("lift", "thin_min_elongation", "is now a constant (splatseg_lift::shape, 5.0)"),
     ("lift", "split_voxel_factor", "is now a constant (splatseg_lift::split, 3.0)"),
-    ("lift", "tau_seam_model_free", "is now the constant splatseg_lift::config::TAU_SEAM_MODEL_FREE (0.5)"),
+    ("lift", "tau_seam_model_free", "is gone: [objects] tau_seam (0.5) holds with and without features"),
     ("lift", "snap_split_share", "is now the constant splatseg_lift::config::SNAP_SPLIT_SHARE (0.25)"),
     ("lift", "snap_bleed_px", "is now the constant splatseg_lift::config::SNAP_BLEED_PX (4 px)"),
     ("lift", "snap_contained_share", "is now the constant splatseg_lift::config::SNAP_CONTAINED_SHARE (0.5)"),

@@ -141,10 +141,6 @@ pub fn lift_views(
     times: &PartTimes,
 ) -> crate::Result<LiftOutput> {
     let lift = &config.pipeline.lift;
-    let lift_config = match config.features {
-        Some(_) => lift.clone(),
-        None => lift.for_model_free_descriptors(),
-    };
     let scene = ctx.scene;
     let snap_kind = lift.final_maps.snapped_onto().unwrap_or("merged");
     // A view with masks: its spill from the per-view pass (decoded there once); a view without
@@ -184,7 +180,7 @@ pub fn lift_views(
         gaussians: prepared,
         cams,
         matched,
-        config: &lift_config,
+        config: lift,
         wholes: wholes.as_ref().map(|w| w as &dyn splatseg_lift::SeparateWholes),
     };
     let output = stage.run(&store)?;
