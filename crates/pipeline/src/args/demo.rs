@@ -21,8 +21,10 @@ pub struct DemoArgs {
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 0))]
     pub seed: u64,
     /// Iterations of the train stage after the pipeline (0 = skip): the first 100 photometric only,
-    /// the rest the joint optimisation of object features seeded by the lifted ids.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 300))]
+    /// the rest the joint optimisation of object features seeded by the lifted ids. 150 shows both
+    /// stages in under a minute (300: held-out PSNR 35.8 instead of 35.4 dB, the same 3D accuracy,
+    /// twice the time).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 150))]
     pub train_iterations: usize,
 }
 
