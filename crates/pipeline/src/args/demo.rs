@@ -44,7 +44,7 @@ impl DemoArgs {
 }
 
 /// The identity study of `splatseg bench identity` on the demo's scene of `seed` (12 views of
-/// 320×240, 300 iterations, as the demo trains), into `out`: the joint stage with the 3D terms only
+/// 320×240, 300 iterations: twice the demo's, for the joint stage's longer run), into `out`: the joint stage with the 3D terms only
 /// against the 3D terms plus the 2D identity maps, every read-back, against the ground truth.
 pub fn identity_study_request(seed: u64, out: PathBuf, options: RunOptions) -> DemoRequest {
     DemoArgs { out, seed, train_iterations: 300 }.request(options).with_identity_study()
