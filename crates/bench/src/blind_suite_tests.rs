@@ -38,6 +38,7 @@ const FLOOR_MIN_CONSISTENCY: f64 = 0.95;
 const CEILING_MAX_IDS_PER_GT: f64 = 1.2;
 /// Lowest 3D label accuracy.
 const FLOOR_MIN_ACCURACY_3D: f64 = 0.94;
+// And no object covering at least 1 % of the image (`suite::LARGE_OBJECT_SHARE`) under IoU 0.5.
 
 #[test]
 fn reduced_blind_suite_meets_its_floors_on_the_worst_decile() {
@@ -54,5 +55,13 @@ fn reduced_blind_suite_meets_its_floors_on_the_worst_decile() {
     floors.check(ids <= CEILING_MAX_IDS_PER_GT, format!("max ids / GT {ids:.2}"));
     let acc = floors.dist(|s| s.accuracy_3d).min;
     floors.check(acc >= FLOOR_MIN_ACCURACY_3D, format!("min 3D label accuracy {acc:.3}"));
+    let (lost, large) = crate::suite::objects_under_half(&scores);
+    floors.check(
+        large == 0,
+        format!(
+            "{large} objects covering at least 1 % of the image under IoU 0.5 (issue 27: none); all under 0.5: {}",
+            lost.iter().map(|(s, i)| format!("{} {} {} {:.2}", s.family, s.seed, i.name, i.iou)).collect::<Vec<_>>().join(", ")
+        ),
+    );
     floors.assert_met(&table);
 }

@@ -74,6 +74,9 @@ pub struct InstanceResult {
     pub classes: Vec<FailureClass>,
     /// IoU with its Hungarian-matched prediction over all views (0 if unmatched).
     pub iou: f64,
+    /// Mean share of the image it covers in the views that show it (its ground-truth pixels over
+    /// all views / (views showing it × width × height)).
+    pub image_share: f64,
 }
 
 /// One scene's scores (the final, lifted label maps and Gaussians).
@@ -173,6 +176,8 @@ pub fn score_scene(
                     name: synth.objects.get(k).map_or_else(|| "?".to_string(), |o| o.name.clone()),
                     classes: classes.get(k).cloned().unwrap_or_default(),
                     iou: i.iou,
+                    image_share: i.pixels as f64
+                        / (i.views.max(1) as f64 * config.width as f64 * config.height as f64),
                 }
             })
             .collect();
@@ -363,6 +368,7 @@ pub fn markdown(scores: &[SceneScore], worst: usize) -> String {
             c.worst.2
         ));
     }
+    t.push_str(&lost_objects(scores));
     let mut sorted: Vec<&SceneScore> = scores.iter().collect();
     sorted.sort_by(|a, b| a.miou.total_cmp(&b.miou));
     t.push_str("\nWorst scenes by mIoU (the instances under IoU 0.7):\n\n");
@@ -384,6 +390,50 @@ pub fn markdown(scores: &[SceneScore], worst: usize) -> String {
             s.ids_per_gt,
             s.accuracy_3d,
             if bad.is_empty() { "-".to_string() } else { bad.join("; ") }
+        ));
+    }
+    t
+}
+
+/// Share of the image from which an object under IoU 0.5 counts as large (issue 27: none at all).
+pub const LARGE_OBJECT_SHARE: f64 = 0.01;
+
+/// Objects under IoU 0.5 over all scenes: (all of them, those covering at least
+/// [`LARGE_OBJECT_SHARE`] of the image), each as (scene, instance).
+pub fn objects_under_half(scores: &[SceneScore]) -> (Vec<(&SceneScore, &InstanceResult)>, usize) {
+    let lost: Vec<(&SceneScore, &InstanceResult)> =
+        scores.iter().flat_map(|s| s.instances.iter().filter(|i| i.iou < 0.5).map(move |i| (s, i))).collect();
+    let large = lost.iter().filter(|(_, i)| i.image_share >= LARGE_OBJECT_SHARE).count();
+    (lost, large)
+}
+
+/// The report's paragraph on objects under IoU 0.5: how many, how many of them large, and each one.
+fn lost_objects(scores: &[SceneScore]) -> String {
+    let total: usize = scores.iter().map(|s| s.instances.len()).sum();
+    let (lost, large) = objects_under_half(scores);
+    let mut t = format!(
+        "\nObjects under IoU 0.5: {} of {} ({:.2} %), {} of them covering at least {:.0} % of the image \
+         (mean share over the views showing them){}\n",
+        lost.len(),
+        total,
+        100.0 * lost.len() as f64 / total.max(1) as f64,
+        large,
+        100.0 * LARGE_OBJECT_SHARE,
+        if lost.is_empty() { "." } else { ":" }
+    );
+    if !lost.is_empty() {
+        t.push('\n');
+    }
+    for (s, i) in lost {
+        let classes: Vec<&str> = i.classes.iter().map(|c| c.name()).collect();
+        t.push_str(&format!(
+            "- {} seed {} {}: IoU {:.2}, {:.2} % of the image [{}]\n",
+            s.family,
+            s.seed,
+            i.name,
+            i.iou,
+            100.0 * i.image_share,
+            classes.join(",")
         ));
     }
     t
@@ -428,5 +478,57 @@ mod tests {
         let d = Distribution::of([1.0, 2.0, f64::NAN].into_iter()).expect("values");
         assert_eq!((d.n, d.p10), (2, 1.1));
         assert!(Distribution::of(std::iter::empty()).is_none());
+    }
+
+    fn scene(seed: u64, objects: &[(f64, f64)]) -> SceneScore {
+        SceneScore {
+            family: Family::BlindCues,
+            seed,
+            descriptors: Descriptors::Features,
+            views: 4,
+            width: 100,
+            height: 100,
+            miou: 0.9,
+            boundary_miou: 0.9,
+            per_view_miou: 0.9,
+            consistency: 0.9,
+            ids_per_gt: 1.0,
+            accuracy_3d: 0.9,
+            unlabelled_share: 0.0,
+            ceiling_sam_regions: 1.0,
+            ceiling_merged: 1.0,
+            instances: objects
+                .iter()
+                .enumerate()
+                .map(|(k, &(iou, image_share))| InstanceResult {
+                    id: k as u32 + 1,
+                    name: format!("object_{k}"),
+                    classes: vec![],
+                    iou,
+                    image_share,
+                })
+                .collect(),
+            seconds: 1.0,
+        }
+    }
+
+    #[test]
+    fn objects_under_half_are_counted_and_the_large_ones_named() {
+        let scores =
+            [scene(1, &[(0.9, 0.2), (0.42, 0.157), (0.3, 0.002)]), scene(2, &[(0.49, 0.01), (0.5, 0.5)])];
+        let (lost, large) = objects_under_half(&scores);
+        let named: Vec<(u64, &str)> = lost.iter().map(|(s, i)| (s.seed, i.name.as_str())).collect();
+        assert_eq!(named, [(1, "object_1"), (1, "object_2"), (2, "object_0")]);
+        assert_eq!(large, 2, "15.7 % and exactly 1 % count as large, 0.2 % does not");
+        let text = markdown(&scores, 0);
+        assert!(
+            text.contains(
+                "Objects under IoU 0.5: 3 of 5 (60.00 %), 2 of them covering at least 1 % of the image"
+            ),
+            "{text}"
+        );
+        assert!(text.contains("- blind_cues seed 1 object_1: IoU 0.42, 15.70 % of the image"), "{text}");
+        let none = markdown(&[scene(3, &[(0.9, 0.2)])], 0);
+        assert!(none.contains("Objects under IoU 0.5: 0 of 1 (0.00 %), 0 of them"), "{none}");
     }
 }
