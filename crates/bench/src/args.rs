@@ -98,7 +98,9 @@ blind_lens (40°–75° lenses), blind_512 (512×384, both), blind_hires (1280×
 checkers on objects), blind_sam (SAM seldom nests whole-object masks and often covers two touching \
 objects with one; 400×300, 16 views), blind_capture (100 views of 1280×960, cluttered rooms with \
 touching and stacked objects, 50°–70° lenses), blind_rooms (every wall and floor patterned, \
-touching and stacked objects, parts of an object further apart in feature space; 640×480, 32 views).
+touching and stacked objects, parts of an object further apart in feature space; 640×480, 32 views), \
+blind_near (2–3 large textured objects near the cameras cut by the border, stacks, few whole-object \
+masks; 480×360, 20 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

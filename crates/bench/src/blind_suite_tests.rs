@@ -13,15 +13,20 @@
 use crate::reduced::{run_scenes, Floors};
 use splatseg_synth::Family;
 
-/// The blind scenes of the reduced set: (family, seed). blind_hires is left to `bench quality`
-/// (a 1280×960 scene costs more than the whole reduced suite).
-const SCENES: [(Family, u64); 6] = [
+/// The blind scenes of the reduced set: (family, seed). blind_hires and blind_capture are left to
+/// `bench quality` (a 1280×960 scene costs more than the whole reduced suite). blind_rooms 0 joined
+/// at 068c263 (12 views: mIoU 0.954, consistency 0.959, ids / GT 1.15, 3D accuracy 0.946, within
+/// every floor); blind_sam 0 (ids / GT 1.25) and blind_near 0 (ids / GT 1.59, consistency 0.940,
+/// 3D accuracy 0.939) would not meet the ceiling on ids and are measured by `bench quality` only,
+/// as adding them here would lower the floors.
+const SCENES: [(Family, u64); 7] = [
     (Family::BlindCues, 0),
     (Family::BlindCues, 1),
     (Family::BlindLens, 0),
     (Family::BlindLens, 1),
     (Family::Blind512, 0),
     (Family::Blind512, 1),
+    (Family::BlindRooms, 0),
 ];
 /// Views per scene (the families use 24; fewer keep the CI cost down).
 const VIEWS: usize = 12;

@@ -182,15 +182,22 @@ pub fn join_touching_objects(
             if thin {
                 tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
             }
-            tracing::trace!(
-                "contact {a}-{b}: cos {cos:.3}, {} voxel pairs ({} measured, {} smooth), coplanar {}, planes {:?} / {:?}",
-                c.voxel_pairs,
-                c.measured,
-                c.smooth,
-                coplanar(a, b),
-                planes.get(&a).map(|p| p.1),
-                planes.get(&b).map(|p| p.1)
-            );
+            if tracing::enabled!(tracing::Level::TRACE) {
+                tracing::trace!(
+                    "contact {a}-{b}: cos {cos:.3}, {} voxel pairs ({} measured, {} smooth; {} oriented, {} concave, \
+                     {} convex), coplanar {}, planes {:?} / {:?}, together in {:.2} of views",
+                    c.voxel_pairs,
+                    c.measured,
+                    c.smooth,
+                    c.oriented,
+                    c.concave,
+                    c.convex,
+                    coplanar(a, b),
+                    planes.get(&a).map(|p| p.1),
+                    planes.get(&b).map(|p| p.1),
+                    together_share(counts, a, b)
+                );
+            }
             if c.voxel_pairs < MIN_CONTACT_VOXELS {
                 return thin.then_some((cos, a, b));
             }

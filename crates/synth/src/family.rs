@@ -17,6 +17,7 @@
 //! | `blind_512` | **blind**: rooms at 512×384, harsher cues, lenses of 40°–75° |
 //! | `blind_hires` | **blind**: rooms at 1280×960 with fine stripes and checkers on most objects, harsher cues |
 //! | `blind_sam` | **blind**: rooms whose SAM output seldom nests a whole-object mask over an object's parts and often has one mask over two touching objects; 400×300, 16 views, lenses of 45°–70°, harsher cues |
+//! | `blind_near` | **blind**: 2–3 large textured objects near the cameras, cut by the border, 1–2 stacks, parts of one object further apart in feature space, SAM seldom nesting wholes; 480×360, 20 views, lenses of 50°–65°, harsher cues |
 //! | `blind_capture` | **blind**: a capture as a person takes it — 100 views of 1280×960 through lenses of 50°–70°, 10–14 objects with touching and stacked ones, harsher cues, SAM nesting wholes half the time |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
@@ -72,11 +73,16 @@ pub enum Family {
     /// apart in feature space, 640×480 (added after the merge's kept creases and the seam
     /// cosine of 0.5, whose diagnosis read blind scenes).
     BlindRooms,
+    /// Blind: 2–3 large textured objects near the cameras, cut by the border, stacked objects,
+    /// parts further apart in feature space, few whole-object masks, 480×360, 20 views (added when
+    /// the suite began counting objects by their share of the image: the large objects under IoU
+    /// 0.5 of the other blind families are border-cut foreground objects and same-depth pairs).
+    BlindNear,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 16] = [
+    pub const ALL: [Family; 17] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -93,10 +99,11 @@ impl Family {
         Family::BlindSam,
         Family::BlindCapture,
         Family::BlindRooms,
+        Family::BlindNear,
     ];
 
     /// The blind families: scored and reported apart, never used to choose a setting.
-    pub const BLIND: [Family; 7] = [
+    pub const BLIND: [Family; 8] = [
         Family::BlindCues,
         Family::BlindLens,
         Family::Blind512,
@@ -104,6 +111,7 @@ impl Family {
         Family::BlindSam,
         Family::BlindCapture,
         Family::BlindRooms,
+        Family::BlindNear,
     ];
 
     /// True for the blind families.
@@ -130,6 +138,7 @@ impl Family {
             Family::BlindSam => "blind_sam",
             Family::BlindCapture => "blind_capture",
             Family::BlindRooms => "blind_rooms",
+            Family::BlindNear => "blind_near",
         }
     }
 
@@ -247,6 +256,19 @@ impl Family {
                 // Parts of one object further apart than in the other blind families (0.37–0.45).
                 c.cues.part_perturbation = rng.gen_range(0.45..0.52);
                 c.sam.adjacent_merge_probability = 0.3;
+            }
+            Family::BlindNear => {
+                let r = &mut c.room;
+                r.foreground_objects = rng.gen_range(2..=3);
+                r.stacked = rng.gen_range(1..=2);
+                r.multi_tone_share = 0.6;
+                c.fov_x_deg = rng.gen_range(50.0..65.0);
+                c.views = 20;
+                resize(&mut c, 480, 360);
+                harsher_cues(&mut c, &mut rng);
+                c.cues.part_perturbation = rng.gen_range(0.45..0.52);
+                // Few masks over a whole object: its parts must be joined from 3D and the views.
+                c.sam.whole_object_probability = 0.3;
             }
         }
         c
@@ -401,6 +423,10 @@ mod tests {
                 rooms.cues.part_perturbation >= 0.45 && rooms.room.touching >= 1 && rooms.room.stacked >= 1
             );
             assert!(rooms.room.walls != WallPaint::Plain && rooms.room.floor != FloorPattern::Planks);
+            let near = Family::BlindNear.config(seed);
+            assert_eq!((near.width, near.height, near.views), (480, 360, 20));
+            assert!(near.room.foreground_objects >= 2 && near.cues.part_perturbation >= 0.45);
+            assert!(near.sam.whole_object_probability < 0.35 && (50.0..65.0).contains(&near.fov_x_deg));
         }
     }
 }
