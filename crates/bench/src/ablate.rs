@@ -56,6 +56,7 @@ fn study_views(scene: &SynthScene, region_options: RegionOptions) -> crate::Resu
                 masks: &masks,
                 depth: &depth,
                 metric_depth: Some(&metric),
+                normals: None,
                 descriptors: &descriptors,
                 region_options,
                 intrinsics: Some(splatseg_cues::Intrinsics::of_camera(scene.scene.camera(view), w, h)),

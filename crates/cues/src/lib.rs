@@ -29,4 +29,7 @@ pub use descriptors::{
 pub use edges::{grey_from_rgb, log_edges};
 pub use error::{CuesError, CuesResult};
 pub use regions::{regions_from_sam_masks, MaskInput, RegionOptions, RegionSource, Regions, UncoveredPolicy};
-pub use surface::{camera_points, near_depth_edge, region_normal_at, DepthJumps, Intrinsics, NormalWindow};
+pub use surface::{
+    camera_points, near_depth_edge, region_mean_normal, region_normal_at, DepthJumps, Intrinsics,
+    NormalWindow,
+};

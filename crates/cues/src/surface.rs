@@ -137,6 +137,47 @@ pub fn region_normal_at(
     Some(n.map(|c| facing * c / len))
 }
 
+/// Fewest samples of a region's own rendered normals in the window for
+/// [`region_mean_normal`]: as many as the point differences [`region_normal_at`] needs (3 in
+/// each direction take 4 samples at least).
+const MIN_NORMAL_SAMPLES: usize = 4;
+
+/// The unit normal of the surface at pixel `p` (row-major index) from rendered normals
+/// (`normals`: `[H, W]` camera-space unit normals facing the camera, NaN = none): the mean of
+/// the normals of `labels[p]`'s own region sampled in `window` around `p`. `None` when the
+/// pixel is unlabelled, too few samples of its region have a normal, or they disagree (their
+/// mean shorter than ½).
+pub fn region_mean_normal(
+    normals: &Plane<[f32; 3]>,
+    labels: &Plane<u32>,
+    p: usize,
+    window: NormalWindow,
+) -> Option<[f32; 3]> {
+    let (w, h) = labels.size();
+    let label = labels.data[p];
+    if label == 0 {
+        return None;
+    }
+    let (x0, y0) = ((p % w) as isize, (p / w) as isize);
+    let (r, s) = (window.radius as isize, window.step as isize);
+    let mut sum = [0f32; 3];
+    let mut count = 0usize;
+    for y in (y0 - r..=y0 + r).step_by(s as usize).filter(|&y| y >= 0 && y < h as isize) {
+        for x in (x0 - r..=x0 + r).step_by(s as usize).filter(|&x| x >= 0 && x < w as isize) {
+            let q = y as usize * w + x as usize;
+            let n = normals.data[q];
+            if labels.data[q] == label && n[0].is_finite() {
+                for c in 0..3 {
+                    sum[c] += n[c];
+                }
+                count += 1;
+            }
+        }
+    }
+    let len = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
+    (count >= MIN_NORMAL_SAMPLES && len >= 0.5 * count as f32).then(|| sum.map(|c| c / len))
+}
+
 /// True when two neighbouring pixels in `window` around pixel `p` (any regions) differ in
 /// depth by more than `max_jump` of the nearer one: `p` is near an occlusion edge, not on a
 /// contact where two surfaces meet (a slanted surface changes depth gradually, a step at

@@ -18,6 +18,7 @@
 
 use crate::config::LiftConfig;
 use crate::project::{project_view, raster_settings, PreparedGaussians};
+use glam::Vec3;
 use splatseg_render::bin::TileBins;
 
 /// The surface depth of a pixel is where front-to-back transmittance first drops below this:
@@ -48,44 +49,103 @@ pub struct ViewVisibility {
     pub weights: Vec<f32>,
 }
 
-/// Surface depth of one band of 16 rows: `[rows, width]`, the first pixel `first`.
+/// Surface depth and normal of one band of 16 rows: `[rows, width]`, the first pixel `first`.
 struct DepthBand<'a> {
     view: &'a ProjectedView,
+    /// `[N]` camera-space unit normal of each Gaussian turned towards the camera, scaled by its
+    /// flatness (round Gaussians say nothing about the surface's orientation).
+    normals: &'a [Vec3],
     first: usize,
     stop: f32,
     depth: Vec<f32>,
+    /// `[rows · width]` blending-weighted sums of `normals` in front of the surface depth, and
+    /// of the weights.
+    normal_sums: Vec<Vec3>,
+    weight_sums: Vec<f32>,
 }
 
 impl ContributionVisitor for DepthBand<'_> {
     #[inline(always)]
     fn contribution(&mut self, c: Contribution) -> bool {
+        let p = c.pixel - self.first;
+        self.normal_sums[p] += c.weight * self.normals[c.gaussian as usize];
+        self.weight_sums[p] += c.weight;
         if c.t_after < self.stop {
-            self.depth[c.pixel - self.first] = self.view.splats[c.gaussian as usize].depth;
+            self.depth[p] = self.view.splats[c.gaussian as usize].depth;
             return false;
         }
         true
     }
 }
 
-/// Surface depth per pixel of a projected view: `[height, width]` metric z (+∞ where
-/// transmittance never drops below [`SURFACE_TRANSMITTANCE`]).
-pub(crate) fn surface_depth(view: &ProjectedView, _config: &LiftConfig) -> Plane<f32> {
+/// Smallest length of a pixel's blended normal, as a fraction of the blended weight, for the
+/// pixel to have a normal: the Gaussians in front of its surface depth must be mostly flat and
+/// mostly agree (½, as for a side's normals in the merge's crease gate).
+const MIN_NORMAL_AGREEMENT: f32 = 0.5;
+
+/// Steps of the grid rendered normals are rounded to (per component; `i16` in a spilled pass,
+/// so a pass read back equals the one computed).
+pub const NORMAL_STEPS: f32 = 32767.0;
+
+/// A pixel's rendered normal from its sums: unit, rounded to [`NORMAL_STEPS`], NaN when the
+/// pixel has no surface or its Gaussians are round or disagree.
+fn pixel_normal(sum: Vec3, weight: f32, depth: f32) -> [f32; 3] {
+    let len = sum.length();
+    if !depth.is_finite() || len.is_nan() || len <= 0.0 || len < MIN_NORMAL_AGREEMENT * weight {
+        return [f32::NAN; 3];
+    }
+    (sum / len).to_array().map(|c| (c * NORMAL_STEPS).round() / NORMAL_STEPS)
+}
+
+/// `[N]` camera-space normals of the Gaussians for [`DepthBand`] (zero for culled ones).
+fn camera_normals(gaussians: &PreparedGaussians, view: &ProjectedView, world_from_cam: &Pose) -> Vec<Vec3> {
+    let cam_from_world = world_from_cam.rotation.transpose().as_mat3();
+    let centre = world_from_cam.translation.as_vec3();
+    (0..view.splats.len())
+        .map(|i| {
+            if view.splats[i].is_culled() {
+                return Vec3::ZERO;
+            }
+            let n = gaussians.normals[i];
+            let towards = if n.dot(gaussians.mean(i) - centre) > 0.0 { -n } else { n };
+            gaussians.flatness[i] * (cam_from_world * towards)
+        })
+        .collect()
+}
+
+/// Surface depth and normals per pixel of a projected view: `[height, width]` metric z (+∞
+/// where transmittance never drops below [`SURFACE_TRANSMITTANCE`]) and camera-space unit
+/// normals facing the camera (blended from the Gaussians' shortest axes in front of the
+/// surface depth, weighted by flatness; NaN where there is none, see [`pixel_normal`]).
+pub(crate) fn surface(
+    gaussians: &PreparedGaussians,
+    view: &ProjectedView,
+    world_from_cam: &Pose,
+) -> (Plane<f32>, Plane<[f32; 3]>) {
     let (width, height) = (view.width, view.height);
+    let normals = camera_normals(gaussians, view, world_from_cam);
     let band_rows = splatseg_render::bin::TILE_SIZE;
     let bands = visit_contributions(view, &raster_settings(), |b| {
         let rows = band_rows.min(height - b * band_rows);
         DepthBand {
             view,
+            normals: &normals,
             first: b * band_rows * width,
             stop: SURFACE_TRANSMITTANCE,
             depth: vec![f32::INFINITY; rows * width],
+            normal_sums: vec![Vec3::ZERO; rows * width],
+            weight_sums: vec![0.0; rows * width],
         }
     });
-    let mut data = Vec::with_capacity(width * height);
+    let mut depth = Vec::with_capacity(width * height);
+    let mut normal = Vec::with_capacity(width * height);
     for band in bands {
-        data.extend(band.depth);
+        for ((&d, &sum), &weight) in band.depth.iter().zip(&band.normal_sums).zip(&band.weight_sums) {
+            normal.push(pixel_normal(sum, weight, d));
+        }
+        depth.extend(band.depth);
     }
-    Plane { width, height, data }
+    (Plane { width, height, data: depth }, Plane { width, height, data: normal })
 }
 
 /// The visibility test of a projected view against `depth` (`[height, width]` metric z,
@@ -134,6 +194,9 @@ pub struct VisibilityPass {
     /// `[height, width]` surface depth from the Gaussians' own footprints, metric z (+∞ where
     /// transmittance never drops below `surface_transmittance`); `None` when a depth map was given.
     pub surface_depth: Option<Plane<f32>>,
+    /// `[height, width]` camera-space unit normals of that surface facing the camera (NaN where
+    /// there is none); `None` when a depth map was given.
+    pub surface_normals: Option<Plane<[f32; 3]>>,
     /// The Gaussians the view sees, tested against that depth (or the given one).
     pub visible: ViewVisibility,
     /// The view's tile lists, which a later pass over the same view may reuse instead of sorting
@@ -154,13 +217,13 @@ pub fn view_visibility(
     let view = project_view(gaussians, camera, world_from_cam, config);
     let test =
         |depth: &Plane<f32>| visible_gaussians(gaussians, &view, camera, world_from_cam, depth, config);
-    let (surface_depth, visible) = match depth {
-        Some(given) => (None, test(given)),
+    let (surface_depth, surface_normals, visible) = match depth {
+        Some(given) => (None, None, test(given)),
         None => {
-            let own = surface_depth(&view, config);
+            let (own, normals) = surface(gaussians, &view, world_from_cam);
             let visible = test(&own);
-            (Some(own), visible)
+            (Some(own), Some(normals), visible)
         }
     };
-    VisibilityPass { surface_depth, visible, tile_lists: view.bins }
+    VisibilityPass { surface_depth, surface_normals, visible, tile_lists: view.bins }
 }

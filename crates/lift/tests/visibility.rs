@@ -70,3 +70,66 @@ fn near_frontal_views_weigh_more() {
     assert!(w_face > 4.0 * w_graze, "face-on {w_face} vs grazing {w_graze}");
     assert!((w_near / w_face - 2.0).abs() < 0.01, "half the distance, twice the weight");
 }
+
+/// A plane of flat discs with unit normal `normal` through `centre`, `steps × steps` discs
+/// spaced `spacing` apart (σ 0.6 spacing in the plane, 0.02 spacing across).
+fn disc_plane(centre: DVec3, normal: DVec3, steps: usize, spacing: f64) -> splatseg_scene::Gaussians {
+    let rotation = glam::DQuat::from_rotation_arc(DVec3::Z, normal);
+    let (u, v) = (rotation * DVec3::X, rotation * DVec3::Y);
+    let half = (steps as f64 - 1.0) / 2.0;
+    let means: Vec<[f32; 3]> = (0..steps * steps)
+        .map(|k| {
+            let (i, j) = ((k % steps) as f64 - half, (k / steps) as f64 - half);
+            (centre + spacing * (i * u + j * v)).as_vec3().to_array()
+        })
+        .collect();
+    let mut g = gaussians(&means, 1.0, 0.95);
+    let q = [rotation.w, rotation.x, rotation.y, rotation.z].map(|c| c as f32);
+    g.rotations = vec![q; means.len()];
+    g.log_scales =
+        vec![
+            [(0.6 * spacing).ln() as f32, (0.6 * spacing).ln() as f32, (0.02 * spacing).ln() as f32];
+            means.len()
+        ];
+    g
+}
+
+#[test]
+fn rendered_normals_are_the_discs_normals_in_the_camera_frame_facing_it() {
+    // A plane tilted 40° about the world y axis, seen from an off-axis camera; its rendered
+    // normal at the image centre is the world normal in camera axes, turned towards the camera
+    // (whichever way the discs' own axes point).
+    let tilt = 40f64.to_radians();
+    let normal = DVec3::new(tilt.sin(), 0.0, -tilt.cos());
+    let pose = look_at(DVec3::new(0.6, -0.3, -2.5), DVec3::ZERO);
+    let expected = pose.rotation.transpose() * normal;
+    let cam = camera(64);
+    for sign in [1.0, -1.0] {
+        let g = disc_plane(DVec3::ZERO, sign * normal, 41, 0.05);
+        let prepared = PreparedGaussians::new(&g).unwrap();
+        let pass = view_visibility(&prepared, &cam, &pose, None, &LiftConfig::default());
+        let normals = pass.surface_normals.expect("rendered normals with the surface depth");
+        let n = DVec3::from((*normals.get(32, 32)).map(f64::from));
+        assert!(n.dot(expected) > 1f64.to_radians().cos(), "{n:?} vs {expected:?}");
+        assert!(
+            n.dot(pose.rotation.transpose() * (DVec3::ZERO - pose.translation)) < 0.0,
+            "faces the camera"
+        );
+    }
+    // A given depth map: no surface of the Gaussians' own, no normals.
+    let g = PreparedGaussians::new(&disc_plane(DVec3::ZERO, normal, 11, 0.05)).unwrap();
+    let wall = splatseg_scene::Plane::filled(64, 64, 1.0f32);
+    assert!(view_visibility(&g, &cam, &pose, Some(&wall), &LiftConfig::default()).surface_normals.is_none());
+}
+
+#[test]
+fn round_gaussians_and_empty_pixels_have_no_rendered_normal() {
+    // Round Gaussians have no preferred axis; a pixel no Gaussian covers has no surface.
+    let g = gaussians(&[[0.0, 0.0, 2.0]], 0.1, 0.95);
+    let prepared = PreparedGaussians::new(&g).unwrap();
+    let pass = view_visibility(&prepared, &camera(64), &Pose::IDENTITY, None, &LiftConfig::default());
+    let normals = pass.surface_normals.expect("normals");
+    assert!(pass.surface_depth.expect("depth").get(32, 32).is_finite(), "the centre has a surface");
+    assert!(normals.get(32, 32)[0].is_nan(), "round: {:?}", normals.get(32, 32));
+    assert!(normals.get(0, 0)[0].is_nan(), "empty pixel: {:?}", normals.get(0, 0));
+}

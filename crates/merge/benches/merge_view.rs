@@ -88,6 +88,7 @@ fn generated_view(size: usize, cells: usize, objects: usize) -> ViewInputs {
         depth_gradient: plane(size, edges.clone()),
         edges: plane(size, edges),
         points: None,
+        normals: None,
     }
 }
 

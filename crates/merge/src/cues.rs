@@ -23,6 +23,9 @@ pub struct CueRequest<'a> {
     pub depth: &'a DepthMap,
     /// `[H, W]` metric z for the crease gate's points; when `None`, `depth` is used if it is metric.
     pub metric_depth: Option<&'a Plane<f32>>,
+    /// `[H, W]` rendered camera-space unit normals facing the camera (NaN = none), for the
+    /// crease gate instead of normals from the points' differences.
+    pub normals: Option<&'a Plane<[f32; 3]>>,
     /// Where region descriptors come from.
     pub descriptors: &'a dyn DescriptorSource,
     /// How masks become regions.
@@ -57,5 +60,6 @@ pub fn build_view_inputs(request: &CueRequest<'_>) -> MergeResultOf<ViewInputs> 
         (Some(z), Some(k)) => Some(camera_points(z, k)),
         _ => None,
     };
-    Ok(ViewInputs { regions, descriptors, depth, depth_gradient: gradient, edges, points })
+    let normals = request.normals.cloned();
+    Ok(ViewInputs { regions, descriptors, depth, depth_gradient: gradient, edges, points, normals })
 }

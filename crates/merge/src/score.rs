@@ -57,8 +57,10 @@
 //!   so the contact medians of an object and what stands behind it come closer than the step;
 //!   `∇D` there does not.
 //! - Concave-crease gate (not in the paper; with metric depth and intrinsics): the surface
-//!   normal on each side of the contact (averaged over the band pixels of that side, each
-//!   estimated from its own region's pixels, [`splatseg_cues::region_normal_at`]) and the
+//!   normal on each side of the contact (averaged over the band pixels of that side, each the
+//!   mean of its own region's rendered normals around it when the Gaussians give them,
+//!   [`splatseg_cues::region_mean_normal`], else estimated from its own region's points,
+//!   [`splatseg_cues::region_normal_at`]) and the
 //!   sides' mean points `x`. The crease is concave when `(n_i − n_j)·(x_i − x_j) < 0` (the
 //!   local-convexity criterion of LCCP, Stein et al. 2014): reject when it is concave and the
 //!   normals differ by more than `max_concave_crease_deg` (45°). Objects are mostly convex;
@@ -143,6 +145,9 @@ pub enum Outcome {
     BelowThreshold,
     /// Other views' SAM masks hold the two sides in different wholes ([`crate::wholes`]).
     SeparateWholes,
+    /// Earlier in this view the concave-crease gate refused a pair of regions that are now on
+    /// either side: a crease the view confirmed keeps them apart ([`crate::merge_view`]).
+    KeptApart,
 }
 
 /// What the scorer needs to know about one region.

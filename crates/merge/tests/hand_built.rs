@@ -40,6 +40,7 @@ fn view(
         depth,
         edges: log_edges(&plane(grey), LOG_SIGMA_PX),
         points: None,
+        normals: None,
     }
 }
 
@@ -149,6 +150,7 @@ fn masks_view(masks: &[MaskInput]) -> ViewInputs {
         depth,
         edges: log_edges(&grey, LOG_SIGMA_PX),
         points: None,
+        normals: None,
         regions,
     }
 }
@@ -396,4 +398,44 @@ fn a_concave_crease_keeps_a_wall_and_the_floor_apart_and_a_convex_one_joins_two_
     let d = pair(&merge_view(&valley, &on).unwrap(), 1, 2);
     assert!((-80.0..-65.0).contains(&d.terms.crease_deg.expect("normals")), "{:?}", d.terms);
     assert_eq!(d.outcome, Outcome::ConcaveCrease);
+}
+
+#[test]
+fn rendered_normals_when_given_are_what_the_crease_gate_reads() {
+    let pair = |v: &ViewInputs| {
+        let on = MergeConfig { max_depth_boundary: None, ..MergeConfig::default() };
+        let r = merge_view(v, &on).unwrap();
+        r.log.decisions.iter().find(|d| (d.a, d.b) == (1, 2)).expect("the pair is evaluated").clone()
+    };
+    // The wall standing on the floor of the test above, its points jittered in depth by up to
+    // ±1 % from pixel to pixel (as a surface depth from blended footprints is): the rendered
+    // normals (the wall faces the camera, the floor 1 below it faces up) still give the right
+    // angle, concave.
+    let mut v = planes_view(|ry| if ry > 0.5 { (2, 1.0 / ry) } else { (1, 2.0) }, 2);
+    let points = v.points.as_mut().expect("points");
+    for (i, p) in points.data.iter_mut().enumerate() {
+        let jitter = 1.0 + 0.01 * (((i * 7919) % 101) as f32 / 50.0 - 1.0);
+        *p = p.map(|c| c * jitter);
+    }
+    let facing = |x: usize, y: usize| -> [f32; 3] {
+        if v.regions.labels.data[y * W + x] == 2 {
+            [0.0, -1.0, 0.0]
+        } else {
+            [0.0, 0.0, -1.0]
+        }
+    };
+    let normals = Plane { width: W, height: H, data: (0..W * H).map(|i| facing(i % W, i / W)).collect() };
+    v.normals = Some(normals);
+    let d = pair(&v);
+    let crease = d.terms.crease_deg.expect("both sides have normals");
+    assert!((-91.0..-89.0).contains(&crease), "a right angle, concave: {crease}");
+    assert_eq!(d.outcome, Outcome::ConcaveCrease, "{:?}", d.terms);
+    // Normals saying the two sides face one way make them one surface, whatever the points say.
+    v.normals = Some(Plane::filled(W, H, [0.0, 0.0, -1.0]));
+    let d = pair(&v);
+    assert!(d.terms.crease_deg.expect("normals").abs() < 1.0, "{:?}", d.terms);
+    assert_ne!(d.outcome, Outcome::ConcaveCrease);
+    // Pixels without a rendered normal (NaN) give the gate nothing to read.
+    v.normals = Some(Plane::filled(W, H, [f32::NAN; 3]));
+    assert_eq!(pair(&v).terms.crease_deg, None);
 }

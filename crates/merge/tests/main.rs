@@ -4,5 +4,6 @@
 //! checks that none is left out).
 
 mod hand_built;
+mod kept_apart;
 mod separate_wholes;
 mod synthetic;

@@ -42,6 +42,7 @@ fn view() -> ViewInputs {
         depth,
         edges: log_edges(&plane(|_, _| 0.5f32), LOG_SIGMA_PX),
         points: None,
+        normals: None,
     }
 }
 

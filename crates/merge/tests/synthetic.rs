@@ -39,6 +39,7 @@ fn study_views(scene: &SynthScene, region_options: RegionOptions) -> Vec<StudyVi
                 masks: &masks,
                 depth: &depth,
                 metric_depth: Some(&v.gt_depth_z),
+                normals: None,
                 descriptors: &descriptors,
                 region_options,
                 intrinsics: Some(splatseg_cues::Intrinsics::of_camera(scene.scene.camera(view), w, h)),

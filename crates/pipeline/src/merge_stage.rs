@@ -95,6 +95,8 @@ pub struct ViewDepth<'a> {
     pub depth: &'a DepthMap,
     /// Metric z for the crease gate's points, when known.
     pub metric: Option<&'a Plane<f32>>,
+    /// Camera-space normals of that surface for the crease gate, when rendered.
+    pub normals: Option<&'a Plane<[f32; 3]>>,
     /// Identifies where the depth came from, for the cache key.
     pub key: String,
     /// The separate-wholes gate's evidence for this view (its visible Gaussians), when built.
@@ -104,7 +106,7 @@ pub struct ViewDepth<'a> {
 /// The cache key of one view's merge.
 fn view_key(ctx: &MergeContext, view: &View, depth_key: &str) -> crate::Result<String> {
     let mut h = KeyHasher::default();
-    h.text("merge-v1").text(&view.stem).json(ctx.config).json(&ctx.region_options).text(depth_key);
+    h.text("merge-v2").text(&view.stem).json(ctx.config).json(&ctx.region_options).text(depth_key);
     h.text(&ctx.wholes_key);
     h.folder_entry(ctx.masks_dir, &view.stem)?;
     h.file(&view.image_path)?;
@@ -194,6 +196,7 @@ pub fn merge_one(
             masks: &masks,
             depth: depth.depth,
             metric: depth.metric,
+            normals: depth.normals,
             descriptors: ctx.descriptors,
             config: ctx.config,
             region_options: ctx.region_options,

@@ -107,22 +107,22 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
         .par_iter()
         .map(|&v| -> crate::Result<(bool, usize, usize, usize)> {
             let view = &scene.views[v];
-            let (metric, visible) = match prepared.as_ref() {
+            let (metric, normals, visible) = match prepared.as_ref() {
                 Some(p) => {
                     let pass = pass_or(&config.out, &view.stem, wholes.spilled[v], || {
                         view_visibility(p, scene.camera(view), &view.world_from_cam, None, lift)
                     })?;
-                    (pass.surface_depth.as_ref().map(finite_depth), Some(pass.visible))
+                    (pass.surface_depth.as_ref().map(finite_depth), pass.surface_normals, Some(pass.visible))
                 }
-                None => (None, None),
+                None => (None, None, None),
             };
             let visible = visible.as_ref();
             let image = ViewImage::new(&scene, view, load);
             let merged = match request.shard {
                 Some(shard) => sources
-                    .merge(&ctx, v, metric, visible, &image)
+                    .merge(&ctx, v, metric, normals, visible, &image)
                     .with_context(|| format!("shard {shard}"))?,
-                None => sources.merge(&ctx, v, metric, visible, &image)?,
+                None => sources.merge(&ctx, v, metric, normals, visible, &image)?,
             };
             let before = match &merged.log {
                 Some(log) => log.log.regions_before,

@@ -134,6 +134,7 @@ impl MergeSources {
         ctx: &MergeContext,
         v: usize,
         metric: Option<Plane<f32>>,
+        normals: Option<Plane<[f32; 3]>>,
         visible: Option<&ViewVisibility>,
         image: &ViewImage,
     ) -> crate::Result<MergedView> {
@@ -144,7 +145,8 @@ impl MergeSources {
             .wholes
             .zip(visible)
             .map(|(evidence, vis)| ViewWholes::new(evidence, v, (&vis.gaussians, &vis.pixels), size));
-        let depth = ViewDepth { depth: &depth, metric: metric.as_ref(), key, wholes };
+        let depth =
+            ViewDepth { depth: &depth, metric: metric.as_ref(), normals: normals.as_ref(), key, wholes };
         merge_one(ctx, &ctx.scene.views[v], &depth, image)
     }
 
@@ -162,7 +164,7 @@ impl MergeSources {
         match merge_cached(
             ctx,
             view,
-            &ViewDepth { depth: &depth, metric: metric.as_ref(), key, wholes: None },
+            &ViewDepth { depth: &depth, metric: metric.as_ref(), normals: None, key, wholes: None },
         )? {
             Some(hit) => Ok(hit),
             None => bail!(
@@ -210,16 +212,16 @@ impl PerView<'_> {
         let c = &self.cams[v];
         let view = &self.ctx.scene.views[v];
         // One projection of the Gaussians: the surface depth and the visibility test against it.
-        let (depth, visibility, bins) = match self.prepared {
+        let (depth, normals, visibility, bins) = match self.prepared {
             Some(p) => {
                 let pass = self.times.time("surface depth and visibility", || {
                     visible::pass_or(self.out, &view.stem, self.spilled[v], || {
                         view_visibility(p, c.camera, c.world_from_cam, None, self.lift)
                     })
                 })?;
-                (pass.surface_depth, Some(pass.visible), Some(pass.tile_lists))
+                (pass.surface_depth, pass.surface_normals, Some(pass.visible), Some(pass.tile_lists))
             }
-            None => (None, None, None),
+            None => (None, None, None, None),
         };
         let metric = depth.as_ref().map(finite_depth);
         drop(depth);
@@ -230,7 +232,7 @@ impl PerView<'_> {
         let merged =
             self.times.time("merge (inputs, cues, merging; or the cache)", || match self.sharded {
                 Some(count) => self.sources.cached(self.ctx, v, metric, Shard { index: v % count, count }),
-                None => self.sources.merge(self.ctx, v, metric, visibility.as_ref(), &image),
+                None => self.sources.merge(self.ctx, v, metric, normals, visibility.as_ref(), &image),
             })?;
         let data = view_data::spill_path(self.out, &view.stem);
         self.times.time("spill the view's image and maps", || {

@@ -29,6 +29,9 @@ pub struct ViewArrays<'a> {
     /// `[H, W]` metric z for the crease gate, when known (`run` renders it
     /// from the Gaussians); `None`: `depth` when it is metric.
     pub metric: Option<&'a Plane<f32>>,
+    /// `[H, W]` camera-space unit normals of that surface facing the camera (NaN = none), when
+    /// known (`run` renders them from the Gaussians): the crease gate reads them.
+    pub normals: Option<&'a Plane<[f32; 3]>>,
     /// Where the regions' descriptors come from (dense features or the colour/texture fallback).
     pub descriptors: &'a dyn DescriptorSource,
     /// `[merge]` settings.
@@ -82,6 +85,7 @@ pub fn merge_view_arrays_with_wholes(
         masks: view.masks,
         depth: view.depth,
         metric_depth: view.metric,
+        normals: view.normals,
         descriptors: view.descriptors,
         region_options: view.region_options,
         intrinsics: view.intrinsics,

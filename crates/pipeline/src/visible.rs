@@ -21,6 +21,7 @@
 //! views finish in and whichever shard merged them.
 
 use crate::error::{bail, Context};
+use splatseg_lift::visibility::NORMAL_STEPS;
 use splatseg_lift::{ViewVisibility, VisibilityPass, VisibleGaussians};
 use splatseg_match::ViewObservations;
 use splatseg_render::bin::TileBins;
@@ -146,31 +147,57 @@ pub fn pass_path(out: &Path, stem: &str) -> PathBuf {
     out.join("cache").join("visible").join(format!("{stem}.pass"))
 }
 
-const PASS_MAGIC: &[u8; 8] = b"SSPAS1\0\0";
+const PASS_MAGIC: &[u8; 8] = b"SSPAS2\0\0";
+
+/// A pixel without a rendered normal, in a spilled pass (no component of a unit normal rounds
+/// to it: they lie in `[-NORMAL_STEPS, NORMAL_STEPS]`).
+const NO_NORMAL: i16 = i16::MIN;
+
+/// A rendered normal's components on the `i16` grid they were rounded to.
+fn normal_words(n: [f32; 3]) -> [i16; 3] {
+    if n[0].is_finite() {
+        n.map(|c| (c * NORMAL_STEPS).round() as i16)
+    } else {
+        [NO_NORMAL; 3]
+    }
+}
+
+/// The inverse of [`normal_words`] (exact on the grid).
+fn normal_of_words(w: [i16; 3]) -> [f32; 3] {
+    if w[0] == NO_NORMAL {
+        [f32::NAN; 3]
+    } else {
+        w.map(|c| c as f32 / NORMAL_STEPS)
+    }
+}
 
 /// Writes a view's visibility pass to `path`, streamed (no second copy in memory). Layout
-/// (little-endian): `b"SSPAS1\0\0"`, `width`, `height` (both 0 without a surface depth), `n`,
+/// (little-endian): `b"SSPAS2\0\0"`, `width`, `height` (both 0 without a surface depth), `n`,
 /// `tiles_x`, `tiles_y`, `n_ids` (u64 each), `surface_depth: [height · width] f32`,
+/// `surface_normals: [height · width · 3] i16` (components × 32767, `i16::MIN` = none),
 /// `gaussians: [n] u32`, `pixels: [n] u32`, `weights: [n] f32`,
 /// `offsets: [tiles_x · tiles_y + 1] u64`, `ids: [n_ids] u32`.
 pub fn write_pass(path: &Path, pass: &VisibilityPass) -> crate::Result<()> {
-    let VisibilityPass { surface_depth, visible: vis, tile_lists: bins } = pass;
+    let VisibilityPass { surface_depth, surface_normals, visible: vis, tile_lists: bins } = pass;
     let n = vis.gaussians.len();
     if vis.pixels.len() != n
         || vis.weights.len() != n
         || bins.offsets.len() != bins.tiles_x * bins.tiles_y + 1
+        || surface_depth.as_ref().map(Plane::size) != surface_normals.as_ref().map(Plane::size)
     {
         bail!("a visibility pass of unequal lengths for {}", path.display());
     }
-    let (width, height, depth) = match surface_depth {
-        Some(d) => (d.width, d.height, &d.data[..]),
-        None => (0, 0, &[][..]),
+    let (width, height, depth, normals) = match (surface_depth, surface_normals) {
+        (Some(d), Some(n)) => (d.width, d.height, &d.data[..], &n.data[..]),
+        _ => (0, 0, &[][..], &[][..]),
     };
+    let normals: Vec<i16> = normals.iter().flat_map(|&n| normal_words(n)).collect();
     splatseg_scene::atomic::write_atomic(path, |w| {
         w.write_all(PASS_MAGIC)?;
         let header = [width, height, n, bins.tiles_x, bins.tiles_y, bins.ids.len()].map(|v| v as u64);
         stream_words(w, &header, u64::to_le_bytes)?;
         stream_words(w, depth, f32::to_le_bytes)?;
+        stream_words(w, &normals, i16::to_le_bytes)?;
         stream_words(w, &vis.gaussians, u32::to_le_bytes)?;
         stream_words(w, &vis.pixels, u32::to_le_bytes)?;
         stream_words(w, &vis.weights, f32::to_le_bytes)?;
@@ -200,6 +227,7 @@ pub fn read_pass(path: &Path) -> crate::Result<VisibilityPass> {
         .checked_mul(height)
         .and_then(|pixels| pixels.checked_add(n.checked_mul(3)?))
         .and_then(|words| words.checked_add(n_ids)?.checked_mul(4))
+        .and_then(|b| b.checked_add(width.checked_mul(height)?.checked_mul(6)?))
         .and_then(|b| b.checked_add(tiles_x.checked_mul(tiles_y)?.checked_add(1)?.checked_mul(8)?))
         .and_then(|b| b.checked_add(56));
     if expected != Some(len) {
@@ -226,6 +254,10 @@ struct Header {
 /// The arrays of a pass after its header, in the order [`write_pass`] writes them.
 fn read_pass_arrays(r: &mut impl Read, h: Header) -> std::io::Result<VisibilityPass> {
     let data = read_words(r, h.width * h.height, f32::from_le_bytes)?;
+    let words = read_words(r, h.width * h.height * 3, i16::from_le_bytes)?;
+    let normals = words.chunks_exact(3).map(|w| normal_of_words([w[0], w[1], w[2]])).collect();
+    let surface_normals =
+        (!data.is_empty()).then_some(Plane { width: h.width, height: h.height, data: normals });
     let surface_depth = (!data.is_empty()).then_some(Plane { width: h.width, height: h.height, data });
     let visible = ViewVisibility {
         gaussians: read_words(r, h.n, u32::from_le_bytes)?,
@@ -239,7 +271,7 @@ fn read_pass_arrays(r: &mut impl Read, h: Header) -> std::io::Result<VisibilityP
         offsets: offsets.into_iter().map(|o| o as usize).collect(),
         ids: read_words(r, h.n_ids, u32::from_le_bytes)?,
     };
-    Ok(VisibilityPass { surface_depth, visible, tile_lists })
+    Ok(VisibilityPass { surface_depth, surface_normals, visible, tile_lists })
 }
 
 /// View `stem`'s visibility pass: when `spilled`, the one the evidence pass spilled under `out`
@@ -374,8 +406,19 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = pass_path(dir.path(), "view_2");
         let depth = Plane { width: 3, height: 2, data: vec![1.5, f32::INFINITY, 0.0, 2.0, 3.0, 4.0] };
+        let normals = vec![
+            [0.0, 0.0, -1.0],
+            [f32::NAN; 3],
+            [0.6, -0.8, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0; 3],
+            [-0.5, 0.5, -0.5],
+        ];
+        let normals =
+            normals.into_iter().map(|n: [f32; 3]| n.map(|c| (c * NORMAL_STEPS).round() / NORMAL_STEPS));
         let pass = VisibilityPass {
             surface_depth: Some(depth),
+            surface_normals: Some(Plane { width: 3, height: 2, data: normals.collect() }),
             visible: ViewVisibility { gaussians: vec![1, 4], pixels: vec![0, 5], weights: vec![0.5, 2.0] },
             tile_lists: TileBins { tiles_x: 2, tiles_y: 1, offsets: vec![0, 1, 3], ids: vec![4, 1, 4] },
         };
@@ -384,6 +427,10 @@ mod tests {
         let never = || -> VisibilityPass { unreachable!("the spilled pass is read back") };
         let back = pass_or(dir.path(), "view_2", true, never).expect("reads");
         assert_eq!(back.surface_depth, pass.surface_depth);
+        let bits = |p: &Option<Plane<[f32; 3]>>| -> Vec<[u32; 3]> {
+            p.as_ref().map(|p| p.data.iter().map(|n| n.map(f32::to_bits)).collect()).unwrap_or_default()
+        };
+        assert_eq!(bits(&back.surface_normals), bits(&pass.surface_normals), "normals read back bit for bit");
         assert_eq!(back.visible, pass.visible);
         let bins = |b: &TileBins| (b.tiles_x, b.tiles_y, b.offsets.clone(), b.ids.clone());
         assert_eq!(bins(&back.tile_lists), bins(&pass.tile_lists));
@@ -391,8 +438,10 @@ mod tests {
         let made = pass_or(dir.path(), "view_2", false, || pass.clone()).expect("made");
         assert_eq!(made.visible, pass.visible);
         // Without a surface depth (a given depth map) the pass reads back without one.
-        write_pass(&path, &VisibilityPass { surface_depth: None, ..pass.clone() }).expect("writes");
-        assert_eq!(read_pass(&path).expect("reads").surface_depth, None);
+        let without = VisibilityPass { surface_depth: None, surface_normals: None, ..pass.clone() };
+        write_pass(&path, &without).expect("writes");
+        let back = read_pass(&path).expect("reads");
+        assert_eq!((back.surface_depth, back.surface_normals), (None, None));
         for cut in [4, bytes.len() - 60] {
             std::fs::write(&path, &bytes[..bytes.len() - cut]).expect("truncates");
             let err = read_pass(&path).expect_err("truncated").report();

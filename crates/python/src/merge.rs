@@ -203,6 +203,7 @@ pub fn merge_view<'py>(
         masks: &masks,
         depth: &depth,
         metric: None,
+        normals: None,
         descriptors,
         config: &config.merge,
         region_options: config.regions,
