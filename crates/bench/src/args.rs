@@ -100,7 +100,8 @@ objects with one; 400×300, 16 views), blind_capture (100 views of 1280×960, cl
 touching and stacked objects, 50°–70° lenses), blind_rooms (every wall and floor patterned, \
 touching and stacked objects, parts of an object further apart in feature space; 640×480, 32 views), \
 blind_near (2–3 large textured objects near the cameras cut by the border, stacks, few whole-object \
-masks; 480×360, 20 views).
+masks; 480×360, 20 views), blind_rough (Gaussians tilted off their surfaces, thicker and moved off \
+them as a trained 3DGS leaves them; cluttered rooms, 400×300, 24 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

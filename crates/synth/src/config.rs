@@ -91,6 +91,15 @@ pub struct CueConfig {
     pub depth_pixel_noise: f64,
     /// Radius of the box blur applied to the relative depth, pixels (0: none).
     pub depth_blur_px: usize,
+    /// Standard deviation of each Gaussian's tilt off the surface it was sampled on, degrees
+    /// (per tangent axis): a trained 3DGS scene's Gaussians are not exact discs on the surface.
+    pub gaussian_tilt_deg: f64,
+    /// Each Gaussian's thickness (standard deviation along its shortest axis), a fraction of the
+    /// sample spacing (in the plane: 0.6).
+    pub gaussian_thickness: f64,
+    /// Standard deviation of each Gaussian's displacement off the surface along its normal, a
+    /// fraction of the sample spacing.
+    pub gaussian_offset: f64,
 }
 
 impl Default for CueConfig {
@@ -104,6 +113,9 @@ impl Default for CueConfig {
             depth_shift_error: 0.05,
             depth_pixel_noise: 0.008,
             depth_blur_px: 0,
+            gaussian_tilt_deg: 0.0,
+            gaussian_thickness: 0.02,
+            gaussian_offset: 0.0,
         }
     }
 }

@@ -18,6 +18,7 @@
 //! | `blind_hires` | **blind**: rooms at 1280×960 with fine stripes and checkers on most objects, harsher cues |
 //! | `blind_sam` | **blind**: rooms whose SAM output seldom nests a whole-object mask over an object's parts and often has one mask over two touching objects; 400×300, 16 views, lenses of 45°–70°, harsher cues |
 //! | `blind_near` | **blind**: 2–3 large textured objects near the cameras, cut by the border, 1–2 stacks, parts of one object further apart in feature space, SAM seldom nesting wholes; 480×360, 20 views, lenses of 50°–65°, harsher cues |
+//! | `blind_rough` | **blind**: Gaussians as a trained 3DGS leaves them — discs tilted 15°–25° off their surfaces, thicker and moved off them — in cluttered rooms with touching and stacked objects; 400×300, 24 views, lenses of 45°–70°, harsher cues |
 //! | `blind_capture` | **blind**: a capture as a person takes it — 100 views of 1280×960 through lenses of 50°–70°, 10–14 objects with touching and stacked ones, harsher cues, SAM nesting wholes half the time |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
@@ -78,11 +79,15 @@ pub enum Family {
     /// the suite began counting objects by their share of the image: the large objects under IoU
     /// 0.5 of the other blind families are border-cut foreground objects and same-depth pairs).
     BlindNear,
+    /// Blind: Gaussians tilted off their surfaces, thicker and moved off them, as a trained 3DGS
+    /// leaves them, in cluttered rooms (added after the crease gate read normals rendered from
+    /// the Gaussians, which are exact on the other families' discs).
+    BlindRough,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 17] = [
+    pub const ALL: [Family; 18] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -100,10 +105,11 @@ impl Family {
         Family::BlindCapture,
         Family::BlindRooms,
         Family::BlindNear,
+        Family::BlindRough,
     ];
 
     /// The blind families: scored and reported apart, never used to choose a setting.
-    pub const BLIND: [Family; 8] = [
+    pub const BLIND: [Family; 9] = [
         Family::BlindCues,
         Family::BlindLens,
         Family::Blind512,
@@ -112,6 +118,7 @@ impl Family {
         Family::BlindCapture,
         Family::BlindRooms,
         Family::BlindNear,
+        Family::BlindRough,
     ];
 
     /// True for the blind families.
@@ -139,6 +146,7 @@ impl Family {
             Family::BlindCapture => "blind_capture",
             Family::BlindRooms => "blind_rooms",
             Family::BlindNear => "blind_near",
+            Family::BlindRough => "blind_rough",
         }
     }
 
@@ -270,6 +278,24 @@ impl Family {
                 // Few masks over a whole object: its parts must be joined from 3D and the views.
                 c.sam.whole_object_probability = 0.3;
             }
+            Family::BlindRough => {
+                let r = &mut c.room;
+                r.objects = [8, 12];
+                r.stacked = rng.gen_range(1..=2);
+                r.touching = rng.gen_range(1..=2);
+                r.multi_tone_share = 0.6;
+                c.fov_x_deg = rng.gen_range(45.0..70.0);
+                c.views = 24;
+                resize(&mut c, 400, 300);
+                harsher_cues(&mut c, &mut rng);
+                // A trained 3DGS's Gaussians: shortest axes 15°–25° off the surface normal (per
+                // tangent axis), thickness a quarter to a half of the in-plane σ (0.6 spacing),
+                // centres 0.1–0.3 spacing off the surface.
+                c.cues.gaussian_tilt_deg = rng.gen_range(15.0..25.0);
+                c.cues.gaussian_thickness = rng.gen_range(0.15..0.3);
+                c.cues.gaussian_offset = rng.gen_range(0.1..0.3);
+                c.sam.whole_object_probability = 0.5;
+            }
         }
         c
     }
@@ -304,6 +330,7 @@ fn harsher_cues(c: &mut SynthConfig, rng: &mut ChaCha8Rng) {
         depth_shift_error: 0.15,
         depth_pixel_noise: 0.016,
         depth_blur_px: (2 * c.width as usize).div_ceil(320),
+        ..CueConfig::default()
     };
     c.sam.whole_object_probability = 0.8;
     c.sam.wrong_merge_probability = 0.5;
@@ -427,6 +454,10 @@ mod tests {
             assert_eq!((near.width, near.height, near.views), (480, 360, 20));
             assert!(near.room.foreground_objects >= 2 && near.cues.part_perturbation >= 0.45);
             assert!(near.sam.whole_object_probability < 0.35 && (50.0..65.0).contains(&near.fov_x_deg));
+            let rough = Family::BlindRough.config(seed);
+            assert_eq!((rough.width, rough.height, rough.views), (400, 300, 24));
+            assert!(rough.cues.gaussian_tilt_deg >= 15.0 && rough.cues.gaussian_thickness >= 0.15);
+            assert!(rough.cues.gaussian_offset >= 0.1 && rough.room.touching >= 1);
         }
     }
 }

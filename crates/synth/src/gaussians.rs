@@ -2,10 +2,13 @@
 //! sees are dropped, and each remaining sample becomes a flat disc (two in-plane scales, one
 //! tiny scale along the normal) with the surface's shaded colour as SH degree 0 and a high
 //! opacity. Each Gaussian's ground-truth id is the id of the surface it was sampled on.
+//! [`CueConfig`]'s `gaussian_*` knobs make them less exact, as a trained 3DGS's are: discs
+//! tilted off the surface, thicker, and moved off it along their normals.
 
+use crate::config::CueConfig;
 use crate::geometry::SurfacePoint;
 use crate::layout::SceneObject;
-use crate::noise::{rng_for, stream};
+use crate::noise::{hash, normal, rng_for, stream};
 use crate::render::{shade, RenderedView};
 use glam::{DMat3, DQuat, DVec3};
 use rayon::prelude::*;
@@ -16,8 +19,6 @@ use splatseg_scene::{Camera, Gaussians, Pose};
 const OPACITY: f32 = 0.95;
 /// In-plane standard deviation as a fraction of the sample spacing.
 const DISC_SIGMA_FRACTION: f64 = 0.6;
-/// Thickness (standard deviation along the normal) as a fraction of the sample spacing.
-const THICKNESS_FRACTION: f64 = 0.02;
 
 /// A sample is visible in a view when its depth matches the ground-truth depth of the pixel it
 /// projects to within `VISIBILITY_ABS_M + VISIBILITY_REL · z`.
@@ -50,7 +51,8 @@ pub fn visible_in(
     z > 0.0 && (z - p_cam.z).abs() <= VISIBILITY_ABS_M + VISIBILITY_REL * p_cam.z
 }
 
-/// Samples all surfaces at `spacing_m` and keeps what at least one view sees.
+/// Samples all surfaces at `spacing_m` and keeps what at least one view sees, each Gaussian as
+/// exact as `fit`'s `gaussian_*` knobs say.
 ///
 /// `poses`: `[V]` `world_from_cam`; `rendered`: `[V]` the rendered views (for their depth).
 pub fn surface_gaussians(
@@ -58,7 +60,7 @@ pub fn surface_gaussians(
     camera: &Camera,
     poses: &[Pose],
     rendered: &[RenderedView],
-    spacing_m: f64,
+    (spacing_m, fit): (f64, &CueConfig),
     seed: u64,
 ) -> SurfaceGaussians {
     let cam_from_world: Vec<Pose> = poses.iter().map(Pose::inverse).collect();
@@ -85,7 +87,7 @@ pub fn surface_gaussians(
     let samples: Vec<_> = per_object.into_iter().flatten().collect();
     let n = samples.len();
     let log_in_plane = (DISC_SIGMA_FRACTION * spacing_m).ln() as f32;
-    let log_thin = (THICKNESS_FRACTION * spacing_m).ln() as f32;
+    let log_thin = (fit.gaussian_thickness * spacing_m).ln() as f32;
     let raw_opacity = (OPACITY / (1.0 - OPACITY)).ln();
     let mut g = Gaussians {
         means: Vec::with_capacity(n),
@@ -101,23 +103,43 @@ pub fn surface_gaussians(
         extra: Vec::new(),
     };
     let mut ids = Vec::with_capacity(n);
-    for (sp, id, colour) in samples {
-        g.means.push(sp.position.as_vec3().to_array());
+    for (i, (sp, id, colour)) in samples.into_iter().enumerate() {
+        let draw = |k: u64| normal(hash(seed, &[stream::GAUSSIAN_FIT, i as u64, k]));
+        let mut disc_normal = sp.normal;
+        if fit.gaussian_tilt_deg > 0.0 {
+            let (t1, t2) = tangents(sp.normal);
+            let sigma = fit.gaussian_tilt_deg.to_radians();
+            let tilt = sigma * (draw(0) * t1 + draw(1) * t2);
+            let angle = tilt.length();
+            if angle > 0.0 {
+                disc_normal = (sp.normal * angle.cos() + tilt / angle * angle.sin()).normalize();
+            }
+        }
+        let mut position = sp.position;
+        if fit.gaussian_offset > 0.0 {
+            position += sp.normal * (fit.gaussian_offset * spacing_m * draw(2));
+        }
+        g.means.push(position.as_vec3().to_array());
         if let Some(normals) = g.normals.as_mut() {
-            normals.push(sp.normal.as_vec3().to_array());
+            normals.push(disc_normal.as_vec3().to_array());
         }
         g.sh_dc.push(colour.map(|c| ((c - 0.5) / SH_C0 as f64) as f32));
-        g.rotations.push(disc_rotation(sp.normal));
+        g.rotations.push(disc_rotation(disc_normal));
         ids.push(id);
     }
     SurfaceGaussians { gaussians: g, ids }
 }
 
-/// Quaternion `w, x, y, z` turning the local z axis onto `normal` (local x, y in the plane).
-fn disc_rotation(normal: DVec3) -> [f32; 4] {
+/// Two unit axes in the plane of unit `normal`, completing a right-handed frame with it.
+fn tangents(normal: DVec3) -> (DVec3, DVec3) {
     let helper = if normal.z.abs() < 0.9 { DVec3::Z } else { DVec3::X };
     let t1 = helper.cross(normal).normalize();
-    let t2 = normal.cross(t1);
+    (t1, normal.cross(t1))
+}
+
+/// Quaternion `w, x, y, z` turning the local z axis onto `normal` (local x, y in the plane).
+fn disc_rotation(normal: DVec3) -> [f32; 4] {
+    let (t1, t2) = tangents(normal);
     let q = DQuat::from_mat3(&DMat3::from_cols(t1, t2, normal)).normalize();
     [q.w as f32, q.x as f32, q.y as f32, q.z as f32]
 }

@@ -244,7 +244,14 @@ pub fn generate(config: &SynthConfig) -> Result<SynthScene, SynthError> {
         .map(|(v, pose)| render::render_view(&objects, &camera, pose, config.seed, v))
         .collect();
     let spacing_m = config.gaussian_spacing_px * cameras::ORBIT_RADIUS / camera.fx;
-    let surface = gaussians::surface_gaussians(&objects, &camera, &poses, &rendered, spacing_m, config.seed);
+    let surface = gaussians::surface_gaussians(
+        &objects,
+        &camera,
+        &poses,
+        &rendered,
+        (spacing_m, &config.cues),
+        config.seed,
+    );
     let hard_cases = hard_cases::find_hard_cases(&objects, &rendered);
     let max_id = objects.iter().map(|o| o.id).max().unwrap_or(0);
     let white = hard_cases.white_on_white.ids;

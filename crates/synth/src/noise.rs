@@ -66,6 +66,8 @@ pub mod stream {
     pub const ROOM_LAYOUT: u64 = 11;
     /// The extra SAM noise (adjacent merges, dilation), per view.
     pub const SAM_EXTRA: u64 = 12;
+    /// How far each Gaussian is from an exact disc on its surface.
+    pub const GAUSSIAN_FIT: u64 = 13;
 }
 
 /// Smooth value noise in [0, 1] on a unit lattice (trilinear interpolation with smoothstep).
