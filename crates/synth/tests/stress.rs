@@ -171,3 +171,50 @@ fn stress_knobs_are_validated() {
     c.sam.hole_radius_px = [0, 2];
     assert!(generate(&c).is_err());
 }
+
+/// `blind_rough`'s Gaussians are what its knobs say: the same samples as exact discs, each
+/// shortest axis tilted off the surface normal by the drawn spread, thicker, and the centres
+/// moved along the normal; with the knobs at their defaults the discs are exact.
+#[test]
+fn rough_gaussians_are_tilted_thicker_and_off_the_surface_by_the_drawn_amounts() {
+    let rough = SynthConfig { views: 3, width: 160, height: 120, ..Family::BlindRough.config(3) };
+    let exact = SynthConfig {
+        cues: splatseg_synth::CueConfig {
+            gaussian_tilt_deg: 0.0,
+            gaussian_thickness: 0.02,
+            gaussian_offset: 0.0,
+            ..rough.cues.clone()
+        },
+        ..rough.clone()
+    };
+    let (a, b) = (generate(&exact).expect("exact"), generate(&rough).expect("rough"));
+    assert_eq!(a.gaussian_ids, b.gaussian_ids, "the same samples");
+    let (na, nb) =
+        (a.gaussians.normals.as_ref().expect("normals"), b.gaussians.normals.as_ref().expect("normals"));
+    let angles: Vec<f64> = na
+        .iter()
+        .zip(nb)
+        .map(|(p, q)| {
+            let dot: f32 = (0..3).map(|c| p[c] * q[c]).sum();
+            (dot.clamp(-1.0, 1.0) as f64).acos().to_degrees()
+        })
+        .collect();
+    let mean = angles.iter().sum::<f64>() / angles.len() as f64;
+    // Two tangent axes of standard deviation σ: the tilt is Rayleigh, mean σ·√(π/2).
+    let expected = rough.cues.gaussian_tilt_deg * (std::f64::consts::PI / 2.0).sqrt();
+    assert!((mean - expected).abs() < 0.05 * expected, "mean tilt {mean:.2}° vs {expected:.2}°");
+    let thickness =
+        |s: &splatseg_synth::SynthScene| s.gaussians.log_scales[0][2] - s.gaussians.log_scales[0][0];
+    let ratio = (thickness(&b) - thickness(&a)).exp() as f64;
+    assert!((ratio - rough.cues.gaussian_thickness / 0.02).abs() < 1e-3, "thickness × {ratio}");
+    // Each centre moved along its surface normal only, by the drawn spread.
+    let spacing = (a.gaussians.log_scales[0][0].exp() / 0.6) as f64;
+    let offsets: Vec<f64> = (0..na.len())
+        .map(|i| {
+            (0..3).map(|c| ((b.gaussians.means[i][c] - a.gaussians.means[i][c]) * na[i][c]) as f64).sum()
+        })
+        .collect();
+    let rms = (offsets.iter().map(|o| o * o).sum::<f64>() / offsets.len() as f64).sqrt() / spacing;
+    assert!((rms - rough.cues.gaussian_offset).abs() < 0.05 * rough.cues.gaussian_offset, "offset rms {rms}");
+    assert!(rough.cues.gaussian_tilt_deg >= 15.0 && mean > 15.0, "{mean}");
+}
