@@ -91,7 +91,8 @@ Seed sets: tune settings on the tuning seeds 0..16 and report on the report seed
 
 Families (default: rooms multi_tone thin border clutter sam_noise): default, rooms, multi_tone, \
 thin, border, clutter, sam_noise, hires (the rooms at 1280×960), many_views (the rooms with 12–100 \
-views). Blind families, for judging and never for choosing a setting (their own rooms, cue \
+views), rough (the rooms with Gaussians tilted off their surfaces, thicker and off them, as a trained \
+3DGS leaves them). Blind families, for judging and never for choosing a setting (their own rooms, cue \
 statistics no tuning family uses; report them apart): blind_cues (noisier features, parts and \
 objects closer in feature space, a worse monocular depth, more nested and wrong SAM merges), \
 blind_lens (40°–75° lenses), blind_512 (512×384, both), blind_hires (1280×960, fine stripes and \

@@ -15,9 +15,10 @@ use std::path::PathBuf;
 ///
 /// `--family` draws the scene from a family of the stress suite (random rooms with
 /// multi-tone walls and floors, thin posts, border-cut foreground objects, stacked and
-/// touching objects, heavy SAM noise, 1280×960, 12–100 views); `gt/objects.json` then tags
-/// every instance with its failure classes. Families: default, rooms, multi_tone, thin,
-/// border, clutter, sam_noise, hires, many_views. Example:
+/// touching objects, heavy SAM noise, 1280×960, 12–100 views, Gaussians as training leaves
+/// them); `gt/objects.json` then tags every instance with its failure classes. Families:
+/// default, rooms, multi_tone, thin, border, clutter, sam_noise, hires, many_views, rough, and
+/// the blind ones (`splatseg bench quality --help`). Example:
 /// `splatseg synth --family rooms --seed 7 --out room7`.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]

@@ -12,6 +12,7 @@
 //! | `sam_noise` | rooms with heavy SAM noise: holes, wrong merges of adjacent objects, whole-object masks over their parts, 1-px dilation |
 //! | `hires` | the `rooms` scene of the same seed at 1280×960 (SAM's pixel settings scaled) |
 //! | `many_views` | the `rooms` scene of the same seed seen by 12–100 views |
+//! | `rough` | the `rooms` scene of the same seed with Gaussians as a trained 3DGS leaves them: tilted 10°–30° off their surfaces, thicker and moved off them (a tuning family: `blind_rough` judges what is chosen on it) |
 //! | `blind_cues` | **blind**: rooms with harsher cues — features noisier, parts of one object and different objects closer, depth with 3× the smooth error and a blur, more nested whole-object masks and wrong merges |
 //! | `blind_lens` | **blind**: rooms seen through lenses of 40°–75° horizontal field of view |
 //! | `blind_512` | **blind**: rooms at 512×384, harsher cues, lenses of 40°–75° |
@@ -83,11 +84,14 @@ pub enum Family {
     /// leaves them, in cluttered rooms (added after the crease gate read normals rendered from
     /// the Gaussians, which are exact on the other families' discs).
     BlindRough,
+    /// The rooms with Gaussians tilted off their surfaces, thicker and moved off them (a tuning
+    /// family; last in the enum so that the families before it keep their layout salts).
+    Rough,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 18] = [
+    pub const ALL: [Family; 19] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -97,6 +101,7 @@ impl Family {
         Family::SamNoise,
         Family::Hires,
         Family::ManyViews,
+        Family::Rough,
         Family::BlindCues,
         Family::BlindLens,
         Family::Blind512,
@@ -138,6 +143,7 @@ impl Family {
             Family::SamNoise => "sam_noise",
             Family::Hires => "hires",
             Family::ManyViews => "many_views",
+            Family::Rough => "rough",
             Family::BlindCues => "blind_cues",
             Family::BlindLens => "blind_lens",
             Family::Blind512 => "blind_512",
@@ -165,7 +171,7 @@ impl Family {
     /// view count share the `rooms` layout of their seed.
     pub fn layout_salt(self) -> u64 {
         match self {
-            Family::Hires | Family::ManyViews => Family::Rooms as u64,
+            Family::Hires | Family::ManyViews | Family::Rough => Family::Rooms as u64,
             f => f as u64,
         }
     }
@@ -209,6 +215,11 @@ impl Family {
             }
             Family::Hires => resize(&mut c, 1280, 960),
             Family::ManyViews => c.views = rng.gen_range(12..=100),
+            Family::Rough => {
+                c.cues.gaussian_tilt_deg = rng.gen_range(10.0..30.0);
+                c.cues.gaussian_thickness = rng.gen_range(0.1..0.35);
+                c.cues.gaussian_offset = rng.gen_range(0.05..0.3);
+            }
             Family::BlindCues => harsher_cues(&mut c, &mut rng),
             Family::BlindLens => c.fov_x_deg = rng.gen_range(40.0..75.0),
             Family::Blind512 => {
@@ -422,7 +433,17 @@ mod tests {
         for seed in 0..20 {
             for f in tuning.iter() {
                 let c = f.config(seed);
-                assert!(c.cues.is_default() && c.fov_x_deg == 60.0 && c.room.pattern_scale == 1.0, "{f}");
+                // The tuning families' features and depth are the defaults (only `rough` moves
+                // its Gaussians off the exact discs).
+                let d = CueConfig::default();
+                let cues = CueConfig {
+                    gaussian_tilt_deg: d.gaussian_tilt_deg,
+                    gaussian_thickness: d.gaussian_thickness,
+                    gaussian_offset: d.gaussian_offset,
+                    ..c.cues.clone()
+                };
+                assert!(cues.is_default() && c.fov_x_deg == 60.0 && c.room.pattern_scale == 1.0, "{f}");
+                assert!(c.cues.is_default() || *f == Family::Rough, "{f}");
             }
             let rooms = Family::Rooms.config(seed).room;
             for f in Family::BLIND {
@@ -454,6 +475,10 @@ mod tests {
             assert_eq!((near.width, near.height, near.views), (480, 360, 20));
             assert!(near.room.foreground_objects >= 2 && near.cues.part_perturbation >= 0.45);
             assert!(near.sam.whole_object_probability < 0.35 && (50.0..65.0).contains(&near.fov_x_deg));
+            let tuned = Family::Rough.config(seed);
+            let rooms = SynthConfig { cues: CueConfig::default(), family: Family::Rooms, ..tuned.clone() };
+            assert_eq!(rooms, Family::Rooms.config(seed), "the rooms scene of the same seed");
+            assert!((10.0..30.0).contains(&tuned.cues.gaussian_tilt_deg) && !tuned.family.is_blind());
             let rough = Family::BlindRough.config(seed);
             assert_eq!((rough.width, rough.height, rough.views), (400, 300, 24));
             assert!(rough.cues.gaussian_tilt_deg >= 15.0 && rough.cues.gaussian_thickness >= 0.15);
