@@ -16,8 +16,11 @@
 //! counts: on the demo scene's views (regions judged by the ground truth of their first input
 //! region) it refused regions of one object in 2 of 694 refusals, the depth step in 67 of 1,574,
 //! and a misfire kept for the rest of the merge would split an object for good (the depth gates
-//! kept too: tuning seeds 0..7 lost 0.006 mIoU on multi_tone and clutter). The literal
-//! profile has no crease gate, so nothing changes there.
+//! kept too: tuning seeds 0..7 lost 0.006 mIoU on multi_tone and clutter). It needs a crease
+//! that does not misfire: with normals from finite differences of the surface depth it cost
+//! multi_tone 3 0.004; with normals rendered from the Gaussians, nothing (tuning seeds 0..7:
+//! 0.9741 → 0.9743; `docs/benchmarks/20-rendered-normals.md`). The literal profile has no
+//! crease gate, so nothing changes there.
 
 use crate::config::MergeConfig;
 use crate::error::{MergeError, MergeResultOf};
