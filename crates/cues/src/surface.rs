@@ -70,6 +70,20 @@ impl NormalWindow {
         let step = ((width.min(height) as f32 / 240.0).round() as usize).max(1);
         NormalWindow { step, radius: 3 * step }
     }
+
+    /// The sample positions `(x, y)` of the window around pixel `p` (row-major index) of a
+    /// `w × h` image that lie inside it, row by row.
+    fn samples(self, p: usize, (w, h): (usize, usize)) -> impl Iterator<Item = (isize, isize)> {
+        let (x0, y0) = ((p % w) as isize, (p / w) as isize);
+        let r = self.radius as isize;
+        let rows = (y0 - r..=y0 + r).step_by(self.step).filter(move |&y| y >= 0 && y < h as isize);
+        rows.flat_map(move |y| {
+            (x0 - r..=x0 + r)
+                .step_by(self.step)
+                .filter(move |&x| x >= 0 && x < w as isize)
+                .map(move |x| (x, y))
+        })
+    }
 }
 
 /// Relative depth change between two samples above which they are taken to lie on different
@@ -91,8 +105,7 @@ pub fn region_normal_at(
     if label == 0 || !points.data[p][2].is_finite() {
         return None;
     }
-    let (x0, y0) = ((p % w) as isize, (p / w) as isize);
-    let (r, s) = (window.radius as isize, window.step as isize);
+    let s = window.step as isize;
     let usable = |x: isize, y: isize| -> Option<[f32; 3]> {
         if x < 0 || y < 0 || x >= w as isize || y >= h as isize {
             return None;
@@ -103,25 +116,18 @@ pub fn region_normal_at(
     };
     let mut sums = [[0f32; 3]; 2];
     let mut counts = [0usize; 2];
-    let mut y = y0 - r;
-    while y <= y0 + r {
-        let mut x = x0 - r;
-        while x <= x0 + r {
-            if let Some(a) = usable(x, y) {
-                for (k, (dx, dy)) in [(s, 0), (0, s)].into_iter().enumerate() {
-                    if let Some(b) = usable(x + dx, y + dy) {
-                        if (b[2] - a[2]).abs() <= MAX_SAMPLE_DEPTH_JUMP * a[2].min(b[2]) {
-                            for c in 0..3 {
-                                sums[k][c] += b[c] - a[c];
-                            }
-                            counts[k] += 1;
-                        }
+    for (x, y) in window.samples(p, (w, h)) {
+        let Some(a) = usable(x, y) else { continue };
+        for (k, (dx, dy)) in [(s, 0), (0, s)].into_iter().enumerate() {
+            if let Some(b) = usable(x + dx, y + dy) {
+                if (b[2] - a[2]).abs() <= MAX_SAMPLE_DEPTH_JUMP * a[2].min(b[2]) {
+                    for c in 0..3 {
+                        sums[k][c] += b[c] - a[c];
                     }
+                    counts[k] += 1;
                 }
             }
-            x += s;
         }
-        y += s;
     }
     if counts[0] < 3 || counts[1] < 3 {
         return None;
@@ -158,20 +164,16 @@ pub fn region_mean_normal(
     if label == 0 {
         return None;
     }
-    let (x0, y0) = ((p % w) as isize, (p / w) as isize);
-    let (r, s) = (window.radius as isize, window.step as isize);
     let mut sum = [0f32; 3];
     let mut count = 0usize;
-    for y in (y0 - r..=y0 + r).step_by(s as usize).filter(|&y| y >= 0 && y < h as isize) {
-        for x in (x0 - r..=x0 + r).step_by(s as usize).filter(|&x| x >= 0 && x < w as isize) {
-            let q = y as usize * w + x as usize;
-            let n = normals.data[q];
-            if labels.data[q] == label && n[0].is_finite() {
-                for c in 0..3 {
-                    sum[c] += n[c];
-                }
-                count += 1;
+    for (x, y) in window.samples(p, (w, h)) {
+        let q = y as usize * w + x as usize;
+        let n = normals.data[q];
+        if labels.data[q] == label && n[0].is_finite() {
+            for c in 0..3 {
+                sum[c] += n[c];
             }
+            count += 1;
         }
     }
     let len = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
