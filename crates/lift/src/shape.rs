@@ -16,8 +16,9 @@ use std::collections::{BTreeMap, HashMap};
 pub(crate) const SEAM_MAX_ANGLE_DEG: f32 = 10.0;
 
 /// An object is a plane when at least this share of its flat Gaussians' normals lie within
-/// [`SEAM_MAX_ANGLE_DEG`] of its normal; a seam is smooth when this share of its measured
-/// contact voxel pairs is.
+/// [`SEAM_MAX_ANGLE_DEG`] of its normal, or this share of its Gaussians' centres within half a
+/// voxel of the plane fitted to them; a seam is smooth when this share of its measured contact
+/// voxel pairs is.
 pub(crate) const SEAM_SMOOTH_SHARE: f32 = 0.9;
 
 /// Two touching objects whose Gaussians both spread along one line at least this many times more
@@ -46,10 +47,12 @@ pub(crate) fn typical_sigma(gaussians: &PreparedGaussians) -> f32 {
 pub(crate) struct Contact {
     /// Pairs of 26-neighbouring voxels holding one of each.
     pub voxel_pairs: u32,
-    /// Of those, the pairs where both sides have a surface normal (flat Gaussians).
+    /// Of those, the pairs where both sides have a surface normal (flat Gaussians) or both
+    /// objects a plane fitted to their centres ([`ObjectPlane`]).
     pub measured: u32,
     /// Of the measured pairs, those where the two surfaces continue each other: normals within
-    /// `SEAM_MAX_ANGLE_DEG` and each side's mean point within half a voxel of the other's plane.
+    /// `SEAM_MAX_ANGLE_DEG` and each side's mean point within half a voxel of the other's tangent
+    /// plane, or each side's mean point within half a voxel of the other object's fitted plane.
     pub smooth: u32,
     /// Pairs where both sides have an outward normal ([`Facing`]).
     pub oriented: u32,
@@ -92,13 +95,50 @@ impl VoxelPart {
 /// surface by at least this share of their distance (sine of ≈ 11.5°).
 const CONCAVE_MIN_SINE: f32 = 0.2;
 
-/// Per object id: its dominant surface normal and the share of its flat Gaussians whose normal
-/// lies within `max_angle_deg` of it (1 for a plane: a floor, a wall, a piece of either).
-pub(crate) fn planarity(
-    gaussians: &PreparedGaussians,
-    ids: &[i32],
-    max_angle_deg: f32,
-) -> HashMap<u32, (Vec3, f32)> {
+/// One object's plane, as its Gaussians' shortest axes and as their centres say.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ObjectPlane {
+    /// Unit normal (no sign): the flat Gaussians' dominant normal where they agree, else the
+    /// centres' direction of least spread.
+    pub normal: Vec3,
+    /// The centres' mean (a point of the plane fitted to them).
+    pub centre: Vec3,
+    /// The fitted plane's unit normal (the centres' direction of least spread).
+    fitted: Vec3,
+    /// Share of the flat Gaussians whose normal lies within `SEAM_MAX_ANGLE_DEG` of the dominant
+    /// one (1 for a plane reconstructed with exact normals).
+    pub by_normals: f32,
+    /// Share of the Gaussians whose centre lies within half a voxel of the fitted plane (1 for a
+    /// plane whatever its Gaussians' orientations).
+    pub by_centres: f32,
+}
+
+impl ObjectPlane {
+    /// A plane by either evidence: a floor, a wall, a piece of either.
+    pub(crate) fn is_plane(&self) -> bool {
+        self.normal != Vec3::ZERO
+            && (self.by_normals >= SEAM_SMOOTH_SHARE || self.by_centres >= SEAM_SMOOTH_SHARE)
+    }
+
+    /// Distance of `p` from the fitted plane, when the centres make one.
+    fn centres_distance(&self, p: Vec3) -> Option<f32> {
+        (self.by_centres >= SEAM_SMOOTH_SHARE && self.fitted != Vec3::ZERO)
+            .then(|| self.fitted.dot(p - self.centre).abs())
+    }
+
+    /// Both planes with normals within `SEAM_MAX_ANGLE_DEG`.
+    pub(crate) fn coplanar(&self, other: &ObjectPlane) -> bool {
+        self.is_plane()
+            && other.is_plane()
+            && self.normal.dot(other.normal).abs() >= SEAM_MAX_ANGLE_DEG.to_radians().cos()
+    }
+}
+
+/// Per object id (of at least 3 Gaussians): its plane by two evidences (see [`ObjectPlane`]).
+/// The Gaussians' shortest axes say it where a reconstruction leaves them on the surface's
+/// normal; a trained 3DGS scatters them by tens of degrees (the `rough` families), and there
+/// the centres, which lie on the surface within a fraction of a Gaussian, say it.
+pub(crate) fn planarity(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> HashMap<u32, ObjectPlane> {
     let flat_normal = |i: usize| -> Option<Vec3> {
         let n = gaussians.normals.get(i).copied()?;
         (gaussians.flatness.get(i).copied().unwrap_or(0.0) >= MIN_FLATNESS && n != Vec3::ZERO).then_some(n)
@@ -109,19 +149,97 @@ pub(crate) fn planarity(
         let sum = sums.entry(id as u32).or_insert(Vec3::ZERO);
         *sum += if sum.dot(n) < 0.0 { -n } else { n };
     }
-    let cos_max = max_angle_deg.to_radians().cos();
-    let mut counts: HashMap<u32, (u32, u32)> = HashMap::new();
-    for (i, &id) in ids.iter().enumerate() {
-        let Some(n) = flat_normal(i).filter(|_| id > 0) else { continue };
-        let dominant = sums[&(id as u32)].normalize_or_zero();
-        let c = counts.entry(id as u32).or_insert((0, 0));
-        c.0 += (n.dot(dominant).abs() >= cos_max) as u32;
-        c.1 += 1;
-    }
-    counts
+    let mut planes: HashMap<u32, ObjectPlane> = centre_moments(gaussians, ids)
         .into_iter()
-        .map(|(id, (within, all))| (id, (sums[&id].normalize_or_zero(), within as f32 / all as f32)))
-        .collect()
+        .filter(|(_, m)| m.count >= 3)
+        .map(|(id, m)| {
+            let (mean, cov) = m.mean_and_covariance();
+            let first = principal_axis(cov);
+            let outer = glam::DMat3::from_cols(first * first.x, first * first.y, first * first.z);
+            let second = principal_axis(cov - outer * first.dot(cov * first));
+            let fitted = first.cross(second).normalize_or_zero().as_vec3();
+            let dominant = sums.get(&id).map_or(Vec3::ZERO, |s| s.normalize_or_zero());
+            let plane = ObjectPlane {
+                normal: dominant,
+                centre: mean.as_vec3(),
+                fitted,
+                by_normals: 0.0,
+                by_centres: 0.0,
+            };
+            (id, plane)
+        })
+        .collect();
+    let cos_max = SEAM_MAX_ANGLE_DEG.to_radians().cos();
+    // id → (normals within, flat Gaussians, centres within, Gaussians).
+    let mut counts: HashMap<u32, [u32; 4]> = HashMap::new();
+    for (i, &id) in ids.iter().enumerate() {
+        let Some(plane) = (id > 0).then(|| planes.get(&(id as u32))).flatten() else { continue };
+        let c = counts.entry(id as u32).or_insert([0; 4]);
+        if let Some(n) = flat_normal(i) {
+            c[0] += (n.dot(plane.normal).abs() >= cos_max) as u32;
+            c[1] += 1;
+        }
+        c[2] += (plane.fitted.dot(gaussians.mean(i) - plane.centre).abs() <= 0.5 * voxel) as u32;
+        c[3] += 1;
+    }
+    for (id, plane) in planes.iter_mut() {
+        let c = counts.get(id).copied().unwrap_or([0; 4]);
+        plane.by_normals = if c[1] > 0 { c[0] as f32 / c[1] as f32 } else { 0.0 };
+        plane.by_centres = if c[3] > 0 { c[2] as f32 / c[3] as f32 } else { 0.0 };
+        if plane.by_normals < SEAM_SMOOTH_SHARE {
+            plane.normal = plane.fitted;
+        }
+    }
+    planes
+}
+
+/// Count, sum and sum of outer products of one object's Gaussians' centres (f64).
+#[derive(Clone, Copy)]
+struct Moments {
+    count: u32,
+    sum: glam::DVec3,
+    outer: glam::DMat3,
+}
+
+impl Moments {
+    fn mean_and_covariance(&self) -> (glam::DVec3, glam::DMat3) {
+        let n = self.count.max(1) as f64;
+        let mean = self.sum / n;
+        (mean, self.outer * (1.0 / n) - glam::DMat3::from_cols(mean * mean.x, mean * mean.y, mean * mean.z))
+    }
+}
+
+/// Per object id, the moments of its Gaussians' centres (ids ≤ 0 left out).
+fn centre_moments(gaussians: &PreparedGaussians, ids: &[i32]) -> BTreeMap<u32, Moments> {
+    let mut sums: BTreeMap<u32, Moments> = BTreeMap::new();
+    for (i, &id) in ids.iter().enumerate() {
+        if id <= 0 {
+            continue;
+        }
+        let x = gaussians.mean(i).as_dvec3();
+        let e = sums.entry(id as u32).or_insert(Moments {
+            count: 0,
+            sum: glam::DVec3::ZERO,
+            outer: glam::DMat3::ZERO,
+        });
+        e.count += 1;
+        e.sum += x;
+        e.outer += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z);
+    }
+    sums
+}
+
+/// The unit eigenvector of the largest eigenvalue of the symmetric `cov`, by power iteration
+/// from a fixed start (deterministic; zero for a zero matrix).
+fn principal_axis(cov: glam::DMat3) -> glam::DVec3 {
+    let mut axis = glam::DVec3::new(0.577, 0.578, 0.579);
+    for _ in 0..64 {
+        axis = (cov * axis).normalize_or_zero();
+        if axis == glam::DVec3::ZERO {
+            break;
+        }
+    }
+    axis
 }
 
 /// The line an object's Gaussians lie along: their mean, principal axis and spreads.
@@ -162,31 +280,12 @@ const THIN_LINE_TOLERANCE: f32 = 2.0;
 /// Per object id (of at least 3 Gaussians), the line its Gaussians lie along (principal axis by
 /// power iteration on the 3×3 covariance from a fixed start, so the result is deterministic).
 pub(crate) fn object_lines(gaussians: &PreparedGaussians, ids: &[i32]) -> HashMap<u32, ObjectLine> {
-    // id → (count, Σx, Σxxᵀ as rows), in f64 for the second moments.
-    let mut sums: BTreeMap<u32, (u32, glam::DVec3, glam::DMat3)> = BTreeMap::new();
-    for (i, &id) in ids.iter().enumerate() {
-        if id <= 0 {
-            continue;
-        }
-        let x = gaussians.mean(i).as_dvec3();
-        let e = sums.entry(id as u32).or_insert((0, glam::DVec3::ZERO, glam::DMat3::ZERO));
-        e.0 += 1;
-        e.1 += x;
-        e.2 += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z);
-    }
-    sums.into_iter()
-        .filter(|(_, (n, _, _))| *n >= 3)
-        .map(|(id, (n, sum, outer))| {
-            let n = n as f64;
-            let mean = sum / n;
-            let cov = outer * (1.0 / n) - glam::DMat3::from_cols(mean * mean.x, mean * mean.y, mean * mean.z);
-            let mut axis = glam::DVec3::new(0.577, 0.578, 0.579);
-            for _ in 0..64 {
-                axis = (cov * axis).normalize_or_zero();
-                if axis == glam::DVec3::ZERO {
-                    break;
-                }
-            }
+    centre_moments(gaussians, ids)
+        .into_iter()
+        .filter(|(_, m)| m.count >= 3)
+        .map(|(id, m)| {
+            let (mean, cov) = m.mean_and_covariance();
+            let axis = principal_axis(cov);
             let along_var = axis.dot(cov * axis).max(0.0);
             let trace = cov.x_axis.x + cov.y_axis.y + cov.z_axis.z;
             let across_var = ((trace - along_var) / 2.0).max(0.0);
@@ -206,7 +305,7 @@ pub(crate) fn contacts(
     gaussians: &PreparedGaussians,
     ids: &[i32],
     voxel: f32,
-    facing: Option<&Facing>,
+    (planes, facing): (&HashMap<u32, ObjectPlane>, Option<&Facing>),
     _config: &LiftConfig,
 ) -> BTreeMap<(u32, u32), Contact> {
     let mut cells: HashMap<u64, ([i64; 3], Vec<VoxelPart>)> = HashMap::new();
@@ -247,7 +346,10 @@ pub(crate) fn contacts(
         }
     }
     let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
-    let smooth = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
+    // By the two sides' normals (each side's mean point on the other's tangent plane), or by the
+    // objects' fitted planes (each side's mean point on the other object's plane): either
+    // evidence measures the pair, and either says when one surface continues across it.
+    let by_normals = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
         let ((pa, na), (pb, nb)) = (a.surface(), b.surface());
         let (na, nb) = (na?, nb?);
         let d = pb - pa;
@@ -256,6 +358,17 @@ pub(crate) fn contacts(
                 && na.dot(d).abs() <= 0.5 * voxel
                 && nb.dot(d).abs() <= 0.5 * voxel,
         )
+    };
+    let by_centres = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
+        let (qa, qb) = (planes.get(&a.id)?, planes.get(&b.id)?);
+        let (da, db) = (qb.centres_distance(a.surface().0)?, qa.centres_distance(b.surface().0)?);
+        Some(da <= 0.5 * voxel && db <= 0.5 * voxel)
+    };
+    let smooth = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
+        match (by_normals(a, b), by_centres(a, b)) {
+            (None, None) => None,
+            (n, c) => Some(n == Some(true) || c == Some(true)),
+        }
     };
     // (concave, convex) of a voxel pair whose sides both have outward normals.
     let edge = |a: &VoxelPart, b: &VoxelPart| -> Option<(bool, bool)> {
@@ -291,4 +404,90 @@ pub(crate) fn contacts(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Quat;
+    use splatseg_scene::Gaussians;
+
+    /// Flat Gaussians (σ 0.03, 0.03, 0.003) at `points`, each disc's normal tilted off its
+    /// surface's by up to `tilt_deg` (a fixed pattern of directions), as a trained 3DGS leaves a
+    /// floor's; `tilt_deg` 0 gives discs lying in the xy plane.
+    fn discs(points: &[[f32; 3]], tilt_deg: f32) -> PreparedGaussians {
+        let n = points.len();
+        let rotations = (0..n)
+            .map(|i| {
+                let axis = Vec3::new((i as f32 * 2.39).cos(), (i as f32 * 2.39).sin(), 0.0);
+                let angle = tilt_deg.to_radians() * ((i * 7 % 11) as f32 / 10.0);
+                let q = Quat::from_axis_angle(axis, angle);
+                [q.w, q.x, q.y, q.z]
+            })
+            .collect();
+        let g = Gaussians {
+            means: points.to_vec(),
+            normals: None,
+            sh_dc: vec![[0.0; 3]; n],
+            sh_degree: 0,
+            sh_rest: Vec::new(),
+            raw_opacities: vec![2.0; n],
+            log_scales: vec![[0.03f32.ln(), 0.03f32.ln(), 0.003f32.ln()]; n],
+            rotations,
+            object_ids: None,
+            features: None,
+            extra: Vec::new(),
+        };
+        PreparedGaussians::new(&g).expect("finite")
+    }
+
+    /// A grid of `k × k` points 0.02 apart from `origin` along `u` and `v`.
+    fn grid(origin: Vec3, u: Vec3, v: Vec3, k: usize) -> Vec<[f32; 3]> {
+        (0..k * k).map(|i| (origin + 0.02 * ((i % k) as f32 * u + (i / k) as f32 * v)).to_array()).collect()
+    }
+
+    /// Two pieces (ids 1 and 2, split at x = 0.2) of one floor of discs tilted up to `tilt_deg`.
+    fn floor_in_two_pieces(tilt_deg: f32) -> (PreparedGaussians, Vec<i32>) {
+        let floor = grid(Vec3::ZERO, Vec3::X, Vec3::Y, 20);
+        let ids = floor.iter().map(|p| if p[0] < 0.19 { 1 } else { 2 }).collect();
+        (discs(&floor, tilt_deg), ids)
+    }
+
+    #[test]
+    fn a_floor_is_one_plane_by_its_normals_when_exact_and_by_its_centres_when_tilted() {
+        let voxel = 0.06;
+        for (tilt, exact) in [(0.0, true), (30.0, false)] {
+            let (g, ids) = floor_in_two_pieces(tilt);
+            let planes = planarity(&g, &ids, voxel);
+            for id in [1, 2] {
+                let p = planes[&id];
+                assert_eq!(p.by_normals >= SEAM_SMOOTH_SHARE, exact, "tilt {tilt}, piece {id}: {p:?}");
+                assert!(p.by_centres >= SEAM_SMOOTH_SHARE && p.is_plane(), "tilt {tilt}, piece {id}: {p:?}");
+                assert!(p.normal.z.abs() > 0.999, "tilt {tilt}, piece {id}: {p:?}");
+            }
+            assert!(planes[&1].coplanar(&planes[&2]));
+            let c = contacts(&g, &ids, voxel, (&planes, None), &LiftConfig::default())[&(1, 2)];
+            assert!(c.measured >= 8 && c.smooth == c.measured, "tilt {tilt}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn a_box_corner_is_no_plane_and_a_step_is_no_smooth_seam() {
+        let voxel = 0.06;
+        // A floor piece and a wall meeting at 90° under one id is no plane by either evidence.
+        let mut corner = grid(Vec3::ZERO, Vec3::X, Vec3::Y, 12);
+        corner.extend(grid(Vec3::ZERO, Vec3::X, Vec3::Z, 12));
+        let planes = planarity(&discs(&corner, 30.0), &vec![1; corner.len()], voxel);
+        assert!(!planes[&1].is_plane(), "{:?}", planes[&1]);
+        // Two parallel planes a voxel apart (a step), touching at their edges: both planes,
+        // coplanar, but no contact is smooth.
+        let mut step = grid(Vec3::ZERO, Vec3::X, Vec3::Y, 10);
+        step.extend(grid(Vec3::new(0.19, 0.0, voxel), Vec3::X, Vec3::Y, 10));
+        let ids: Vec<i32> = (0..step.len()).map(|i| if i < 100 { 1 } else { 2 }).collect();
+        let g = discs(&step, 30.0);
+        let planes = planarity(&g, &ids, voxel);
+        assert!(planes[&1].coplanar(&planes[&2]));
+        let c = contacts(&g, &ids, voxel, (&planes, None), &LiftConfig::default())[&(1, 2)];
+        assert!(c.measured >= 8 && c.smooth == 0, "{c:?}");
+    }
 }

@@ -11,7 +11,7 @@
 //! other cluster of at least `min_split_gaussians` Gaussians becomes an object of its own; smaller
 //! clusters (stray Gaussians, floaters) keep the id. Objects touching in 3D are one cluster, so
 //! walls, floors and objects occluded in some views are never cut. One exception: in an object
-//! that is a plane by its normals (as the seam join decides: a floor, a wall), Gaussians more than
+//! that is a plane (by its normals or its centres, as the seam join decides: a floor, a wall), Gaussians more than
 //! two voxels off its plane connect only among themselves, so a post standing on a piece of floor
 //! that the per-view merge joined to it splits off, though it touches the floor.
 //!
@@ -31,7 +31,7 @@
 use crate::config::LiftConfig;
 use crate::lifting::Lifted;
 use crate::project::PreparedGaussians;
-use crate::shape::{contacts, planarity, SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE};
+use crate::shape::{contacts, planarity, SEAM_SMOOTH_SHARE};
 use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
@@ -168,19 +168,14 @@ fn join_continued_surfaces(
         return Vec::new();
     }
     let ids = &lifted.object_ids;
-    let planes = planarity(gaussians, ids, SEAM_MAX_ANGLE_DEG);
-    let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
-    let coplanar = |a: u32, b: u32| match (planes.get(&a), planes.get(&b)) {
-        (Some(&(na, pa)), Some(&(nb, pb))) => {
-            pa >= SEAM_SMOOTH_SHARE && pb >= SEAM_SMOOTH_SHARE && na.dot(nb).abs() >= cos_max_angle
-        }
-        _ => false,
-    };
+    let planes = planarity(gaussians, ids, voxel);
+    let coplanar =
+        |a: u32, b: u32| matches!((planes.get(&a), planes.get(&b)), (Some(p), Some(q)) if p.coplanar(q));
     let new_ids: BTreeMap<u32, u32> = parents.iter().copied().collect();
     // Per new id: (smooth contacts, the object) of its best seam, most smooth first, then the
     // smaller id.
     let mut best: BTreeMap<u32, (u32, u32)> = BTreeMap::new();
-    for ((a, b), c) in contacts(gaussians, ids, voxel, None, config) {
+    for ((a, b), c) in contacts(gaussians, ids, voxel, (&planes, None), config) {
         let seam = c.measured >= MIN_SEAM_CONTACTS
             && c.smooth as f32 >= SEAM_SMOOTH_SHARE * c.measured as f32
             && coplanar(a, b);
@@ -228,7 +223,7 @@ fn join_continued_surfaces(
     joined.into_iter().collect()
 }
 
-/// Objects that are planes (a floor, a wall; by their normals, as the seam join decides) and the
+/// Objects that are planes (a floor, a wall; by their normals or centres, as the seam join decides) and the
 /// offset of their plane: their Gaussians more than [`OFF_PLANE_VOXELS`] voxels off it (a post
 /// standing on a piece of floor that was merged with it in the views) are connected only among
 /// themselves, so they split off as objects of their own.
@@ -244,10 +239,10 @@ const OFF_PLANE_VOXELS: f32 = 2.0;
 
 impl PlaneLayers {
     fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32, _config: &LiftConfig) -> Self {
-        let normals: HashMap<u32, glam::Vec3> = crate::shape::planarity(gaussians, ids, SEAM_MAX_ANGLE_DEG)
+        let normals: HashMap<u32, glam::Vec3> = crate::shape::planarity(gaussians, ids, voxel)
             .into_iter()
-            .filter(|&(_, (n, share))| share >= SEAM_SMOOTH_SHARE && n != glam::Vec3::ZERO)
-            .map(|(id, (n, _))| (id, n))
+            .filter(|(_, p)| p.is_plane())
+            .map(|(id, p)| (id, p.normal))
             .collect();
         let mut offsets: HashMap<u32, Vec<f32>> = HashMap::new();
         for (i, &id) in ids.iter().enumerate() {

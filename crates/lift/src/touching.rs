@@ -12,9 +12,14 @@
 //!   has one merged mask holding ≥ 20 % of the Gaussians of each it sees; or
 //! - **one surface continues across the seam:** both objects are planes (at least
 //!   `SEAM_SMOOTH_SHARE` of their flat Gaussians' normals within `SEAM_MAX_ANGLE_DEG` of their
-//!   dominant normal) with parallel normals, at least `SEAM_SMOOTH_SHARE` of the contact voxel
-//!   pairs are smooth (the normals of the two sides within `SEAM_MAX_ANGLE_DEG`, and each side's
-//!   mean point within half a voxel of the other side's plane), and `cos(f_P, f_Q) ≥ tau_seam`.
+//!   dominant normal, or of their centres within half a voxel of the plane fitted to them:
+//!   [`crate::shape::ObjectPlane`]) with parallel normals, at least `SEAM_SMOOTH_SHARE` of the
+//!   contact voxel pairs are smooth (the normals of the two sides within `SEAM_MAX_ANGLE_DEG` and
+//!   each side's mean point within half a voxel of the other side's tangent plane, or each side's
+//!   mean point within half a voxel of the other object's fitted plane), and
+//!   `cos(f_P, f_Q) ≥ tau_seam`. The normals say it where the reconstruction leaves the
+//!   Gaussians' shortest axes on the surface's normal; a trained 3DGS scatters them by tens of
+//!   degrees, and there the centres say it (the `rough` family: ids / GT 1.60 → 1.10).
 //!   The pieces of a textured floor or wall have identity features that agree only loosely (cos
 //!   0.53–0.99 on tuning seeds 0..3, where every one of 377 pairs meeting this geometry was two
 //!   pieces of one object), too loosely for the first rule; a box standing on the floor
@@ -53,8 +58,7 @@ use crate::facing::Facing;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::shape::{
-    contacts, object_lines, planarity, typical_sigma, SEAM_MAX_ANGLE_DEG, SEAM_SMOOTH_SHARE,
-    THIN_MIN_ELONGATION,
+    contacts, object_lines, planarity, typical_sigma, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
 };
 use crate::voxels::DisjointSets;
 use std::collections::HashMap;
@@ -158,17 +162,10 @@ pub fn join_touching_objects(
     // The objects' planes, lines and contacts are independent passes over the Gaussians: run
     // side by side (each the same as alone).
     let ids = &lifted.object_ids;
-    let ((planes, lines), contacts) = rayon::join(
-        || rayon::join(|| planarity(gaussians, ids, SEAM_MAX_ANGLE_DEG), || object_lines(gaussians, ids)),
-        || contacts(gaussians, ids, voxel, facing, config),
-    );
-    let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
-    let coplanar = |a: u32, b: u32| match (planes.get(&a), planes.get(&b)) {
-        (Some(&(na, pa)), Some(&(nb, pb))) => {
-            pa >= SEAM_SMOOTH_SHARE && pb >= SEAM_SMOOTH_SHARE && na.dot(nb).abs() >= cos_max_angle
-        }
-        _ => false,
-    };
+    let (planes, lines) = rayon::join(|| planarity(gaussians, ids, voxel), || object_lines(gaussians, ids));
+    let contacts = contacts(gaussians, ids, voxel, (&planes, facing), config);
+    let coplanar =
+        |a: u32, b: u32| matches!((planes.get(&a), planes.get(&b)), (Some(p), Some(q)) if p.coplanar(q));
     let cos_of =
         |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
     let mut pairs: Vec<(f32, u32, u32)> = contacts
@@ -193,8 +190,8 @@ pub fn join_touching_objects(
                     c.concave,
                     c.convex,
                     coplanar(a, b),
-                    planes.get(&a).map(|p| p.1),
-                    planes.get(&b).map(|p| p.1),
+                    planes.get(&a).map(|p| (p.by_normals, p.by_centres)),
+                    planes.get(&b).map(|p| (p.by_normals, p.by_centres)),
                     together_share(counts, a, b)
                 );
             }

@@ -69,12 +69,19 @@ fn touching_different_objects_stay_apart() {
     assert_eq!(l.object_ids, ids);
 }
 
+/// [`patch`] at x offset `x0` and depth `z`, turned up by 30° about its edge at `x0` (a crease
+/// with a patch ending there: no one surface continues, so only the look-alike rule can join).
+fn creased_patch(x0: f32, z: f32) -> Vec<[f32; 3]> {
+    let (sin, cos) = 30f32.to_radians().sin_cos();
+    patch(0.0, 0.0).into_iter().map(|[x, y, _]| [x0 + x * cos, y, z - x * sin]).collect()
+}
+
 #[test]
 fn views_that_keep_the_pieces_apart_block_the_join() {
-    // Two touching look-alike pieces; every view sees all 800 Gaussians (one per pixel) and
-    // its merged masks keep the pieces apart (mask 1 | mask 2).
+    // Two touching look-alike pieces meeting at a crease; every view sees all 800 Gaussians (one
+    // per pixel) and its merged masks keep the pieces apart (mask 1 | mask 2).
     let mut means = patch(0.0, 2.0);
-    means.extend(patch(0.4, 2.0));
+    means.extend(creased_patch(0.4, 2.0));
     let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
     let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
     // Every view sees all 800 Gaussians, one per pixel: a view's merged mask at each is its pixel's.
