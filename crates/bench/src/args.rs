@@ -102,7 +102,9 @@ touching and stacked objects, 50°–70° lenses), blind_rooms (every wall and f
 touching and stacked objects, parts of an object further apart in feature space; 640×480, 32 views), \
 blind_near (2–3 large textured objects near the cameras cut by the border, stacks, few whole-object \
 masks; 480×360, 20 views), blind_rough (Gaussians tilted off their surfaces, thicker and moved off \
-them as a trained 3DGS leaves them; cluttered rooms, 400×300, 24 views).
+them as a trained 3DGS leaves them; cluttered rooms, 400×300, 24 views), blind_trained (Gaussians \
+as a trained 3DGS leaves them in more ways: tilted, thick, off the surface, of spread sizes, 1–3 % \
+floaters; patterned floors, multi-coloured objects, 512×384, 28 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

@@ -100,6 +100,13 @@ pub struct CueConfig {
     /// Standard deviation of each Gaussian's displacement off the surface along its normal, a
     /// fraction of the sample spacing.
     pub gaussian_offset: f64,
+    /// Standard deviation of each in-plane log scale (each axis drawn apart): a trained 3DGS's
+    /// Gaussians range in size and are elongated, not equal round discs (0: all equal).
+    pub gaussian_scale_spread: f64,
+    /// Share of the Gaussians that are floaters: moved off their surface towards a camera by 2–8
+    /// sample spacings, with opacity 0.1–0.4, as a trained 3DGS leaves some in free space (they
+    /// keep the id of the surface they were sampled on).
+    pub gaussian_floaters: f64,
 }
 
 impl Default for CueConfig {
@@ -116,6 +123,8 @@ impl Default for CueConfig {
             gaussian_tilt_deg: 0.0,
             gaussian_thickness: 0.02,
             gaussian_offset: 0.0,
+            gaussian_scale_spread: 0.0,
+            gaussian_floaters: 0.0,
         }
     }
 }

@@ -3,12 +3,13 @@
 //! tiny scale along the normal) with the surface's shaded colour as SH degree 0 and a high
 //! opacity. Each Gaussian's ground-truth id is the id of the surface it was sampled on.
 //! [`CueConfig`]'s `gaussian_*` knobs make them less exact, as a trained 3DGS's are: discs
-//! tilted off the surface, thicker, and moved off it along their normals.
+//! tilted off the surface, thicker, moved off it along their normals, of spread sizes, and a
+//! share of them floaters in free space.
 
 use crate::config::CueConfig;
 use crate::geometry::SurfacePoint;
 use crate::layout::SceneObject;
-use crate::noise::{hash, normal, rng_for, stream};
+use crate::noise::{hash, normal, rng_for, stream, unit};
 use crate::render::{shade, RenderedView};
 use glam::{DMat3, DQuat, DVec3};
 use rayon::prelude::*;
@@ -118,6 +119,21 @@ pub fn surface_gaussians(
         let mut position = sp.position;
         if fit.gaussian_offset > 0.0 {
             position += sp.normal * (fit.gaussian_offset * spacing_m * draw(2));
+        }
+        let uniform = |k: u64| unit(hash(seed, &[stream::GAUSSIAN_FIT, i as u64, k]));
+        if fit.gaussian_scale_spread > 0.0 {
+            let spread = fit.gaussian_scale_spread;
+            let scales = &mut g.log_scales[i];
+            scales[0] = log_in_plane + (spread * draw(3)) as f32;
+            scales[1] = log_in_plane + (spread * draw(4)) as f32;
+        }
+        if fit.gaussian_floaters > 0.0 && !poses.is_empty() && uniform(5) < fit.gaussian_floaters {
+            // Towards one camera's centre, 2–8 spacings off the surface, faint.
+            let view = ((uniform(6) * poses.len() as f64) as usize).min(poses.len() - 1);
+            let towards = (poses[view].centre() - position).normalize_or_zero();
+            position += towards * (spacing_m * (2.0 + 6.0 * uniform(7)));
+            let opacity = 0.1 + 0.3 * uniform(8);
+            g.raw_opacities[i] = (opacity / (1.0 - opacity)).ln() as f32;
         }
         g.means.push(position.as_vec3().to_array());
         if let Some(normals) = g.normals.as_mut() {

@@ -222,6 +222,20 @@ fn validate(config: &SynthConfig) -> Result<(), SynthError> {
     if !(0.0..=1.0).contains(&room.multi_tone_share) {
         return bad("room.multi_tone_share must be between 0 and 1");
     }
+    let fit = &config.cues;
+    let in_range = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
+    let knobs_in_range = in_range(fit.gaussian_tilt_deg, 0.0, 90.0)
+        && positive(fit.gaussian_thickness)
+        && fit.gaussian_thickness <= 10.0
+        && in_range(fit.gaussian_offset, 0.0, 10.0)
+        && in_range(fit.gaussian_scale_spread, 0.0, 3.0)
+        && in_range(fit.gaussian_floaters, 0.0, 1.0);
+    if !knobs_in_range {
+        return bad(
+            "cues.gaussian_tilt_deg must be 0..=90, gaussian_thickness in (0, 10], gaussian_offset 0..=10, \
+             gaussian_scale_spread 0..=3 and gaussian_floaters 0..=1",
+        );
+    }
     let [lo, hi] = config.sam.hole_radius_px;
     if lo < 1 || lo > hi || hi > 64 {
         return bad("sam.hole_radius_px must be [min, max] with 1 <= min <= max <= 64");

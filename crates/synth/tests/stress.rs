@@ -170,6 +170,17 @@ fn stress_knobs_are_validated() {
     let mut c = Family::Rooms.config(0);
     c.sam.hole_radius_px = [0, 2];
     assert!(generate(&c).is_err());
+    for bad in [
+        |c: &mut SynthConfig| c.cues.gaussian_thickness = 0.0,
+        |c: &mut SynthConfig| c.cues.gaussian_tilt_deg = f64::NAN,
+        |c: &mut SynthConfig| c.cues.gaussian_floaters = 1.5,
+        |c: &mut SynthConfig| c.cues.gaussian_scale_spread = -0.1,
+    ] {
+        let mut c = Family::Rooms.config(0);
+        bad(&mut c);
+        let err = generate(&c).expect_err("a bad Gaussian knob");
+        assert!(err.to_string().contains("cues.gaussian_"), "{err}");
+    }
 }
 
 /// `blind_rough`'s Gaussians are what its knobs say: the same samples as exact discs, each
@@ -217,4 +228,44 @@ fn rough_gaussians_are_tilted_thicker_and_off_the_surface_by_the_drawn_amounts()
     let rms = (offsets.iter().map(|o| o * o).sum::<f64>() / offsets.len() as f64).sqrt() / spacing;
     assert!((rms - rough.cues.gaussian_offset).abs() < 0.05 * rough.cues.gaussian_offset, "offset rms {rms}");
     assert!(rough.cues.gaussian_tilt_deg >= 15.0 && mean > 15.0, "{mean}");
+}
+
+/// `blind_trained`'s Gaussians are what its knobs say beyond `blind_rough`'s: the same samples,
+/// in-plane log scales spread by the drawn amount per axis, and the drawn share of floaters, each
+/// moved 2–8 spacings off its surface towards a camera and faint.
+#[test]
+fn trained_gaussians_have_spread_sizes_and_the_drawn_share_of_floaters() {
+    let trained = SynthConfig { views: 3, width: 160, height: 120, ..Family::BlindTrained.config(2) };
+    let fit = trained.cues.clone();
+    let plain = SynthConfig {
+        cues: splatseg_synth::CueConfig { gaussian_scale_spread: 0.0, gaussian_floaters: 0.0, ..fit.clone() },
+        ..trained.clone()
+    };
+    let (a, b) = (generate(&plain).expect("plain"), generate(&trained).expect("trained"));
+    assert_eq!(a.gaussian_ids, b.gaussian_ids, "the same samples");
+    let n = a.gaussians.means.len();
+    assert!(n > 1000, "{n} Gaussians");
+    let (la, lb) = (&a.gaussians.log_scales, &b.gaussians.log_scales);
+    let spread: Vec<f64> = (0..n).flat_map(|i| (0..2).map(move |k| (lb[i][k] - la[i][k]) as f64)).collect();
+    let rms = (spread.iter().map(|d| d * d).sum::<f64>() / spread.len() as f64).sqrt();
+    assert!(
+        (rms - fit.gaussian_scale_spread).abs() < 0.05 * fit.gaussian_scale_spread,
+        "log-scale rms {rms}"
+    );
+    let spacing = (a.gaussians.log_scales[0][0].exp() / 0.6) as f64;
+    let moved: Vec<usize> = (0..n)
+        .filter(|&i| {
+            let d: f32 = (0..3).map(|c| (b.gaussians.means[i][c] - a.gaussians.means[i][c]).powi(2)).sum();
+            d > 0.0
+        })
+        .collect();
+    let share = moved.len() as f64 / n as f64;
+    assert!((share - fit.gaussian_floaters).abs() < 0.25 * fit.gaussian_floaters, "floaters {share}");
+    for &i in &moved {
+        let d: f32 = (0..3).map(|c| (b.gaussians.means[i][c] - a.gaussians.means[i][c]).powi(2)).sum();
+        let d = d.sqrt() as f64 / spacing;
+        assert!((1.99..8.01).contains(&d), "floater {i} moved {d} spacings");
+        let opacity = 1.0 / (1.0 + (-b.gaussians.raw_opacities[i] as f64).exp());
+        assert!((0.1..0.4).contains(&opacity), "floater {i} opacity {opacity}");
+    }
 }
