@@ -52,7 +52,9 @@ pub(crate) struct Contact {
     pub measured: u32,
     /// Of the measured pairs, those where the two surfaces continue each other: normals within
     /// `SEAM_MAX_ANGLE_DEG` and each side's mean point within half a voxel of the other's tangent
-    /// plane, or each side's mean point within half a voxel of the other object's fitted plane.
+    /// plane, or both sides' mean points within half a voxel of one of the two objects' fitted
+    /// planes (the better-fitted one holds both where a small piece's own plane is tilted by its
+    /// noise or by a few stray Gaussians).
     pub smooth: u32,
     /// Pairs where both sides have an outward normal ([`Facing`]).
     pub oriented: u32,
@@ -347,8 +349,8 @@ pub(crate) fn contacts(
     }
     let cos_max_angle = SEAM_MAX_ANGLE_DEG.to_radians().cos();
     // By the two sides' normals (each side's mean point on the other's tangent plane), or by the
-    // objects' fitted planes (each side's mean point on the other object's plane): either
-    // evidence measures the pair, and either says when one surface continues across it.
+    // objects' fitted planes (both sides' mean points on one of them): either evidence measures
+    // the pair, and either says when one surface continues across it.
     let by_normals = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
         let ((pa, na), (pb, nb)) = (a.surface(), b.surface());
         let (na, nb) = (na?, nb?);
@@ -361,8 +363,11 @@ pub(crate) fn contacts(
     };
     let by_centres = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
         let (qa, qb) = (planes.get(&a.id)?, planes.get(&b.id)?);
-        let (da, db) = (qb.centres_distance(a.surface().0)?, qa.centres_distance(b.surface().0)?);
-        Some(da <= 0.5 * voxel && db <= 0.5 * voxel)
+        let (pa, pb) = (a.surface().0, b.surface().0);
+        let holds_both = |q: &ObjectPlane| -> Option<bool> {
+            Some(q.centres_distance(pa)? <= 0.5 * voxel && q.centres_distance(pb)? <= 0.5 * voxel)
+        };
+        Some(holds_both(qa)? || holds_both(qb)?)
     };
     let smooth = |a: &VoxelPart, b: &VoxelPart| -> Option<bool> {
         match (by_normals(a, b), by_centres(a, b)) {

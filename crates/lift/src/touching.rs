@@ -15,8 +15,8 @@
 //!   dominant normal, or of their centres within half a voxel of the plane fitted to them:
 //!   [`crate::shape::ObjectPlane`]) with parallel normals, at least `SEAM_SMOOTH_SHARE` of the
 //!   contact voxel pairs are smooth (the normals of the two sides within `SEAM_MAX_ANGLE_DEG` and
-//!   each side's mean point within half a voxel of the other side's tangent plane, or each side's
-//!   mean point within half a voxel of the other object's fitted plane), and
+//!   each side's mean point within half a voxel of the other side's tangent plane, or both sides'
+//!   mean points within half a voxel of one of the two objects' fitted planes), and
 //!   `cos(f_P, f_Q) ≥ tau_seam`. The normals say it where the reconstruction leaves the
 //!   Gaussians' shortest axes on the surface's normal; a trained 3DGS scatters them by tens of
 //!   degrees, and there the centres say it (the `rough` family: ids / GT 1.60 → 1.10).
