@@ -19,7 +19,7 @@ use splatseg_synth::Family;
 /// every floor); blind_sam 0 (ids / GT 1.25) and blind_near 0 (ids / GT 1.59, consistency 0.940,
 /// 3D accuracy 0.939) would not meet the ceiling on ids and are measured by `bench quality` only,
 /// as adding them here would lower the floors. blind_rough 0 and blind_trained 0 joined at the lift's
-/// plane test by centres (daafa43; 12 views: mIoU 0.988 / 0.975, consistency 0.993 / 0.990, ids / GT
+/// plane test by centres (b2eb664; 12 views: mIoU 0.988 / 0.975, consistency 0.993 / 0.990, ids / GT
 /// 1.08 / 1.20, 3D accuracy 0.965 / 0.966, within every floor; before it blind_rough left the floor
 /// in pieces).
 const SCENES: [(Family, u64); 9] = [
