@@ -104,7 +104,9 @@ blind_near (2–3 large textured objects near the cameras cut by the border, sta
 masks; 480×360, 20 views), blind_rough (Gaussians tilted off their surfaces, thicker and moved off \
 them as a trained 3DGS leaves them; cluttered rooms, 400×300, 24 views), blind_trained (Gaussians \
 as a trained 3DGS leaves them in more ways: tilted, thick, off the surface, of spread sizes, 1–3 % \
-floaters; patterned floors, multi-coloured objects, 512×384, 28 views).
+floaters; patterned floors, multi-coloured objects, 512×384, 28 views), blind_parts (multi-coloured \
+objects whose parts are far apart in feature space, large objects near the cameras, touching and \
+stacked objects; 448×336, 22 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

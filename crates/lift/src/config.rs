@@ -36,11 +36,11 @@ pub struct LiftConfig {
     /// smooth); the cosine only refuses what looks unlike. Tuning seeds 0..7 (48 scenes): at 0.8
     /// mean mIoU 0.974, ids / GT 1.099, 3D accuracy 0.964; **at 0.5** 0.974, 1.060, 0.967 (no pair
     /// of different objects meets the seam geometry on seeds 0..3; pieces of one floor or wall:
-    /// cos 0.53–0.99, a fifth under 0.8).
+    /// cos 0.53–0.99, a fifth under 0.8). The same floor serves every join with 3D evidence:
+    /// the pieces of a thin structure and the parts of one object meeting at convex edges (until
+    /// 2026-11-28 at a cosine of their own, 0.85, which refused the parts of objects whose
+    /// features scatter more: `docs/benchmarks/22-one-feature-floor.md`).
     pub tau_seam: f32,
-    /// Touching objects often seen in one merged mask and meeting at convex or smooth edges only
-    /// (a cylinder's cap and side) are parts of one object, joined at this cosine (above 1: off).
-    pub tau_part: f32,
     /// Split objects whose labelled Gaussians form clusters apart in 3D ([`crate::split`]).
     pub split_disconnected: bool,
     /// Objects covering fewer pixels than this over all rendered-back label maps are specks and
@@ -63,7 +63,7 @@ pub struct LiftConfig {
     /// over both (0 = no such condition).
     #[serde(skip)]
     pub min_together_share: f32,
-    /// Not a file key (tests vary it): a part join ([`LiftConfig::tau_part`]) needs at most this
+    /// Not a file key (tests vary it): a part join ([`crate::touching`]) needs at most this
     /// share of the oriented contact voxel pairs concave.
     #[serde(skip)]
     pub part_max_concave_share: f32,
@@ -96,8 +96,6 @@ pub struct ObjectsTable {
     pub tau_touching: f32,
     /// [`LiftConfig::tau_seam`].
     pub tau_seam: f32,
-    /// [`LiftConfig::tau_part`].
-    pub tau_part: f32,
     /// [`LiftConfig::split_disconnected`].
     pub split_disconnected: bool,
     /// [`LiftConfig::min_object_px`].
@@ -198,7 +196,6 @@ impl LiftConfig {
             ObjectsTable {
                 tau_touching: self.tau_touching,
                 tau_seam: self.tau_seam,
-                tau_part: self.tau_part,
                 split_disconnected: self.split_disconnected,
                 min_object_px: self.min_object_px,
             },
@@ -218,7 +215,6 @@ impl LiftConfig {
             min_views: lift.min_views,
             tau_touching: objects.tau_touching,
             tau_seam: objects.tau_seam,
-            tau_part: objects.tau_part,
             split_disconnected: objects.split_disconnected,
             min_object_px: objects.min_object_px,
             final_maps: final_maps.kind,
@@ -274,7 +270,6 @@ impl Default for LiftConfig {
             min_views: 1,
             tau_touching: 0.95,
             tau_seam: 0.5,
-            tau_part: 0.85,
             split_disconnected: true,
             min_object_px: 64,
             final_maps: FinalMaps::default(),

@@ -3,7 +3,6 @@
 //! thin object lies along, and what two objects share where they touch (voxel pairs, smooth,
 //! concave and convex contacts).
 
-use crate::config::LiftConfig;
 use crate::facing::{Facing, MIN_FLATNESS};
 use crate::project::PreparedGaussians;
 use crate::voxels::{self_and_forward_neighbours, voxel_of};
@@ -122,10 +121,14 @@ impl ObjectPlane {
             && (self.by_normals >= SEAM_SMOOTH_SHARE || self.by_centres >= SEAM_SMOOTH_SHARE)
     }
 
+    /// Distance of `p` from the plane fitted to the centres.
+    fn fitted_distance(&self, p: Vec3) -> f32 {
+        self.fitted.dot(p - self.centre).abs()
+    }
+
     /// Distance of `p` from the fitted plane, when the centres make one.
     fn centres_distance(&self, p: Vec3) -> Option<f32> {
-        (self.by_centres >= SEAM_SMOOTH_SHARE && self.fitted != Vec3::ZERO)
-            .then(|| self.fitted.dot(p - self.centre).abs())
+        (self.by_centres >= SEAM_SMOOTH_SHARE && self.fitted != Vec3::ZERO).then(|| self.fitted_distance(p))
     }
 
     /// Both planes with normals within `SEAM_MAX_ANGLE_DEG`.
@@ -136,11 +139,38 @@ impl ObjectPlane {
     }
 }
 
+/// True when objects `a` and `b` both have a plane in `planes` and the two are coplanar
+/// ([`ObjectPlane::coplanar`]).
+pub(crate) fn coplanar_ids(planes: &HashMap<u32, ObjectPlane>, a: u32, b: u32) -> bool {
+    matches!((planes.get(&a), planes.get(&b)), (Some(p), Some(q)) if p.coplanar(q))
+}
+
 /// Per object id (of at least 3 Gaussians): its plane by two evidences (see [`ObjectPlane`]).
 /// The Gaussians' shortest axes say it where a reconstruction leaves them on the surface's
 /// normal; a trained 3DGS scatters them by tens of degrees (the `rough` families), and there
 /// the centres, which lie on the surface within a fraction of a Gaussian, say it.
 pub(crate) fn planarity(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> HashMap<u32, ObjectPlane> {
+    planes_of(gaussians, ids, voxel, &centre_moments(gaussians, ids))
+}
+
+/// Per object id, its plane ([`planarity`]) and its line ([`ObjectLine`]), from one pass over
+/// the centres' moments.
+pub(crate) fn planes_and_lines(
+    gaussians: &PreparedGaussians,
+    ids: &[i32],
+    voxel: f32,
+) -> (HashMap<u32, ObjectPlane>, HashMap<u32, ObjectLine>) {
+    let moments = centre_moments(gaussians, ids);
+    (planes_of(gaussians, ids, voxel, &moments), lines_of(&moments))
+}
+
+/// [`planarity`] from the objects' centre `moments`.
+fn planes_of(
+    gaussians: &PreparedGaussians,
+    ids: &[i32],
+    voxel: f32,
+    moments: &BTreeMap<u32, Moments>,
+) -> HashMap<u32, ObjectPlane> {
     let flat_normal = |i: usize| -> Option<Vec3> {
         let n = gaussians.normals.get(i).copied()?;
         (gaussians.flatness.get(i).copied().unwrap_or(0.0) >= MIN_FLATNESS && n != Vec3::ZERO).then_some(n)
@@ -151,10 +181,10 @@ pub(crate) fn planarity(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) 
         let sum = sums.entry(id as u32).or_insert(Vec3::ZERO);
         *sum += if sum.dot(n) < 0.0 { -n } else { n };
     }
-    let mut planes: HashMap<u32, ObjectPlane> = centre_moments(gaussians, ids)
-        .into_iter()
+    let mut planes: HashMap<u32, ObjectPlane> = moments
+        .iter()
         .filter(|(_, m)| m.count >= 3)
-        .map(|(id, m)| {
+        .map(|(&id, m)| {
             let (mean, cov) = m.mean_and_covariance();
             let first = principal_axis(cov);
             let outer = glam::DMat3::from_cols(first * first.x, first * first.y, first * first.z);
@@ -181,7 +211,7 @@ pub(crate) fn planarity(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) 
             c[0] += (n.dot(plane.normal).abs() >= cos_max) as u32;
             c[1] += 1;
         }
-        c[2] += (plane.fitted.dot(gaussians.mean(i) - plane.centre).abs() <= 0.5 * voxel) as u32;
+        c[2] += (plane.fitted_distance(gaussians.mean(i)) <= 0.5 * voxel) as u32;
         c[3] += 1;
     }
     for (id, plane) in planes.iter_mut() {
@@ -259,7 +289,7 @@ impl ObjectLine {
     /// Both thin (spread along ≥ `THIN_MIN_ELONGATION` × across), parallel (axes within
     /// `SEAM_MAX_ANGLE_DEG`) and on one line (each centre within `THIN_LINE_TOLERANCE` × the
     /// larger cross spread of the other's line): two pieces of one post.
-    pub(crate) fn continues(&self, other: &ObjectLine, _config: &LiftConfig) -> bool {
+    pub(crate) fn continues(&self, other: &ObjectLine) -> bool {
         let thin = |l: &ObjectLine| l.along >= THIN_MIN_ELONGATION * l.across;
         let parallel = self.axis.dot(other.axis).abs() >= SEAM_MAX_ANGLE_DEG.to_radians().cos();
         let tolerance = THIN_LINE_TOLERANCE * self.across.max(other.across);
@@ -279,13 +309,14 @@ impl ObjectLine {
 /// other's line.
 const THIN_LINE_TOLERANCE: f32 = 2.0;
 
-/// Per object id (of at least 3 Gaussians), the line its Gaussians lie along (principal axis by
-/// power iteration on the 3×3 covariance from a fixed start, so the result is deterministic).
-pub(crate) fn object_lines(gaussians: &PreparedGaussians, ids: &[i32]) -> HashMap<u32, ObjectLine> {
-    centre_moments(gaussians, ids)
-        .into_iter()
+/// Per object id (of at least 3 Gaussians) in `moments` (its centres' moments), the line its
+/// Gaussians lie along (principal axis by power iteration on the 3×3 covariance from a fixed
+/// start, so the result is deterministic).
+fn lines_of(moments: &BTreeMap<u32, Moments>) -> HashMap<u32, ObjectLine> {
+    moments
+        .iter()
         .filter(|(_, m)| m.count >= 3)
-        .map(|(id, m)| {
+        .map(|(&id, m)| {
             let (mean, cov) = m.mean_and_covariance();
             let axis = principal_axis(cov);
             let along_var = axis.dot(cov * axis).max(0.0);
@@ -307,8 +338,8 @@ pub(crate) fn contacts(
     gaussians: &PreparedGaussians,
     ids: &[i32],
     voxel: f32,
-    (planes, facing): (&HashMap<u32, ObjectPlane>, Option<&Facing>),
-    _config: &LiftConfig,
+    planes: &HashMap<u32, ObjectPlane>,
+    facing: Option<&Facing>,
 ) -> BTreeMap<(u32, u32), Contact> {
     let mut cells: HashMap<u64, ([i64; 3], Vec<VoxelPart>)> = HashMap::new();
     for (i, &id) in ids.iter().enumerate() {
@@ -471,7 +502,7 @@ mod tests {
                 assert!(p.normal.z.abs() > 0.999, "tilt {tilt}, piece {id}: {p:?}");
             }
             assert!(planes[&1].coplanar(&planes[&2]));
-            let c = contacts(&g, &ids, voxel, (&planes, None), &LiftConfig::default())[&(1, 2)];
+            let c = contacts(&g, &ids, voxel, &planes, None)[&(1, 2)];
             assert!(c.measured >= 8 && c.smooth == c.measured, "tilt {tilt}: {c:?}");
         }
     }
@@ -492,7 +523,7 @@ mod tests {
         let g = discs(&step, 30.0);
         let planes = planarity(&g, &ids, voxel);
         assert!(planes[&1].coplanar(&planes[&2]));
-        let c = contacts(&g, &ids, voxel, (&planes, None), &LiftConfig::default())[&(1, 2)];
+        let c = contacts(&g, &ids, voxel, &planes, None)[&(1, 2)];
         assert!(c.measured >= 8 && c.smooth == 0, "{c:?}");
     }
 }

@@ -31,7 +31,7 @@
 use crate::config::LiftConfig;
 use crate::lifting::Lifted;
 use crate::project::PreparedGaussians;
-use crate::shape::{contacts, planarity, SEAM_SMOOTH_SHARE};
+use crate::shape::{contacts, coplanar_ids, planarity, SEAM_SMOOTH_SHARE};
 use crate::voxels::{self_and_forward_neighbours, voxel_of, DisjointSets};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
@@ -73,7 +73,7 @@ pub fn split_disconnected_objects(
     if !config.split_disconnected || voxel <= 0.0 || !voxel.is_finite() {
         return SplitStats::default();
     }
-    let layers = PlaneLayers::new(gaussians, &lifted.object_ids, voxel, config);
+    let layers = PlaneLayers::new(gaussians, &lifted.object_ids, voxel);
     let group = |i: usize, id: u32| ((id as u64) << 1) | layers.off_plane(gaussians, i, id) as u64;
     let groups: Vec<u64> = lifted
         .object_ids
@@ -150,7 +150,7 @@ pub fn split_disconnected_objects(
             }
         }
     }
-    stats.continued = join_continued_surfaces(gaussians, lifted, &stats.parents, voxel, config);
+    stats.continued = join_continued_surfaces(gaussians, lifted, &stats.parents, voxel);
     stats
 }
 
@@ -162,23 +162,20 @@ fn join_continued_surfaces(
     lifted: &mut Lifted,
     parents: &[(u32, u32)],
     voxel: f32,
-    config: &LiftConfig,
 ) -> Vec<(u32, u32)> {
     if parents.is_empty() {
         return Vec::new();
     }
     let ids = &lifted.object_ids;
     let planes = planarity(gaussians, ids, voxel);
-    let coplanar =
-        |a: u32, b: u32| matches!((planes.get(&a), planes.get(&b)), (Some(p), Some(q)) if p.coplanar(q));
     let new_ids: BTreeMap<u32, u32> = parents.iter().copied().collect();
     // Per new id: (smooth contacts, the object) of its best seam, most smooth first, then the
     // smaller id.
     let mut best: BTreeMap<u32, (u32, u32)> = BTreeMap::new();
-    for ((a, b), c) in contacts(gaussians, ids, voxel, (&planes, None), config) {
+    for ((a, b), c) in contacts(gaussians, ids, voxel, &planes, None) {
         let seam = c.measured >= MIN_SEAM_CONTACTS
             && c.smooth as f32 >= SEAM_SMOOTH_SHARE * c.measured as f32
-            && coplanar(a, b);
+            && coplanar_ids(&planes, a, b);
         if !seam {
             continue;
         }
@@ -238,7 +235,7 @@ struct PlaneLayers {
 const OFF_PLANE_VOXELS: f32 = 2.0;
 
 impl PlaneLayers {
-    fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32, _config: &LiftConfig) -> Self {
+    fn new(gaussians: &PreparedGaussians, ids: &[i32], voxel: f32) -> Self {
         let normals: HashMap<u32, glam::Vec3> = crate::shape::planarity(gaussians, ids, voxel)
             .into_iter()
             .filter(|(_, p)| p.is_plane())

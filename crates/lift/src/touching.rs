@@ -26,13 +26,17 @@
 //!   meets it at a crease, a cylinder touching a wall meets it along a line where only the
 //!   nearest normals agree, and an object whose label spilled onto the floor around its foot is
 //!   not a plane, so none of these joins; or
-//! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_part`, the views agree (at least
+//! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_seam`, the views agree (at least
 //!   `PART_MIN_TOGETHER_SHARE` of the views seeing both have one merged mask over both), and
 //!   they meet at convex edges: of the contact voxel pairs whose two sides have outward normals
 //!   ([`Facing`]), at most `part_max_concave_share` are concave and at least
 //!   `part_min_convex_share` convex (two boxes side by side meet flush). Different objects that
 //!   touch meet at concave edges (a box beside a box, a box on a box: 23–47 % of the pairs on the
-//!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none); or
+//!   stress suite), the parts of one object at convex ones (a cylinder's cap and side: none).
+//!   The geometry and the views are the evidence; the cosine, as for a seam, only refuses what
+//!   looks unlike. (A cosine of 0.85 of its own refused the parts of objects whose features
+//!   scatter more than the tuning families', parts cos 0.83–0.84 on blind scenes:
+//!   `docs/benchmarks/22-one-feature-floor.md`); or
 //! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
 //!   at least `THIN_MIN_ELONGATION` times more than across it), parallel and on one line, at
 //!   least one contact voxel pair, and `cos(f_P, f_Q) ≥ tau_seam`: a post that SAM cut where the
@@ -58,7 +62,7 @@ use crate::facing::Facing;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::shape::{
-    contacts, object_lines, planarity, typical_sigma, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
+    contacts, coplanar_ids, planes_and_lines, typical_sigma, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
 };
 use crate::voxels::DisjointSets;
 use std::collections::HashMap;
@@ -159,13 +163,10 @@ pub fn join_touching_objects(
         return 0;
     }
     let n_objects = features.n_objects();
-    // The objects' planes, lines and contacts are independent passes over the Gaussians: run
-    // side by side (each the same as alone).
     let ids = &lifted.object_ids;
-    let (planes, lines) = rayon::join(|| planarity(gaussians, ids, voxel), || object_lines(gaussians, ids));
-    let contacts = contacts(gaussians, ids, voxel, (&planes, facing), config);
-    let coplanar =
-        |a: u32, b: u32| matches!((planes.get(&a), planes.get(&b)), (Some(p), Some(q)) if p.coplanar(q));
+    let (planes, lines) = planes_and_lines(gaussians, ids, voxel);
+    let contacts = contacts(gaussians, ids, voxel, &planes, facing);
+    let coplanar = |a: u32, b: u32| coplanar_ids(&planes, a, b);
     let cos_of =
         |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
     let mut pairs: Vec<(f32, u32, u32)> = contacts
@@ -175,7 +176,7 @@ pub fn join_touching_objects(
             let cos = cos_of(a, b);
             let thin = cos >= config.tau_seam
                 && THIN_MIN_ELONGATION > 0.0
-                && matches!((lines.get(&a), lines.get(&b)), (Some(p), Some(q)) if p.continues(q, config));
+                && matches!((lines.get(&a), lines.get(&b)), (Some(p), Some(q)) if p.continues(q));
             if thin {
                 tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
             }
@@ -211,7 +212,7 @@ pub fn join_touching_objects(
                 share >= config.min_together_share
             };
             let parts = !alike
-                && cos >= config.tau_part
+                && cos >= config.tau_seam
                 && c.oriented >= MIN_CONTACT_VOXELS
                 && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
                 && c.convex as f32 >= config.part_min_convex_share * c.oriented as f32

@@ -201,7 +201,7 @@ fn a_post_standing_on_a_piece_of_floor_under_the_same_id_splits_off() {
     assert!(l.object_ids.iter().all(|&i| i == 4));
 }
 
-/// Objects 1 and 2 with cos 0.9: below τ_touching (0.95), above τ_part (0.85).
+/// Objects 1 and 2 with cos 0.9: below τ_touching (0.95), above τ_seam (0.5).
 const PART_FEATURES: [f32; 4] = [1.0, 0.0, 0.9, 0.435_89];
 
 /// Joins objects 1 and 2 (Gaussians `[..n1]` and `[n1..]`) seen from `eye` in two views, one of
@@ -217,6 +217,18 @@ fn join_parts_with(
     with_facing: bool,
     config: &LiftConfig,
 ) -> usize {
+    join_parts_alike(prepared, n1, eye, with_facing, config, &PART_FEATURES)
+}
+
+/// [`join_parts_with`] with the objects' features `[2, 2]`.
+fn join_parts_alike(
+    prepared: &PreparedGaussians,
+    n1: usize,
+    eye: [f32; 3],
+    with_facing: bool,
+    config: &LiftConfig,
+    features: &[f32; 4],
+) -> usize {
     let n = prepared.len();
     let ids: Vec<i32> = (0..n).map(|i| if i < n1 { 1 } else { 2 }).collect();
     let all: Vec<u32> = (0..n as u32).collect();
@@ -226,7 +238,7 @@ fn join_parts_with(
     let mut facing = Facing::new(n);
     facing.add_view(prepared, &all, glam::Vec3::from(eye));
     let mut l = lifted(ids);
-    let features = ObjectFeatures { dim: 2, values: &PART_FEATURES };
+    let features = ObjectFeatures { dim: 2, values: features };
     let facing = with_facing.then_some(&facing);
     join_touching_objects(prepared, &mut l, features, &counts, facing, None, config)
 }
@@ -242,6 +254,20 @@ fn a_boxs_top_and_side_meeting_at_a_convex_edge_are_parts_of_one_object() {
     assert_eq!(join_parts(&prepared, 400, [1.5, 1.5, 0.2], true), 1);
     // Without outward normals there is no part join (cos 0.9 < τ_touching).
     assert_eq!(join_parts(&prepared, 400, [1.5, 1.5, 0.2], false), 0);
+}
+
+#[test]
+fn parts_whose_features_scatter_join_by_their_convex_edge_unless_they_look_unlike() {
+    // The box of the test above, its top and side far apart in feature space (as a real model
+    // gives a two-tone box): cos 0.7, then 0.4 (under τ_seam, 0.5).
+    let mut means = grid([0.0, 0.4, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
+    let normals: Vec<[f32; 3]> = (0..800).map(|i| if i < 400 { Y } else { X }).collect();
+    let prepared = flat(&means, &normals);
+    let config = LiftConfig::default();
+    let unit = |c: f32| [1.0, 0.0, c, (1.0 - c * c).sqrt()];
+    assert_eq!(join_parts_alike(&prepared, 400, [1.5, 1.5, 0.2], true, &config, &unit(0.7)), 1);
+    assert_eq!(join_parts_alike(&prepared, 400, [1.5, 1.5, 0.2], true, &config, &unit(0.4)), 0);
 }
 
 #[test]

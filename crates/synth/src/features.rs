@@ -278,6 +278,12 @@ mod tests {
                 "{p}: {parts} {objects}"
             );
         }
+        // blind_parts: parts ≈ 0.72–0.80, still above the objects' 0.55–0.63 on average
+        for p in [0.5, 0.62] {
+            let far = CueConfig { part_perturbation: p, shared_share: [0.45, 0.75], ..CueConfig::default() };
+            let (parts, objects) = mean_similarities(&far);
+            assert!((0.70..0.81).contains(&parts) && parts > objects + 0.08, "{p}: {parts} {objects}");
+        }
     }
 
     #[test]
