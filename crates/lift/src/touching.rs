@@ -56,13 +56,23 @@
 //! wall pieces in none, so their joins stand. Measured: neutral on the tuning families (seeds
 //! 0–7: mean mIoU 0.974 either way, 5 of 48 scenes change), and it undoes the wrong joins of
 //! touching objects found on blind scenes (`docs/benchmarks/17-wholes-veto.md`).
+//!
+//! **A look-alike join is refused where the two sets meet at a concave edge.** The look-alike rule
+//! has no geometry of its own, and a small piece (14 Gaussians of a box's top face) can look like
+//! the box under it and the box on it: joined to the lower box first, it then joins the upper one
+//! too (`sam_noise` seed 6: the stack's top lost, 0.880 → 0.978 with this rule). So before a join
+//! by that rule alone, the contacts of every pair across the two sets as they stand are summed;
+//! when more than `part_max_concave_share` of their oriented pairs are concave and the concave ones
+//! outnumber the convex ones by more than three standard deviations of a fair sign, the sets are
+//! two objects touching (different objects meet at concave edges: a box on a box, a box beside a
+//! wall), and the join is refused (`docs/benchmarks/22-one-feature-floor.md`).
 
 use crate::config::LiftConfig;
 use crate::facing::Facing;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::shape::{
-    contacts, coplanar_ids, planes_and_lines, typical_sigma, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
+    contacts, coplanar_ids, planes_and_lines, typical_sigma, Contact, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
 };
 use crate::voxels::DisjointSets;
 use std::collections::HashMap;
@@ -133,6 +143,17 @@ fn together_share(views: &[ViewCounts], a: u32, b: u32) -> f32 {
     }
 }
 
+/// True when a contact's oriented voxel pairs say two objects meet at a concave edge (a box on a
+/// box, a box beside a wall): more than `part_max_concave_share` of them concave, and concave
+/// ones outnumbering convex ones by more than three standard deviations of a fair sign (tilted
+/// Gaussians make concave and convex pairs alike often along a smooth seam: 5–9 % each on `rough`
+/// floors).
+fn meet_at_concave_edge(c: &Contact, config: &LiftConfig) -> bool {
+    c.oriented >= MIN_CONTACT_VOXELS
+        && c.concave as f32 > config.part_max_concave_share * c.oriented as f32
+        && c.concave as f32 - c.convex as f32 > 3.0 * ((c.concave + c.convex) as f32).sqrt()
+}
+
 /// What the views' SAM masks say about two objects (the caller's evidence; the pipeline's is
 /// the merge's separate-wholes evidence over the objects' Gaussians).
 pub trait SeparateWholes: Sync {
@@ -169,8 +190,10 @@ pub fn join_touching_objects(
     let coplanar = |a: u32, b: u32| coplanar_ids(&planes, a, b);
     let cos_of =
         |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
-    let mut pairs: Vec<(f32, u32, u32)> = contacts
-        .into_iter()
+    // (cos, a, b, joined by the look-alike rule alone).
+    let mut pairs: Vec<(f32, u32, u32, bool)> = contacts
+        .iter()
+        .map(|(&pair, &c)| (pair, c))
         .filter(|&((a, b), c)| c.voxel_pairs >= 1 && (b as usize) <= n_objects && a >= 1)
         .filter_map(|((a, b), c)| {
             let cos = cos_of(a, b);
@@ -197,7 +220,7 @@ pub fn join_touching_objects(
                 );
             }
             if c.voxel_pairs < MIN_CONTACT_VOXELS {
-                return thin.then_some((cos, a, b));
+                return thin.then_some((cos, a, b, false));
             }
             let seam = c.measured >= MIN_CONTACT_VOXELS
                 && coplanar(a, b)
@@ -227,6 +250,7 @@ pub fn join_touching_objects(
                     );
                     share >= PART_MIN_TOGETHER_SHARE
                 };
+            let only_alike = alike && !seam && !thin;
             let alike = alike || parts || thin;
             if seam {
                 tracing::debug!(
@@ -235,10 +259,12 @@ pub fn join_touching_objects(
                     c.measured
                 );
             }
-            (seam || alike).then_some((cos, a, b))
+            (seam || alike).then_some((cos, a, b, only_alike))
         })
         .collect();
     pairs.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    // The objects of each set as joined so far (root → ids), for the look-alike joins' edge test.
+    let mut objects_of: HashMap<u32, Vec<u32>> = HashMap::new();
     // Joined best first; with SAM's wholes, each join is asked about the two sets as they stand
     // (what is already joined to each), so that no chain of joins puts together two objects that
     // the masks keep apart.
@@ -252,10 +278,36 @@ pub fn join_touching_objects(
     }
     let mut sets = DisjointSets::new(n_objects + 1);
     let mut joins = 0;
-    for (cos, a, b) in pairs {
+    for (cos, a, b, only_alike) in pairs {
         let (ra, rb) = (sets.find(a), sets.find(b));
         if ra == rb {
             continue;
+        }
+        let set = |objects_of: &HashMap<u32, Vec<u32>>, r: u32| {
+            objects_of.get(&r).cloned().unwrap_or_else(|| vec![r])
+        };
+        let (set_a, set_b) = (set(&objects_of, ra), set(&objects_of, rb));
+        if only_alike {
+            let mut edge = Contact::default();
+            for &x in &set_a {
+                for &y in &set_b {
+                    if let Some(c) = contacts.get(&(x.min(y), x.max(y))) {
+                        edge.oriented += c.oriented;
+                        edge.concave += c.concave;
+                        edge.convex += c.convex;
+                    }
+                }
+            }
+            if meet_at_concave_edge(&edge, config) {
+                tracing::debug!(
+                    "objects {a} and {b} (joined so far into {ra} and {rb}), cos {cos:.3}: the two sets meet at a \
+                     concave edge ({} concave, {} convex of {} contacts), not joined",
+                    edge.concave,
+                    edge.convex,
+                    edge.oriented
+                );
+                continue;
+            }
         }
         if let Some(wholes) = wholes {
             let side = |r: u32| members.get(&r).map_or(&[][..], |m| &m[..]);
@@ -270,6 +322,10 @@ pub fn join_touching_objects(
             members.entry(ra.min(rb)).or_default().extend(moved);
         }
         sets.union(a, b);
+        let root = sets.find(a);
+        objects_of.remove(&ra);
+        objects_of.remove(&rb);
+        objects_of.insert(root, set_a.into_iter().chain(set_b).collect());
         joins += 1;
     }
     if joins > 0 {

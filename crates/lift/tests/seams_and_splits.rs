@@ -353,3 +353,40 @@ fn a_piece_split_off_an_object_that_continues_the_floor_joins_the_floor() {
     assert!(stats.continued.is_empty());
     assert!(l.object_ids[800..].iter().all(|&i| i == 4));
 }
+
+#[test]
+fn look_alike_objects_meeting_at_a_concave_edge_stay_apart_even_through_a_piece_of_one() {
+    // The floor (object 1) and the wall standing on it (object 2: rows 3.. of the wall; object 3:
+    // its lowest three rows, at the corner), seen from the floor's side: a concave corner. The
+    // features say all three look alike (the look-alike rule's cosine, 0.95, is met by every pair).
+    let mut means = grid([0.4, 0.0, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 3.0 * STEP, 0.0], Y, Z, 17, 20));
+    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 3, 20));
+    let normals: Vec<[f32; 3]> = (0..means.len()).map(|i| if i < 400 { Y } else { X }).collect();
+    let prepared = flat(&means, &normals);
+    let ids: Vec<i32> = (0..means.len())
+        .map(|i| {
+            if i < 400 {
+                1
+            } else if i < 740 {
+                2
+            } else {
+                3
+            }
+        })
+        .collect();
+    let f3 = [0.97_f32, 0.243_1, 0.0];
+    let s = (1.0_f32 - 0.99 * 0.99).sqrt();
+    let features = [1.0, 0.0, 0.0, 0.99 * f3[0], 0.99 * f3[1], s, f3[0], f3[1], f3[2]];
+    let all: Vec<u32> = (0..prepared.len() as u32).collect();
+    let mut facing = Facing::new(prepared.len());
+    facing.add_view(&prepared, &all, glam::Vec3::new(1.5, 1.5, 0.2));
+    let mut l = lifted(ids);
+    let objects = ObjectFeatures { dim: 3, values: &features };
+    let joins =
+        join_touching_objects(&prepared, &mut l, objects, &[], Some(&facing), None, &LiftConfig::default());
+    // The wall's pieces join (one plane continued); the floor joins neither them nor the strip.
+    assert_eq!(joins, 1);
+    assert!(l.object_ids[..400].iter().all(|&i| i == 1));
+    assert!(l.object_ids[400..].iter().all(|&i| i == 2), "{:?}", &l.object_ids[400..]);
+}
