@@ -283,14 +283,11 @@ pub fn join_touching_objects(
         if ra == rb {
             continue;
         }
-        let set = |objects_of: &HashMap<u32, Vec<u32>>, r: u32| {
-            objects_of.get(&r).cloned().unwrap_or_else(|| vec![r])
-        };
-        let (set_a, set_b) = (set(&objects_of, ra), set(&objects_of, rb));
         if only_alike {
+            let set = |r: u32| objects_of.get(&r).map_or(vec![r], Vec::clone);
             let mut edge = Contact::default();
-            for &x in &set_a {
-                for &y in &set_b {
+            for &x in &set(ra) {
+                for &y in &set(rb) {
                     if let Some(c) = contacts.get(&(x.min(y), x.max(y))) {
                         edge.oriented += c.oriented;
                         edge.concave += c.concave;
@@ -322,10 +319,9 @@ pub fn join_touching_objects(
             members.entry(ra.min(rb)).or_default().extend(moved);
         }
         sets.union(a, b);
-        let root = sets.find(a);
-        objects_of.remove(&ra);
-        objects_of.remove(&rb);
-        objects_of.insert(root, set_a.into_iter().chain(set_b).collect());
+        let mut joined = objects_of.remove(&ra).unwrap_or_else(|| vec![ra]);
+        joined.extend(objects_of.remove(&rb).unwrap_or_else(|| vec![rb]));
+        objects_of.insert(sets.find(a), joined);
         joins += 1;
     }
     if joins > 0 {
