@@ -106,7 +106,8 @@ them as a trained 3DGS leaves them; cluttered rooms, 400×300, 24 views), blind_
 as a trained 3DGS leaves them in more ways: tilted, thick, off the surface, of spread sizes, 1–3 % \
 floaters; patterned floors, multi-coloured objects, 512×384, 28 views), blind_parts (multi-coloured \
 objects whose parts are far apart in feature space, large objects near the cameras, touching and \
-stacked objects; 448×336, 22 views).
+stacked objects; 448×336, 22 views), blind_closeup (2–3 large multi-coloured objects near the \
+cameras seen through a trained 3DGS's Gaussians, few whole-object masks; 384×288, 30 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

@@ -142,3 +142,47 @@ fn sam_wholes_veto_a_chain_of_joins_through_a_piece_touching_both() {
     assert!(joined[..400].iter().all(|&i| i == 1));
     assert!(joined[400..].iter().all(|&i| i == 2));
 }
+
+/// SAM's wholes (a stand-in): object 2's Gaussians (400..800) alone sit in nested masks apart
+/// from object 1's (0..400); object 2 with object 3 beside it fills no nested mask, so the sets
+/// `{2, 3}` and `{1}` are not apart.
+struct TwoAloneApartFromOne;
+
+impl SeparateWholes for TwoAloneApartFromOne {
+    fn separate(&self, a: &[u32], b: &[u32]) -> bool {
+        let two_alone = |s: &[u32]| s.len() == 400 && s.iter().all(|g| (400..800).contains(g));
+        let has_one = |s: &[u32]| s.iter().any(|g| (0..400).contains(g));
+        (two_alone(a) && has_one(b)) || (two_alone(b) && has_one(a))
+    }
+}
+
+#[test]
+fn sam_wholes_that_keep_two_objects_apart_veto_their_join_after_one_joined_a_third() {
+    // The three patches of the test above: (2, 3) joins first, then (1, 2) is asked. The sets
+    // {1} and {2, 3} are not apart by the masks, but objects 1 and 2 themselves are.
+    let mut means = patch(0.0, 2.0);
+    means.extend(patch(0.4, 2.0));
+    means.extend(patch(0.8, 2.0));
+    let ids: Vec<i32> = (0..1200).map(|i| 1 + i / 400).collect();
+    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
+    let features = ObjectFeatures { dim: 2, values: &[1.0, 0.0, 0.99, 0.141_07, 0.98, 0.198_99] };
+    let facing = facing_camera(&prepared);
+    let sets = |a: std::ops::Range<u32>, b: std::ops::Range<u32>| {
+        TwoAloneApartFromOne.separate(&a.collect::<Vec<_>>(), &b.collect::<Vec<_>>())
+    };
+    assert!(sets(400..800, 0..400) && !sets(400..1200, 0..400) && !sets(400..800, 800..1200));
+    let mut l = lifted(ids);
+    let config = LiftConfig::default();
+    let joins = join_touching_objects(
+        &prepared,
+        &mut l,
+        features,
+        &[],
+        Some(&facing),
+        Some(&TwoAloneApartFromOne),
+        &config,
+    );
+    assert_eq!(joins, 1);
+    assert!(l.object_ids[..400].iter().all(|&i| i == 1));
+    assert!(l.object_ids[400..].iter().all(|&i| i == 2));
+}

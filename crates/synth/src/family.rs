@@ -22,6 +22,7 @@
 //! | `blind_rough` | **blind**: Gaussians as a trained 3DGS leaves them — discs tilted 15°–25° off their surfaces, thicker and moved off them — in cluttered rooms with touching and stacked objects; 400×300, 24 views, lenses of 45°–70°, harsher cues |
 //! | `blind_trained` | **blind**: Gaussians as a trained 3DGS leaves them in more ways — tilted 5°–35°, thicker, off the surface, in-plane sizes spread and elongated, 1–3 % floaters in free space — in rooms with striped or checkered floors, touching and multi-coloured objects; 512×384, 28 views, lenses of 50°–75°, harsher cues |
 //! | `blind_parts` | **blind**: rooms of multi-coloured objects whose parts are far apart in feature space (cos ≈ 0.72–0.80), 1–2 large objects near the cameras, touching and stacked objects, SAM nesting wholes 40 % of the time; 448×336, 22 views, lenses of 45°–70°, harsher cues |
+//! | `blind_closeup` | **blind**: 2–3 large multi-coloured objects near the cameras, parts far apart in feature space, seen through Gaussians as a trained 3DGS leaves them (tilted 8°–20°), SAM seldom nesting wholes; 384×288, 30 views, lenses of 55°–75°, harsher cues |
 //! | `blind_capture` | **blind**: a capture as a person takes it — 100 views of 1280×960 through lenses of 50°–70°, 10–14 objects with touching and stacked ones, harsher cues, SAM nesting wholes half the time |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
@@ -98,11 +99,16 @@ pub enum Family {
     /// ≈ 0.72–0.80), large objects near the cameras, touching and stacked objects (added after
     /// the part join's feature floor became the seam's, whose diagnosis read blind scenes).
     BlindParts,
+    /// Blind: 2–3 large multi-coloured objects near the cameras whose parts are far apart in
+    /// feature space, seen through a trained 3DGS's Gaussians, few whole-object masks (added after
+    /// the part join took a mostly convex edge or a curved surface as evidence, and every join
+    /// refused two sets meeting at a concave edge, whose diagnosis read blind scenes).
+    BlindCloseup,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 21] = [
+    pub const ALL: [Family; 22] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -124,10 +130,11 @@ impl Family {
         Family::BlindRough,
         Family::BlindTrained,
         Family::BlindParts,
+        Family::BlindCloseup,
     ];
 
     /// The blind families: scored and reported apart, never used to choose a setting.
-    pub const BLIND: [Family; 11] = [
+    pub const BLIND: [Family; 12] = [
         Family::BlindCues,
         Family::BlindLens,
         Family::Blind512,
@@ -139,6 +146,7 @@ impl Family {
         Family::BlindRough,
         Family::BlindTrained,
         Family::BlindParts,
+        Family::BlindCloseup,
     ];
 
     /// True for the blind families.
@@ -170,6 +178,7 @@ impl Family {
             Family::BlindRough => "blind_rough",
             Family::BlindTrained => "blind_trained",
             Family::BlindParts => "blind_parts",
+            Family::BlindCloseup => "blind_closeup",
         }
     }
 
@@ -362,6 +371,26 @@ impl Family {
                 c.sam.whole_object_probability = 0.4;
                 c.sam.adjacent_merge_probability = 0.2;
             }
+            Family::BlindCloseup => {
+                let r = &mut c.room;
+                r.objects = [10, 16];
+                r.foreground_objects = rng.gen_range(2..=3);
+                r.stacked = rng.gen_range(1..=2);
+                r.touching = rng.gen_range(1..=2);
+                r.multi_tone_share = 0.7;
+                c.fov_x_deg = rng.gen_range(55.0..75.0);
+                c.views = 30;
+                resize(&mut c, 384, 288);
+                harsher_cues(&mut c, &mut rng);
+                // Parts between blind_near's and blind_parts' distance in feature space, and
+                // Gaussians tilted, thickened and moved off their surfaces (milder than
+                // blind_rough's), so that the edges the joins read are noisy.
+                c.cues.part_perturbation = rng.gen_range(0.45..0.58);
+                c.cues.gaussian_tilt_deg = rng.gen_range(8.0..20.0);
+                c.cues.gaussian_thickness = rng.gen_range(0.1..0.3);
+                c.cues.gaussian_offset = rng.gen_range(0.05..0.2);
+                c.sam.whole_object_probability = 0.25;
+            }
         }
         c
     }
@@ -549,6 +578,13 @@ mod tests {
             assert!(parts.cues.part_perturbation >= 0.5 && parts.room.multi_tone_share >= 0.8);
             assert!(
                 parts.room.foreground_objects >= 1 && parts.room.touching >= 1 && parts.room.stacked >= 1
+            );
+            let closeup = Family::BlindCloseup.config(seed);
+            assert_eq!((closeup.width, closeup.height, closeup.views), (384, 288, 30));
+            assert!(closeup.room.foreground_objects >= 2 && closeup.cues.part_perturbation >= 0.45);
+            assert!(
+                (8.0..20.0).contains(&closeup.cues.gaussian_tilt_deg)
+                    && closeup.sam.whole_object_probability < 0.3
             );
         }
     }
