@@ -282,21 +282,19 @@ pub fn join_touching_objects(
         })
         .collect();
     pairs.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
-    // The objects of each set as joined so far (root → ids), for the look-alike joins' edge test.
+    // The objects of each set as joined so far (root → ids; a root not in it is alone).
     let mut objects_of: HashMap<u32, Vec<u32>> = HashMap::new();
-    // Joined best first; with SAM's wholes, each join is asked about the two sets as they stand
-    // (what is already joined to each), so that no chain of joins puts together two objects that
-    // the masks keep apart.
-    let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
+    // Each object's Gaussians, for SAM's wholes: joined best first, each join is asked about the
+    // two sets as they stand (what is already joined to each), so that no chain of joins puts
+    // together two objects that the masks keep apart.
+    let mut gaussians_of: HashMap<u32, Vec<u32>> = HashMap::new();
     if wholes.is_some() {
         for (g, &id) in lifted.object_ids.iter().enumerate() {
             if id > 0 {
-                members.entry(id as u32).or_default().push(g as u32);
+                gaussians_of.entry(id as u32).or_default().push(g as u32);
             }
         }
     }
-    // Each object's own Gaussians, for the veto on the pair itself.
-    let own_members = members.clone();
     let mut sets = DisjointSets::new(n_objects + 1);
     let mut joins = 0;
     for (cos, a, b, only_alike) in pairs {
@@ -304,11 +302,12 @@ pub fn join_touching_objects(
         if ra == rb {
             continue;
         }
+        let set = |r: u32| objects_of.get(&r).map_or(vec![r], Vec::clone);
+        let (set_a, set_b) = (set(ra), set(rb));
         if only_alike {
-            let set = |r: u32| objects_of.get(&r).map_or(vec![r], Vec::clone);
             let mut edge = Contact::default();
-            for &x in &set(ra) {
-                for &y in &set(rb) {
+            for &x in &set_a {
+                for &y in &set_b {
                     if let Some(c) = contacts.get(&(x.min(y), x.max(y))) {
                         edge.oriented += c.oriented;
                         edge.concave += c.concave;
@@ -328,27 +327,27 @@ pub fn join_touching_objects(
             }
         }
         if let Some(wholes) = wholes {
-            let side = |r: u32| members.get(&r).map_or(&[][..], |m| &m[..]);
+            let own = |id: u32| gaussians_of.get(&id).map_or(&[][..], |g| &g[..]);
+            let side =
+                |set: &[u32]| -> Vec<u32> { set.iter().flat_map(|&id| own(id).iter().copied()).collect() };
             // The two objects themselves too, when either is already part of a larger set: a set's
             // Gaussians are seldom all inside one nested mask, so evidence against the pair can
             // fade as the sets grow (a foreground object's cap, nested in its whole in 10 of 12
             // views, joined to its side and then to the floor by a seam of 9 contacts).
-            let composed = objects_of.contains_key(&ra) || objects_of.contains_key(&rb);
-            let own = |id: u32| own_members.get(&id).map_or(&[][..], |m| &m[..]);
-            if wholes.separate(side(ra), side(rb)) || (composed && wholes.separate(own(a), own(b))) {
+            let composed = set_a.len() > 1 || set_b.len() > 1;
+            if wholes.separate(&side(&set_a), &side(&set_b)) || (composed && wholes.separate(own(a), own(b)))
+            {
                 tracing::debug!(
                     "objects {a} and {b} (joined so far into {ra} and {rb}), cos {cos:.3}: SAM's masks \
                      hold them in different wholes, not joined"
                 );
                 continue;
             }
-            let moved = members.remove(&ra.max(rb)).unwrap_or_default();
-            members.entry(ra.min(rb)).or_default().extend(moved);
         }
         sets.union(a, b);
-        let mut joined = objects_of.remove(&ra).unwrap_or_else(|| vec![ra]);
-        joined.extend(objects_of.remove(&rb).unwrap_or_else(|| vec![rb]));
-        objects_of.insert(sets.find(a), joined);
+        objects_of.remove(&ra);
+        objects_of.remove(&rb);
+        objects_of.insert(sets.find(a), [set_a, set_b].concat());
         joins += 1;
     }
     if joins > 0 {
