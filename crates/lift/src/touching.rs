@@ -26,23 +26,20 @@
 //!   meets it at a crease, a cylinder touching a wall meets it along a line where only the
 //!   nearest normals agree, and an object whose label spilled onto the floor around its foot is
 //!   not a plane, so none of these joins; or
-//! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_seam` and they meet without a concave
-//!   edge: of the contact voxel pairs whose two sides have outward normals ([`Facing`]), at most
-//!   `part_max_concave_share` are concave, and either at least `part_min_convex_share` are convex
-//!   (an edge of one body) or neither object is a plane (one curved surface continued: a
-//!   cylinder's side cut where its colour changes; a plane meeting a body without a crease is
-//!   what a label spilled onto the floor looks like). Different objects that touch meet at
-//!   concave edges (a box beside a box, a box on a box: 23–47 % of the pairs on the stress
-//!   suite), the parts of one object at convex ones (a cylinder's cap and side: none). Then the
-//!   views must agree (at least `PART_MIN_TOGETHER_SHARE` of the views seeing both have one
-//!   merged mask over both), unless the edge says it alone: most of its pairs convex
-//!   (`mostly_convex`; SAM cuts a box whose faces differ in colour at its edges in most views,
-//!   while two boxes sharing a face, the same-depth pair, leave only 10–38 % convex pairs at
-//!   their corners). The geometry and the views are the evidence; the cosine, as for a seam, only
-//!   refuses what looks unlike. (A cosine of 0.85 of its own refused the parts of objects whose
-//!   features scatter more than the tuning families', parts cos 0.83–0.84 on blind scenes:
-//!   `docs/benchmarks/22-one-feature-floor.md`; the convex edge alone and the curved surface:
-//!   `docs/benchmarks/23-edges-of-one-body.md`); or
+//! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_seam` and they meet at convex edges:
+//!   of the contact voxel pairs whose two sides have outward normals ([`Facing`]), at most
+//!   `part_max_concave_share` are concave and at least `part_min_convex_share` convex (two boxes
+//!   side by side meet flush). Different objects that touch meet at concave edges (a box beside a
+//!   box, a box on a box: 23–47 % of the pairs on the stress suite), the parts of one object at
+//!   convex ones (a cylinder's cap and side: none). Then the views must agree (at least
+//!   `PART_MIN_TOGETHER_SHARE` of the views seeing both have one merged mask over both), unless
+//!   the edge says it alone: most of its pairs convex (`mostly_convex`; SAM cuts a box whose faces
+//!   differ in colour at its edges in most views, while two boxes sharing a face, the same-depth
+//!   pair, leave only 10–38 % convex pairs at their corners). The geometry and the views are the
+//!   evidence; the cosine, as for a seam, only refuses what looks unlike. (A cosine of 0.85 of its
+//!   own refused the parts of objects whose features scatter more than the tuning families', parts
+//!   cos 0.83–0.84 on blind scenes: `docs/benchmarks/22-one-feature-floor.md`; the convex edge
+//!   alone: `docs/benchmarks/23-edges-of-one-body.md`); or
 //! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
 //!   at least `THIN_MIN_ELONGATION` times more than across it), parallel and on one line, at
 //!   least one contact voxel pair, and `cos(f_P, f_Q) ≥ tau_seam`: a post that SAM cut where the
@@ -80,8 +77,7 @@ use crate::facing::Facing;
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::shape::{
-    contacts, coplanar_ids, planes_and_lines, typical_sigma, Contact, ObjectPlane, SEAM_SMOOTH_SHARE,
-    THIN_MIN_ELONGATION,
+    contacts, coplanar_ids, planes_and_lines, typical_sigma, Contact, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
 };
 use crate::voxels::DisjointSets;
 use std::collections::HashMap;
@@ -252,17 +248,16 @@ pub fn join_touching_objects(
                 );
                 share >= config.min_together_share
             };
-            let curved = |id: u32| !planes.get(&id).is_some_and(ObjectPlane::is_plane);
             let parts = !alike
                 && cos >= config.tau_seam
                 && c.oriented >= MIN_CONTACT_VOXELS
                 && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
-                && (c.convex as f32 >= config.part_min_convex_share * c.oriented as f32 || (curved(a) && curved(b)))
+                && c.convex as f32 >= config.part_min_convex_share * c.oriented as f32
                 && {
                     let share = together_share(counts, a, b);
                     tracing::debug!(
-                        "objects {a} and {b} meet without a concave edge: cos {cos:.3}, {} concave and {} convex of \
-                         {} contacts, together in {share:.2} of views",
+                        "objects {a} and {b} meet at a convex edge: cos {cos:.3}, {} concave and {} convex of {} \
+                         contacts, together in {share:.2} of views",
                         c.concave,
                         c.convex,
                         c.oriented

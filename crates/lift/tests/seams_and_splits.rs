@@ -419,59 +419,14 @@ fn parts_meeting_at_a_mostly_convex_edge_join_though_no_view_holds_them_together
     let config = LiftConfig::default();
     let eye = [1.5, 1.5, 0.2];
     assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [0, 4]), 1);
-    // Two boxes that share a face (the same-depth pair: tops and fronts continue one another, the
-    // corners make a few convex pairs) are two objects unless the views hold them together.
-    let mut means = Vec::new();
-    for x0 in [0.0, 0.4] {
-        means.extend(grid([x0, 0.4, 0.0], X, Z, 20, 20));
-        means.extend(grid([x0, 0.0, 0.0], X, Y, 20, 20));
-    }
-    let normals: Vec<[f32; 3]> =
-        (0..1600).map(|i| if (i / 400) % 2 == 0 { Y } else { [0.0, 0.0, -1.0] }).collect();
+    // The same top, and a second object holding a strip of the top two rows wide and the side
+    // beyond it: the contact is mostly smooth (top against strip) with a minority of convex pairs
+    // (top against side). Such an edge alone does not say one body; the views decide.
+    let mut means = grid([0.0, 0.4, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.4, 0.0], X, Z, 2, 20));
+    means.extend(grid([0.4 + 2.0 * STEP, 0.0, 0.0], Y, Z, 20, 20));
+    let normals: Vec<[f32; 3]> = (0..means.len()).map(|i| if i < 440 { Y } else { X }).collect();
     let prepared = flat(&means, &normals);
-    let eye = [0.4, 1.5, -1.5];
-    assert_eq!(join_parts_seen(&prepared, 800, eye, true, &config, &PART_FEATURES, [0, 4]), 0);
-    assert_eq!(join_parts_seen(&prepared, 800, eye, true, &config, &PART_FEATURES, [2, 2]), 1);
-}
-
-/// Gaussians on the arc of a cylinder of radius `r` along x (rows `0..nx`), from angle `from` to
-/// `to` (radians, 0 = the top, growing towards +z), each flat along its radial normal.
-fn arc(r: f32, from: f32, to: f32, nx: usize) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
-    let steps = ((to - from) * r / STEP).round() as usize;
-    let (mut means, mut normals) = (Vec::new(), Vec::new());
-    for k in 0..steps {
-        let phi = from + (k as f32 + 0.5) * STEP / r;
-        for i in 0..nx {
-            means.push([i as f32 * STEP, r * phi.cos() - r, r * phi.sin()]);
-            normals.push([0.0, phi.cos(), phi.sin()]);
-        }
-    }
-    (means, normals)
-}
-
-#[test]
-fn a_curved_surface_continued_across_a_seam_joins_unless_one_side_is_a_plane() {
-    // A cylinder's side cut in two along a line where its colour changes: no crease, no convex
-    // edge, both curved, in one merged mask in half the views, cos 0.9. One object.
-    let config = LiftConfig::default();
-    let eye = [0.2, 1.5, 1.5];
-    let (mut means, mut normals) = arc(0.3, -1.2, 0.0, 20);
-    let n1 = means.len();
-    let (m2, n2) = arc(0.3, 0.0, 1.2, 20);
-    means.extend(m2);
-    normals.extend(n2);
-    let prepared = flat(&means, &normals);
-    assert_eq!(join_parts_seen(&prepared, n1, eye, true, &config, &PART_FEATURES, [2, 2]), 1);
-    // Never together in the views, nothing but the features would join them.
-    assert_eq!(join_parts_seen(&prepared, n1, eye, true, &config, &PART_FEATURES, [0, 4]), 0);
-    // A plane that the curved surface continues smoothly (the floor around an object whose label
-    // spilled onto it looks so): not parts of one object, whatever the views.
-    let mut means = grid([0.0, 0.0, -0.4], X, Z, 20, 20);
-    let mut normals = vec![Y; means.len()];
-    let n1 = means.len();
-    let (m2, n2) = arc(0.3, 0.0, 1.2, 20);
-    means.extend(m2);
-    normals.extend(n2);
-    let prepared = flat(&means, &normals);
-    assert_eq!(join_parts_seen(&prepared, n1, eye, true, &config, &PART_FEATURES, [2, 2]), 0);
+    assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [0, 4]), 0);
+    assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [2, 2]), 1);
 }
