@@ -113,15 +113,21 @@ impl SeparateWholes for OneAndThreeApart {
     }
 }
 
-#[test]
-fn sam_wholes_veto_a_chain_of_joins_through_a_piece_touching_both() {
-    // Three look-alike patches in a row on one plane: 1 | 2 | 3, seams at x = 0.4 and 0.8. Pair
-    // (2, 3) is the better one (cos 0.998, then (1, 2) 0.990); 1 and 3 never touch.
+/// Three look-alike patches in a row on one plane, objects 1 | 2 | 3 (Gaussians `[400 (k-1)..400 k]`),
+/// seams at x = 0.4 and 0.8: the Gaussians and their ids.
+fn three_patches_in_a_row() -> (PreparedGaussians, Vec<i32>) {
     let mut means = patch(0.0, 2.0);
     means.extend(patch(0.4, 2.0));
     means.extend(patch(0.8, 2.0));
     let ids: Vec<i32> = (0..1200).map(|i| 1 + i / 400).collect();
-    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
+    (PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap(), ids)
+}
+
+#[test]
+fn sam_wholes_veto_a_chain_of_joins_through_a_piece_touching_both() {
+    // Three look-alike patches in a row on one plane: 1 | 2 | 3, seams at x = 0.4 and 0.8. Pair
+    // (2, 3) is the better one (cos 0.998, then (1, 2) 0.990); 1 and 3 never touch.
+    let (prepared, ids) = three_patches_in_a_row();
     let features = ObjectFeatures { dim: 2, values: &[1.0, 0.0, 0.99, 0.141_07, 0.98, 0.198_99] };
     let facing = facing_camera(&prepared);
     let join = |wholes: Option<&dyn SeparateWholes>| {
@@ -160,11 +166,7 @@ impl SeparateWholes for TwoAloneApartFromOne {
 fn sam_wholes_that_keep_two_objects_apart_veto_their_join_after_one_joined_a_third() {
     // The three patches of the test above: (2, 3) joins first, then (1, 2) is asked. The sets
     // {1} and {2, 3} are not apart by the masks, but objects 1 and 2 themselves are.
-    let mut means = patch(0.0, 2.0);
-    means.extend(patch(0.4, 2.0));
-    means.extend(patch(0.8, 2.0));
-    let ids: Vec<i32> = (0..1200).map(|i| 1 + i / 400).collect();
-    let prepared = PreparedGaussians::new(&gaussians(&means, 0.01, 0.9)).unwrap();
+    let (prepared, ids) = three_patches_in_a_row();
     let features = ObjectFeatures { dim: 2, values: &[1.0, 0.0, 0.99, 0.141_07, 0.98, 0.198_99] };
     let facing = facing_camera(&prepared);
     let sets = |a: std::ops::Range<u32>, b: std::ops::Range<u32>| {
