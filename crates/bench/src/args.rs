@@ -107,7 +107,9 @@ as a trained 3DGS leaves them in more ways: tilted, thick, off the surface, of s
 floaters; patterned floors, multi-coloured objects, 512×384, 28 views), blind_parts (multi-coloured \
 objects whose parts are far apart in feature space, large objects near the cameras, touching and \
 stacked objects; 448×336, 22 views), blind_closeup (2–3 large multi-coloured objects near the \
-cameras seen through a trained 3DGS's Gaussians, few whole-object masks; 384×288, 30 views).
+cameras seen through a trained 3DGS's Gaussians, few whole-object masks; 384×288, 30 views), \
+blind_alike (objects closer in feature space than anywhere else, 2–3 touching pairs, few \
+whole-object masks, often one mask over two touching objects; 576×432, 26 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

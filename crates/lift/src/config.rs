@@ -58,11 +58,6 @@ pub struct LiftConfig {
     /// views scale it by the square root of their pixel count / 76,800, rounded
     /// ([`LiftConfig::refine_rule_for`]).
     pub refine_passes: usize,
-    /// Not a file key (its default is the only value runs use; tests vary it): touching objects
-    /// are joined only when at least this share of the views seeing both has one merged mask
-    /// over both (0 = no such condition).
-    #[serde(skip)]
-    pub min_together_share: f32,
     /// Not a file key (tests vary it): a part join ([`crate::touching`]) needs at most this
     /// share of the oriented contact voxel pairs concave.
     #[serde(skip)]
@@ -275,7 +270,6 @@ impl Default for LiftConfig {
             final_maps: FinalMaps::default(),
             refine_window_px: 2,
             refine_passes: 1,
-            min_together_share: 0.0,
             part_max_concave_share: 0.05,
             part_min_convex_share: 0.1,
             min_split_gaussians: 32,

@@ -8,8 +8,13 @@
 //! × the median Gaussian standard deviation, at least `MIN_CONTACT_VOXELS` pairs of
 //! 26-neighbouring voxels holding one of each). Touching objects `P`, `Q` become one when either
 //! - **they look alike:** `cos(f_P, f_Q) ≥ tau_touching` and the views agree: among the views
-//!   that see at least `MIN_SEEN` Gaussians of each, a share of at least `min_together_share`
-//!   has one merged mask holding ≥ 20 % of the Gaussians of each it sees; or
+//!   that see at least `MIN_SEEN` Gaussians of each, a share of at least [`MIN_TOGETHER_SHARE`]
+//!   (half) has one merged mask holding ≥ 20 % of the Gaussians of each it sees. A look-alike
+//!   join has no geometry of its own, so the views must say it, as for parts whose edge is not
+//!   mostly convex: one share for every join the geometry does not decide alone (before, the
+//!   look-alike join asked no views, and touching objects whose features the harsher cues made
+//!   alike were joined although most views kept them apart:
+//!   `docs/benchmarks/24-views-for-every-look-alike.md`); or
 //! - **one surface continues across the seam:** both objects are planes (at least
 //!   `SEAM_SMOOTH_SHARE` of their flat Gaussians' normals within `SEAM_MAX_ANGLE_DEG` of their
 //!   dominant normal, or of their centres within half a voxel of the plane fitted to them:
@@ -32,7 +37,7 @@
 //!   side by side meet flush). Different objects that touch meet at concave edges (a box beside a
 //!   box, a box on a box: 23–47 % of the pairs on the stress suite), the parts of one object at
 //!   convex ones (a cylinder's cap and side: none). Then the views must agree (at least
-//!   `PART_MIN_TOGETHER_SHARE` of the views seeing both have one merged mask over both), unless
+//!   [`MIN_TOGETHER_SHARE`] of the views seeing both have one merged mask over both), unless
 //!   the edge says it alone: most of its pairs convex (`mostly_convex`; SAM cuts a box whose faces
 //!   differ in colour at its edges in most views, while two boxes sharing a face, the same-depth
 //!   pair, leave only 10–38 % convex pairs at their corners). The geometry and the views are the
@@ -90,8 +95,9 @@ const CONTACT_VOXEL_FACTOR: f32 = 3.0;
 /// are stray Gaussians, not a seam.
 const MIN_CONTACT_VOXELS: u32 = 8;
 
-/// A part join needs the two objects in one merged mask in at least half the views seeing both.
-const PART_MIN_TOGETHER_SHARE: f32 = 0.5;
+/// A join the geometry does not decide alone (look-alike objects, parts whose edge is not mostly
+/// convex) needs the two objects in one merged mask in at least half the views seeing both.
+pub const MIN_TOGETHER_SHARE: f32 = 0.5;
 
 /// A view counts for a pair only when it sees at least this many Gaussians of each object.
 pub const MIN_SEEN: u32 = 10;
@@ -246,7 +252,7 @@ pub fn join_touching_objects(
                     "touching objects {a} and {b}: cos {cos:.3}, contact {}, together in {share:.2} of views",
                     c.voxel_pairs
                 );
-                share >= config.min_together_share
+                share >= MIN_TOGETHER_SHARE
             };
             let parts = !alike
                 && cos >= config.tau_seam
@@ -262,7 +268,7 @@ pub fn join_touching_objects(
                         c.convex,
                         c.oriented
                     );
-                    mostly_convex(&c) || share >= PART_MIN_TOGETHER_SHARE
+                    mostly_convex(&c) || share >= MIN_TOGETHER_SHARE
                 };
             let only_alike = alike && !seam && !thin;
             let alike = alike || parts || thin;

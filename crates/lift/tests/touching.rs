@@ -89,7 +89,7 @@ fn views_that_keep_the_pieces_apart_block_the_join() {
     let apart: Vec<u32> = (0..800).map(|p| if p < 400 { 1 } else { 2 }).collect();
     let together = vec![1u32; 800];
     let counts = |masks: &[u32]| ViewCounts::new(&all, masks, &ids);
-    let config = LiftConfig { min_together_share: 0.5, ..LiftConfig::default() };
+    let config = LiftConfig::default();
     let features = ObjectFeatures { dim: 2, values: &FEATURES };
     let facing = facing_camera(&prepared);
     // One view of three unites them: share 1/3 < 0.5, no join.
