@@ -109,7 +109,9 @@ objects whose parts are far apart in feature space, large objects near the camer
 stacked objects; 448×336, 22 views), blind_closeup (2–3 large multi-coloured objects near the \
 cameras seen through a trained 3DGS's Gaussians, few whole-object masks; 384×288, 30 views), \
 blind_alike (objects closer in feature space than anywhere else, 2–3 touching pairs, few \
-whole-object masks, often one mask over two touching objects; 576×432, 26 views).
+whole-object masks, often one mask over two touching objects; 576×432, 26 views), blind_contact \
+(objects in contact everywhere, mostly multi-coloured with finer patterns, through a trained 3DGS's \
+Gaussians, one mask often over two touching objects; 416×312, 28 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms
