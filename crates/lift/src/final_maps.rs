@@ -5,17 +5,15 @@
 //! 2. touching objects joined ([`join_touching_objects`], from per-view [`ViewCounts`]);
 //! 3. objects split where their Gaussians lie apart in 3D, a piece that continues another
 //!    object's surface joining it ([`split_disconnected_objects`]);
-//! 4. objects split where two of their colours meet at a concave crease, a piece that continues
-//!    another object joining it ([`split_at_coloured_creases`]);
-//! 5. every view's labels rendered back ([`render_label_map`]), snapped onto its regions
+//! 4. every view's labels rendered back ([`render_label_map`]), snapped onto its regions
 //!    ([`snap_view`], with `final_maps = "snapped"` / `"snapped-raw"`) and refined by its
 //!    colours ([`refine_boundaries`]);
-//! 6. ids kept only by snapping's containment rule and owning no region anywhere given back
+//! 5. ids kept only by snapping's containment rule and owning no region anywhere given back
 //!    ([`give_unowned_ids_back`]);
-//! 7. where the Gaussians say nothing (a pixel left without an id, inside a merged region that
+//! 6. where the Gaussians say nothing (a pixel left without an id, inside a merged region that
 //!    matching gave a global id), the matched id, as the object it became in 3D
 //!    ([`fill_from_matches`]);
-//! 8. specks dropped and ids numbered by first appearance ([`drop_specks_and_number`]).
+//! 7. specks dropped and ids numbered by first appearance ([`drop_specks_and_number`]).
 //!
 //! Nothing here holds every view's visible Gaussians or an `[H, W]` map per view: the caller's
 //! [`ViewStore`] hands over one view's visible Gaussians, tile lists, regions and image at a time
@@ -23,7 +21,6 @@
 //! ([`RunLengths`]).
 
 use crate::config::{FinalMaps, LiftConfig};
-use crate::crease_split::split_at_coloured_creases;
 use crate::error::LiftError;
 use crate::facing::Facing;
 use crate::lifting::{Lifted, ObjectFeatures, VoteAccumulator};
@@ -159,18 +156,6 @@ impl LiftStage<'_> {
             split.objects_split,
             split.parents.len(),
             split.continued.len()
-        );
-        let creased = store.time("split objects at coloured creases", || {
-            let objects = &self.matched.objects;
-            let reserved = objects.values.len().checked_div(objects.dim).unwrap_or(0) as u32;
-            split_at_coloured_creases(self.gaussians, &mut lifted, &facing, reserved, self.config)
-        });
-        tracing::info!(
-            "cut {} objects into {} more where two colours meet at a concave crease ({} of them joined the \
-             object whose surface they continue)",
-            creased.objects_split,
-            creased.parents.len(),
-            creased.continued.len()
         );
         let votes = render_votes(&lifted, self.config);
         let snapped: Vec<(SnappedRuns, LeftEmpty)> = (0..self.cams.len())

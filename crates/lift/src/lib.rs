@@ -15,7 +15,6 @@
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
 //! - [`touching`]: objects that touch in 3D and look alike (or meet as parts of one object) become one.
 //! - [`split`]: objects whose Gaussians lie apart in 3D become several.
-//! - [`crease_split`]: objects whose colours meet at a concave crease become several.
 //! - `shape`: the typical Gaussian size, planes, thin lines and contacts between objects in 3D.
 //! - [`facing`]: which way each Gaussian's surface faces (towards the cameras that see it).
 //! - [`render_labels`]: label maps rendered back from the labelled Gaussians.
@@ -29,7 +28,6 @@
 //! ranges in parallel with views in fixed order, so results do not depend on the thread count.
 
 pub mod config;
-pub mod crease_split;
 pub mod error;
 pub mod facing;
 pub mod final_maps;
@@ -48,7 +46,6 @@ pub mod visibility;
 mod voxels;
 
 pub use config::{FinalMaps, LiftConfig};
-pub use crease_split::split_at_coloured_creases;
 pub use error::{LiftError, LiftResult};
 pub use facing::Facing;
 pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewRegions, ViewStore, VisibleGaussians};

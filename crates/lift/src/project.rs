@@ -29,9 +29,6 @@ pub struct PreparedGaussians {
     pub normals: Vec<Vec3>,
     /// `[N]` flatness `1 − s_min / s_mid` in [0, 1] (0 = no preferred normal).
     pub flatness: Vec<f32>,
-    /// `[N]` base colours: RGB of the view-independent term (`Gaussians::base_colour`), empty
-    /// when the input has no colours.
-    pub base_colours: Vec<[f32; 3]>,
     /// The renderer's view-independent projection terms of `geometry` (covariances,
     /// opacities), so each view's projection only does the per-view part.
     pub projection: ViewIndependent,
@@ -52,11 +49,6 @@ impl PreparedGaussians {
             cov3d: Vec::with_capacity(n),
             normals: Vec::with_capacity(n),
             flatness: Vec::with_capacity(n),
-            base_colours: if gaussians.sh_dc.len() == n {
-                (0..n).map(|i| gaussians.base_colour(i)).collect()
-            } else {
-                Vec::new()
-            },
             projection: ViewIndependent::default(),
         };
         for i in 0..n {

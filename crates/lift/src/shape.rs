@@ -263,7 +263,7 @@ fn centre_moments(gaussians: &PreparedGaussians, ids: &[i32]) -> BTreeMap<u32, M
 
 /// The unit eigenvector of the largest eigenvalue of the symmetric `cov`, by power iteration
 /// from a fixed start (deterministic; zero for a zero matrix).
-pub(crate) fn principal_axis(cov: glam::DMat3) -> glam::DVec3 {
+fn principal_axis(cov: glam::DMat3) -> glam::DVec3 {
     let mut axis = glam::DVec3::new(0.577, 0.578, 0.579);
     for _ in 0..64 {
         axis = (cov * axis).normalize_or_zero();
@@ -341,28 +341,19 @@ pub(crate) fn contacts(
     planes: &HashMap<u32, ObjectPlane>,
     facing: Option<&Facing>,
 ) -> BTreeMap<(u32, u32), Contact> {
-    let labelled = ids.iter().enumerate().filter(|&(_, &id)| id > 0).map(|(i, &id)| (i, id as u32));
-    contacts_among(gaussians, labelled, voxel, planes, facing)
-}
-
-/// [`contacts`] between the groups of `labelled` (Gaussian index, group id ≥ 1), in any order.
-pub(crate) fn contacts_among(
-    gaussians: &PreparedGaussians,
-    labelled: impl Iterator<Item = (usize, u32)>,
-    voxel: f32,
-    planes: &HashMap<u32, ObjectPlane>,
-    facing: Option<&Facing>,
-) -> BTreeMap<(u32, u32), Contact> {
     let mut cells: HashMap<u64, ([i64; 3], Vec<VoxelPart>)> = HashMap::new();
-    for (i, id) in labelled {
+    for (i, &id) in ids.iter().enumerate() {
+        if id <= 0 {
+            continue;
+        }
         let mean = gaussians.mean(i);
         let v = voxel_of(mean.to_array(), voxel);
         let cell = cells.entry(voxel_key(v)).or_insert_with(|| (v, Vec::new()));
-        let part = match cell.1.iter_mut().position(|part| part.id == id) {
+        let part = match cell.1.iter_mut().position(|part| part.id == id as u32) {
             Some(k) => &mut cell.1[k],
             None => {
                 let empty = VoxelPart {
-                    id,
+                    id: id as u32,
                     mean_sum: Vec3::ZERO,
                     count: 0,
                     normal_sum: Vec3::ZERO,

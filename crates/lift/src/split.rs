@@ -101,7 +101,14 @@ pub fn split_disconnected_objects(
         let entry = clusters.entry(id as u32).or_default().entry(sets.find(cell)).or_insert((0, i));
         entry.0 += 1;
     }
-    let mut next_id = first_free_id(lifted, reserved);
+    let mut next_id = lifted
+        .object_ids
+        .iter()
+        .map(|&id| id.max(0) as u32)
+        .chain(lifted.majority_ids.iter().copied())
+        .max()
+        .unwrap_or(0)
+        .max(reserved);
     let mut new_id_of_root: HashMap<(u32, u32), u32> = HashMap::new();
     let mut stats = SplitStats::default();
     for (&id, roots) in &clusters {
@@ -145,19 +152,6 @@ pub fn split_disconnected_objects(
     }
     stats.continued = join_continued_surfaces(gaussians, lifted, &stats.parents, voxel);
     stats
-}
-
-/// The largest id in use in `lifted` (object or majority ids), or `reserved` when larger: new
-/// ids are handed out after it.
-pub(crate) fn first_free_id(lifted: &Lifted, reserved: u32) -> u32 {
-    lifted
-        .object_ids
-        .iter()
-        .map(|&id| id.max(0) as u32)
-        .chain(lifted.majority_ids.iter().copied())
-        .max()
-        .unwrap_or(0)
-        .max(reserved)
 }
 
 /// The split-off clusters (`parents`: (new id, parent)) that continue another object's surface
@@ -213,23 +207,17 @@ fn join_continued_surfaces(
     for (&piece, &root) in &joined {
         tracing::debug!("piece {piece} split off {} continues the surface of object {root}", new_ids[&piece]);
     }
-    rename_ids(lifted, &joined);
-    joined.into_iter().collect()
-}
-
-/// Gives every Gaussian of `lifted` whose object or majority id is a key of `renamed` the value
-/// instead (ids that join another object).
-pub(crate) fn rename_ids(lifted: &mut Lifted, renamed: &BTreeMap<u32, u32>) {
     for id in lifted.object_ids.iter_mut().filter(|id| **id > 0) {
-        if let Some(&to) = renamed.get(&(*id as u32)) {
-            *id = to as i32;
+        if let Some(&root) = joined.get(&(*id as u32)) {
+            *id = root as i32;
         }
     }
     for id in lifted.majority_ids.iter_mut() {
-        if let Some(&to) = renamed.get(id) {
-            *id = to;
+        if let Some(&root) = joined.get(id) {
+            *id = root;
         }
     }
+    joined.into_iter().collect()
 }
 
 /// Objects that are planes (a floor, a wall; by their normals or centres, as the seam join decides) and the

@@ -89,11 +89,11 @@ use std::collections::HashMap;
 
 /// Voxel edge of the contact test, in median Gaussian standard deviations: 3 σ reaches across
 /// the gap between two surfaces' footprints without bridging separate objects.
-pub(crate) const CONTACT_VOXEL_FACTOR: f32 = 3.0;
+const CONTACT_VOXEL_FACTOR: f32 = 3.0;
 
 /// Neighbouring voxel pairs (one Gaussian of each object) two objects must share to touch: fewer
 /// are stray Gaussians, not a seam.
-pub(crate) const MIN_CONTACT_VOXELS: u32 = 8;
+const MIN_CONTACT_VOXELS: u32 = 8;
 
 /// A join the geometry does not decide alone (look-alike objects, parts whose edge is not mostly
 /// convex) needs the two objects in one merged mask in at least half the views seeing both.
@@ -159,7 +159,7 @@ fn together_share(views: &[ViewCounts], a: u32, b: u32) -> f32 {
 /// ones outnumbering convex ones by more than three standard deviations of a fair sign (tilted
 /// Gaussians make concave and convex pairs alike often along a smooth seam: 5–9 % each on `rough`
 /// floors).
-pub(crate) fn meet_at_concave_edge(c: &Contact, config: &LiftConfig) -> bool {
+fn meet_at_concave_edge(c: &Contact, config: &LiftConfig) -> bool {
     c.oriented >= MIN_CONTACT_VOXELS
         && c.concave as f32 > config.part_max_concave_share * c.oriented as f32
         && c.concave as f32 - c.convex as f32 > 3.0 * ((c.concave + c.convex) as f32).sqrt()

@@ -1,10 +1,10 @@
 //! Objects joined where one surface continues across a smooth seam, and objects split where
-//! their Gaussians lie apart in 3D or where two colours meet at a concave crease.
+//! their Gaussians lie apart in 3D.
 
 use crate::common::{gaussians, lifted};
 use splatseg_lift::{
-    join_touching_objects, split_at_coloured_creases, split_disconnected_objects, Facing, LiftConfig, Lifted,
-    ObjectFeatures, PreparedGaussians, ViewCounts,
+    join_touching_objects, split_disconnected_objects, Facing, LiftConfig, Lifted, ObjectFeatures,
+    PreparedGaussians, ViewCounts,
 };
 
 /// Objects 1 and 2 with cos 0.85: alike enough for a seam (τ_seam 0.8), not for the
@@ -29,18 +29,6 @@ fn grid(origin: [f32; 3], u: [f32; 3], v: [f32; 3], nu: usize, nv: usize) -> Vec
 /// Gaussians at `means`: the first `normals.len()` flat, each with its thin axis along its own
 /// `normals` entry (unit); the rest round.
 fn flat(means: &[[f32; 3]], normals: &[[f32; 3]]) -> PreparedGaussians {
-    PreparedGaussians::new(&flat_gaussians(means, normals)).expect("finite Gaussians")
-}
-
-/// [`flat`] with the base colour `colours[i]` (RGB in [0, 1]) for Gaussian `i`.
-fn flat_coloured(means: &[[f32; 3]], normals: &[[f32; 3]], colours: &[[f32; 3]]) -> PreparedGaussians {
-    let mut g = flat_gaussians(means, normals);
-    g.sh_dc = colours.iter().map(|c| c.map(|x| (x - 0.5) / splatseg_scene::gaussians::SH_C0)).collect();
-    PreparedGaussians::new(&g).expect("finite Gaussians")
-}
-
-/// The Gaussians of [`flat`].
-fn flat_gaussians(means: &[[f32; 3]], normals: &[[f32; 3]]) -> splatseg_scene::Gaussians {
     let mut g = gaussians(means, STEP, 0.9);
     for (k, n) in normals.iter().enumerate() {
         g.log_scales[k] = [STEP.ln(), STEP.ln(), (0.1 * STEP).ln()];
@@ -49,7 +37,7 @@ fn flat_gaussians(means: &[[f32; 3]], normals: &[[f32; 3]]) -> splatseg_scene::G
         let q = glam::Quat::from_rotation_arc(z, glam::Vec3::from(*n));
         g.rotations[k] = [q.w, q.x, q.y, q.z];
     }
-    g
+    PreparedGaussians::new(&g).expect("finite Gaussians")
 }
 
 /// The join with no view counts (so no rule that asks the views decides) and every Gaussian
@@ -441,84 +429,4 @@ fn parts_meeting_at_a_mostly_convex_edge_join_though_no_view_holds_them_together
     let prepared = flat(&means, &normals);
     assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [0, 4]), 0);
     assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [2, 2]), 1);
-}
-
-/// The crease split of `ids` over `prepared`, every Gaussian facing a camera at `eye`.
-fn crease_split(
-    prepared: &PreparedGaussians,
-    ids: Vec<i32>,
-    eye: [f32; 3],
-) -> (splatseg_lift::SplitStats, Lifted) {
-    let all: Vec<u32> = (0..prepared.len() as u32).collect();
-    let mut facing = Facing::new(prepared.len());
-    facing.add_view(prepared, &all, glam::Vec3::from(eye));
-    let mut l = lifted(ids);
-    let reserved = l.object_ids.iter().copied().max().unwrap_or(0).max(0) as u32;
-    let stats = split_at_coloured_creases(prepared, &mut l, &facing, reserved, &LiftConfig::default());
-    (stats, l)
-}
-
-const BLUE: [f32; 3] = [0.1, 0.25, 0.55];
-const TEAL: [f32; 3] = [0.1, 0.32, 0.36];
-const GREY: [f32; 3] = [0.5, 0.48, 0.45];
-
-#[test]
-fn two_colours_meeting_at_a_concave_crease_are_two_objects_and_at_a_convex_edge_one() {
-    // A floor (normal y) over x ∈ [0.4, 0.78] and a face (normal x) standing on it at x = 0.4,
-    // both under one id (the per-view merge joined them), seen from the floor's side: a concave
-    // crease. In two colours (blue and teal, as close as a same-depth pair's) it is cut.
-    let mut means = grid([0.4, 0.0, 0.0], X, Z, 20, 20);
-    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
-    let normals: Vec<[f32; 3]> = (0..800).map(|i| if i < 400 { Y } else { X }).collect();
-    let two: Vec<[f32; 3]> = (0..800).map(|i| if i < 400 { BLUE } else { TEAL }).collect();
-    let eye = [1.5, 1.5, 0.2];
-    let (stats, l) = crease_split(&flat_coloured(&means, &normals, &two), vec![2; 800], eye);
-    assert_eq!(stats.parents, vec![(3, 2)]);
-    // The voxels along the crease hold both and go to one side whole (here the face's, which
-    // becomes the larger piece and keeps the id).
-    let count =
-        |range: std::ops::Range<usize>, id: i32| l.object_ids[range].iter().filter(|&&i| i == id).count();
-    assert!(
-        count(0..400, 3) >= 320 && count(400..800, 2) == 400,
-        "{} {}",
-        count(0..400, 3),
-        count(400..800, 2)
-    );
-    assert_eq!(count(0..800, 2) + count(0..800, 3), 800);
-    assert!(l.object_ids.iter().zip(&l.majority_ids).all(|(&i, &m)| i as u32 == m));
-    // In one colour the crease alone cuts nothing (an L-shaped object is one object).
-    let one = vec![BLUE; 800];
-    let (stats, l) = crease_split(&flat_coloured(&means, &normals, &one), vec![2; 800], eye);
-    assert!(stats.parents.is_empty());
-    assert!(l.object_ids.iter().all(|&i| i == 2));
-
-    // A box's top (normal y) and side (normal x) in the same two colours meet at a convex edge:
-    // one body in two colours, not cut.
-    let mut means = grid([0.0, 0.4, 0.0], X, Z, 20, 20);
-    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
-    let (stats, l) = crease_split(&flat_coloured(&means, &normals, &two), vec![2; 800], eye);
-    assert!(stats.parents.is_empty(), "{stats:?}");
-    assert!(l.object_ids.iter().all(|&i| i == 2));
-}
-
-#[test]
-fn a_ring_of_floor_under_an_objects_id_is_cut_at_its_crease_and_joins_the_floor() {
-    // Floor (object 1, grey) over x ∈ [0, 0.38]; object 2: a red face (normal x) standing at
-    // x = 0.6 and a strip of grey floor Gaussians under its id between the two, flush with the
-    // floor. The strip meets the face at a concave crease and is of another colour: it is cut
-    // off, and it continues the floor's surface, so it joins the floor.
-    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
-    let mut normals = vec![Y; 400];
-    means.extend(grid([0.6, STEP, 0.0], Y, Z, 20, 20));
-    normals.extend(vec![X; 400]);
-    means.extend(grid([0.4, 0.0, 0.0], X, Z, 10, 20));
-    normals.extend(vec![Y; 200]);
-    let colours: Vec<[f32; 3]> =
-        (0..1000).map(|i| if (400..800).contains(&i) { [0.7, 0.2, 0.15] } else { GREY }).collect();
-    let ids: Vec<i32> = (0..1000).map(|i| if i < 400 { 1 } else { 2 }).collect();
-    let (stats, l) = crease_split(&flat_coloured(&means, &normals, &colours), ids, [-0.5, 1.5, 0.2]);
-    assert_eq!(stats.parents, vec![(3, 2)]);
-    assert_eq!(stats.continued, vec![(3, 1)]);
-    assert!(l.object_ids[400..800].iter().all(|&i| i == 2));
-    assert!(l.object_ids[800..].iter().all(|&i| i == 1), "the strip is the floor's");
 }
