@@ -140,30 +140,41 @@ pub struct MergeConfigTable {
     w_edge: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sigma_d_sq: Option<f32>,
-    #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
+    #[serde(default, with = "gate", skip_serializing_if = "Option::is_none")]
     max_depth_boundary: Option<Option<f32>>,
-    #[serde(default, with = "double_option", skip_serializing_if = "double_option::is_unset_or_off")]
+    #[serde(default, with = "gate", skip_serializing_if = "Option::is_none")]
     max_concave_crease_deg: Option<Option<f32>>,
 }
 
-/// Distinguishes a missing key (`None`) from an explicit value.
-mod double_option {
+/// A gate's key: missing (`None`: the profile's preset), a threshold (`Some(Some(t))`) or
+/// `false` (`Some(None)`: the gate is off; TOML has no null).
+mod gate {
+    use serde::de::Error;
     use serde::{Deserialize, Deserializer, Serializer};
 
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Written {
+        Threshold(f32),
+        Switch(bool),
+    }
+
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Option<f32>>, D::Error> {
-        Option::<f32>::deserialize(d).map(Some)
+        // `null` (JSON) is off too.
+        match Option::<Written>::deserialize(d) {
+            Ok(Some(Written::Threshold(t))) => Ok(Some(Some(t))),
+            Ok(Some(Written::Switch(false)) | None) => Ok(Some(None)),
+            Ok(Some(Written::Switch(true))) | Err(_) => {
+                Err(D::Error::custom("expected a threshold (a number) or `false` to turn the gate off"))
+            }
+        }
     }
 
     pub fn serialize<S: Serializer>(value: &Option<Option<f32>>, s: S) -> Result<S::Ok, S::Error> {
         match value {
             Some(Some(v)) => s.serialize_f32(*v),
-            _ => s.serialize_none(),
+            _ => s.serialize_bool(false),
         }
-    }
-
-    /// Missing or off (TOML has no null: an off gate is written by leaving the key out).
-    pub fn is_unset_or_off(value: &Option<Option<f32>>) -> bool {
-        !matches!(value, Some(Some(_)))
     }
 }
 
@@ -257,7 +268,7 @@ impl MergeConfig {
     }
 
     /// The `[merge]` table of a file holding these settings (every key written; a gate that is
-    /// off is left out, as TOML has no null).
+    /// off as `false`).
     pub fn table(&self) -> MergeConfigTable {
         MergeConfigTable {
             profile: Some(self.profile),
@@ -366,8 +377,18 @@ mod tests {
         assert_eq!((json.profile, json.max_depth_boundary), (Profile::Literal, Some(0.2)));
         let json: MergeConfig = serde_json::from_str(r#"{"max_depth_boundary": null}"#).unwrap();
         assert_eq!(json.max_depth_boundary, None);
-        // Round trip through the file's table, defaults and a literal profile with one gate set.
-        for config in [MergeConfig::default(), MergeConfig { max_depth_boundary: Some(0.2), ..c }] {
+        // A gate of the paper profile turned off in a file: `false` (leaving the key out keeps it).
+        let off = MergeConfig::from_toml_str("max_depth_boundary = false\n").unwrap();
+        assert_eq!((off.max_depth_boundary, off.max_concave_crease_deg), (None, Some(CONCAVE_CREASE_DEG)));
+        let e = MergeConfig::from_toml_str("max_concave_crease_deg = true\n").unwrap_err().to_string();
+        assert!(e.contains("max_concave_crease_deg") && e.contains("false"), "{e}");
+        // Round trip through the file's table: defaults, a literal profile with one gate set, the
+        // paper profile with one gate off.
+        for config in [
+            MergeConfig::default(),
+            MergeConfig { max_depth_boundary: Some(0.2), ..c },
+            MergeConfig { max_concave_crease_deg: None, ..MergeConfig::default() },
+        ] {
             let text = toml::to_string(&config.table()).unwrap();
             assert_eq!(MergeConfig::from_toml_str(&text).unwrap(), config, "{text}");
         }

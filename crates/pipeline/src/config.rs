@@ -73,8 +73,8 @@ const KEY_DOCS: &[(&str, &str, &str)] = &[
     ("merge", "w_dbound", "weight of the depth-gradient penalty on the shared boundary (paper)"),
     ("merge", "w_edge", "weight of the LoG edge penalty on the shared boundary (paper)"),
     ("merge", "sigma_d_sq", "σ_d² of the depth affinity exp(−Δd²/2σ_d²) (normalised depth²; paper)"),
-    ("merge", "max_depth_boundary", "reject when ∇D on the shared boundary exceeds this (normalised 0–1; ours, measured; omit = off)"),
-    ("merge", "max_concave_crease_deg", "with metric depth: reject pairs meeting at a concave crease sharper than this (degrees; ours, measured; omit = off)"),
+    ("merge", "max_depth_boundary", "reject when ∇D on the shared boundary exceeds this (normalised 0–1; ours, measured; false = off)"),
+    ("merge", "max_concave_crease_deg", "with metric depth: reject pairs meeting at a concave crease sharper than this (degrees; ours, measured; false = off)"),
     ("match", "tau_match", "masks of two views without 3D evidence match when their descriptor cosine exceeds this (paper)"),
     ("match", "tau_overlap", "masks with 3D support match when their Gaussian overlap is at least this (share; ours)"),
     ("match", "tau_match_with_3d", "descriptor cosine still required of masks matched by 3D overlap (ours)"),
@@ -403,6 +403,17 @@ mod tests {
             assert_eq!(numeric, ranged, "[{table}] {key}: a numeric key has a range, and only those");
         }
         assert_eq!(out_of_range(&root), None, "the defaults are in range");
+    }
+
+    #[test]
+    fn a_merge_gate_is_turned_off_by_false_and_kept_by_a_missing_key() {
+        let off = parse("[merge]\nmax_depth_boundary = false\n").expect("parses");
+        assert_eq!(off.merge.max_depth_boundary, None);
+        assert_eq!(off.merge.max_concave_crease_deg, PipelineConfig::default().merge.max_concave_crease_deg);
+        let text = off.to_file_text().expect("prints");
+        assert!(text.contains("max_depth_boundary = false"), "{text}");
+        assert_eq!(parse(&text).expect("reads back").merge, off.merge);
+        assert_eq!(parse("[merge]\n").expect("parses").merge, PipelineConfig::default().merge);
     }
 
     #[test]
