@@ -27,7 +27,7 @@ pub struct LiftConfig {
     /// Gaussians seen in fewer views than this get no id (views).
     pub min_views: u32,
     /// Touching objects ([`crate::touching`]) whose identity features have at least this cosine
-    /// become one object (above 1, with `tau_seam` above 1 too: off). Measured: pieces of one
+    /// become one object (above 1: off). Measured: pieces of one
     /// object have cos 0.99–1.0, two boxes touching at one depth 0.88–0.94 (seeds 0–4).
     pub tau_touching: f32,
     /// Touching objects meeting at a smooth seam (one surface continuing in 3D: a floor or wall
@@ -36,10 +36,10 @@ pub struct LiftConfig {
     /// smooth); the cosine only refuses what looks unlike. Tuning seeds 0..7 (48 scenes): at 0.8
     /// mean mIoU 0.974, ids / GT 1.099, 3D accuracy 0.964; **at 0.5** 0.974, 1.060, 0.967 (no pair
     /// of different objects meets the seam geometry on seeds 0..3; pieces of one floor or wall:
-    /// cos 0.53–0.99, a fifth under 0.8). The same floor serves every join with 3D evidence:
-    /// the pieces of a thin structure and the parts of one object meeting at convex edges (until
-    /// 2026-11-28 at a cosine of their own, 0.85, which refused the parts of objects whose
-    /// features scatter more: `docs/benchmarks/22-one-feature-floor.md`).
+    /// cos 0.53–0.99, a fifth under 0.8). A flat object lying on a plane (a rug, a poster)
+    /// continues it too: the cosine is what keeps it apart. (Until 2026-12-06 the pieces of a thin
+    /// structure and the parts of one object meeting at convex edges joined at this cosine too;
+    /// they now ask the geometry and the views alone: [`crate::touching`].)
     pub tau_seam: f32,
     /// Split objects whose labelled Gaussians form clusters apart in 3D ([`crate::split`]).
     pub split_disconnected: bool,

@@ -22,7 +22,9 @@
 //!   contact voxel pairs are smooth (the normals of the two sides within `SEAM_MAX_ANGLE_DEG` and
 //!   each side's mean point within half a voxel of the other side's tangent plane, or both sides'
 //!   mean points within half a voxel of one of the two objects' fitted planes), and
-//!   `cos(f_P, f_Q) ≥ tau_seam`. The normals say it where the reconstruction leaves the
+//!   `cos(f_P, f_Q) ≥ tau_seam`: a flat object lying on a plane (a rug on the floor, a poster on
+//!   a wall) continues it too, and only the features tell it apart. The normals say it where the
+//!   reconstruction leaves the
 //!   Gaussians' shortest axes on the surface's normal; a trained 3DGS scatters them by tens of
 //!   degrees, and there the centres say it (the `rough` family: ids / GT 1.60 → 1.10).
 //!   The pieces of a textured floor or wall have identity features that agree only loosely (cos
@@ -31,7 +33,7 @@
 //!   meets it at a crease, a cylinder touching a wall meets it along a line where only the
 //!   nearest normals agree, and an object whose label spilled onto the floor around its foot is
 //!   not a plane, so none of these joins; or
-//! - **they are parts of one object:** `cos(f_P, f_Q) ≥ tau_seam` and they meet at convex edges:
+//! - **they are parts of one object:** they meet at convex edges:
 //!   of the contact voxel pairs whose two sides have outward normals ([`Facing`]), at most
 //!   `part_max_concave_share` are concave and at least `part_min_convex_share` convex (two boxes
 //!   side by side meet flush). Different objects that touch meet at concave edges (a box beside a
@@ -40,15 +42,23 @@
 //!   [`MIN_TOGETHER_SHARE`] of the views seeing both have one merged mask over both), unless
 //!   the edge says it alone: most of its pairs convex (`mostly_convex`; SAM cuts a box whose faces
 //!   differ in colour at its edges in most views, while two boxes sharing a face, the same-depth
-//!   pair, leave only 10–38 % convex pairs at their corners). The geometry and the views are the
-//!   evidence; the cosine, as for a seam, only refuses what looks unlike. (A cosine of 0.85 of its
-//!   own refused the parts of objects whose features scatter more than the tuning families', parts
+//!   pair, leave only 10–38 % convex pairs at their corners). (A cosine of 0.85 of its own
+//!   refused the parts of objects whose features scatter more than the tuning families', parts
 //!   cos 0.83–0.84 on blind scenes: `docs/benchmarks/22-one-feature-floor.md`; the convex edge
 //!   alone: `docs/benchmarks/23-edges-of-one-body.md`); or
 //! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
 //!   at least `THIN_MIN_ELONGATION` times more than across it), parallel and on one line, at
-//!   least one contact voxel pair, and `cos(f_P, f_Q) ≥ tau_seam`: a post that SAM cut where the
-//!   background behind it changes (wall above, floor below).
+//!   least one contact voxel pair: a post that SAM cut where the background behind it changes
+//!   (wall above, floor below).
+//!
+//! **The part and thin joins ask the geometry and the views, not the features.** Until
+//! 2026-12-06 they also needed `cos(f_P, f_Q) ≥ tau_seam`, as the seam join does, to refuse what
+//! looks unlike. With identity features it never decided: the tuning families' results are the
+//! same without it, to the last digit (seeds 0..7, 56 scenes). With the model-free colour
+//! descriptors it refused what the geometry had right, as the parts of a multi-coloured object
+//! are unlike in colour by what makes them parts: without it 0.8905 → 0.8946 mean mIoU, ids / GT
+//! 1.760 → 1.720, no failure class worse (`docs/benchmarks/28-geometry-joins.md`). Unlike a seam,
+//! a convex edge or one thin line is not something two objects make by lying on each other.
 //!
 //! Objects that look alike but are apart in depth (the white-on-white pair) never touch, so
 //! they stay apart. Pairs are joined best cosine first (ties by id) with a union-find; the
@@ -196,7 +206,7 @@ pub fn join_touching_objects(
     wholes: Option<&dyn SeparateWholes>,
     config: &LiftConfig,
 ) -> usize {
-    if features.dim == 0 || (config.tau_touching > 1.0 && config.tau_seam > 1.0) {
+    if features.dim == 0 {
         return 0;
     }
     let voxel = CONTACT_VOXEL_FACTOR * typical_sigma(gaussians);
@@ -217,8 +227,7 @@ pub fn join_touching_objects(
         .filter(|&((a, b), c)| c.voxel_pairs >= 1 && (b as usize) <= n_objects && a >= 1)
         .filter_map(|((a, b), c)| {
             let cos = cos_of(a, b);
-            let thin = cos >= config.tau_seam
-                && THIN_MIN_ELONGATION > 0.0
+            let thin = THIN_MIN_ELONGATION > 0.0
                 && matches!((lines.get(&a), lines.get(&b)), (Some(p), Some(q)) if p.continues(q));
             if thin {
                 tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
@@ -255,7 +264,6 @@ pub fn join_touching_objects(
                 share >= MIN_TOGETHER_SHARE
             };
             let parts = !alike
-                && cos >= config.tau_seam
                 && c.oriented >= MIN_CONTACT_VOXELS
                 && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
                 && c.convex as f32 >= config.part_min_convex_share * c.oriented as f32

@@ -274,17 +274,34 @@ fn a_boxs_top_and_side_meeting_at_a_convex_edge_are_parts_of_one_object() {
 }
 
 #[test]
-fn parts_whose_features_scatter_join_by_their_convex_edge_unless_they_look_unlike() {
+fn parts_join_by_their_convex_edge_whatever_their_features_say() {
     // The box of the test above, its top and side far apart in feature space (as a real model
-    // gives a two-tone box): cos 0.7, then 0.4 (under τ_seam, 0.5).
+    // gives a two-tone box, and colour descriptors give any two-colour box): cos 0.7, 0.4, 0.
     let mut means = grid([0.0, 0.4, 0.0], X, Z, 20, 20);
     means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
     let normals: Vec<[f32; 3]> = (0..800).map(|i| if i < 400 { Y } else { X }).collect();
     let prepared = flat(&means, &normals);
     let config = LiftConfig::default();
     let unit = |c: f32| [1.0, 0.0, c, (1.0 - c * c).sqrt()];
-    assert_eq!(join_parts_alike(&prepared, 400, [1.5, 1.5, 0.2], true, &config, &unit(0.7)), 1);
-    assert_eq!(join_parts_alike(&prepared, 400, [1.5, 1.5, 0.2], true, &config, &unit(0.4)), 0);
+    for cos in [0.7, 0.4, 0.0] {
+        assert_eq!(
+            join_parts_alike(&prepared, 400, [1.5, 1.5, 0.2], true, &config, &unit(cos)),
+            1,
+            "cos {cos}"
+        );
+    }
+    // A floor and a wall meeting at a concave corner stay apart at any cosine under τ_touching
+    // (the geometry of the next test).
+    let mut means = grid([0.4, 0.0, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.0, 0.0], Y, Z, 20, 20));
+    let prepared = flat(&means, &normals);
+    for cos in [0.9, 0.4, 0.0] {
+        assert_eq!(
+            join_parts_alike(&prepared, 400, [1.5, 1.5, 0.2], true, &config, &unit(cos)),
+            0,
+            "cos {cos}"
+        );
+    }
 }
 
 #[test]

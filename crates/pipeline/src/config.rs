@@ -83,7 +83,7 @@ const KEY_DOCS: &[(&str, &str, &str)] = &[
     ("lift", "tau_var", "Gaussians whose identity-feature variance over their views exceeds this get no id (unitless; ours, measured: the paper's 0.05 is for another variance)"),
     ("lift", "min_views", "Gaussians seen in fewer views get no id (views; ours)"),
     ("objects", "tau_touching", "objects touching in 3D join when their identity features' cosine reaches this (above 1 = off; ours, measured)"),
-    ("objects", "tau_seam", "cosine at which objects with 3D evidence of one object join: one smooth surface continued, parts meeting at convex edges, pieces of one thin line (ours, measured)"),
+    ("objects", "tau_seam", "cosine at which objects continuing one plane across a smooth seam join: the pieces of a floor or wall, not a rug on the floor (ours, measured)"),
     ("objects", "split_disconnected", "split objects whose Gaussians form clusters apart in 3D (true/false; ours)"),
     ("objects", "min_object_px", "objects covering fewer pixels over all views are dropped (pixels of a 320×240 view, scaled with the views; ours)"),
     ("final_maps", "kind", "the final label maps: \"snapped-raw\" (onto SAM's regions), \"snapped\" (onto the merged regions) or \"rendered\" (ours, measured)"),
@@ -187,8 +187,8 @@ const RETIRED: &[(&str, &str, &str)] = &[
     ("matching", "", "the [matching] table is now [match]"),
     ("lift", "tau_touching", "moved: write it as [objects] tau_touching"),
     ("lift", "tau_seam", "moved: write it as [objects] tau_seam"),
-    ("lift", "tau_part", "is gone: parts meeting at convex edges join at [objects] tau_seam, like every join with 3D evidence"),
-    ("objects", "tau_part", "is gone: parts meeting at convex edges join at [objects] tau_seam, like every join with 3D evidence"),
+    ("lift", "tau_part", "is gone: parts meeting at convex edges join by their geometry and the views"),
+    ("objects", "tau_part", "is gone: parts meeting at convex edges join by their geometry and the views"),
     ("lift", "split_disconnected", "moved: write it as [objects] split_disconnected"),
     ("lift", "min_object_px", "moved: write it as [objects] min_object_px"),
     ("lift", "final_maps", "moved: write it as [final_maps] kind"),
@@ -504,7 +504,7 @@ mod tests {
         let e = err("[lift]\ntau_seam = 0.8\n");
         assert!(e.contains("[objects] tau_seam"), "{e}");
         let e = err("[objects]\ntau_part = 0.85\n");
-        assert!(e.contains("[objects] tau_part") && e.contains("[objects] tau_seam"), "{e}");
+        assert!(e.contains("[objects] tau_part") && e.contains("geometry and the views"), "{e}");
         let e = err("[lift]\nsnap_bleed_px = 4.0\n");
         assert!(e.contains("constant") && e.contains("SNAP_BLEED_PX"), "{e}");
         let e = err("[matching]\ntau_match = 0.7\n");
