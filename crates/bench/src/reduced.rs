@@ -11,6 +11,17 @@ use std::path::Path;
 pub(crate) fn run_scenes(
     scenes: &[(Family, u64)],
     views: usize,
+    inspect: impl FnMut(&str, &Path),
+) -> (Vec<SceneScore>, String) {
+    run_scenes_with(scenes, views, &[Descriptors::Features], inspect)
+}
+
+/// [`run_scenes`] with each scene run once per entry of `descriptors` (scores in that order per
+/// scene).
+pub(crate) fn run_scenes_with(
+    scenes: &[(Family, u64)],
+    views: usize,
+    descriptors: &[Descriptors],
     mut inspect: impl FnMut(&str, &Path),
 ) -> (Vec<SceneScore>, String) {
     let tmp = tempfile::tempdir().expect("temp dir");
@@ -20,7 +31,7 @@ pub(crate) fn run_scenes(
         let name = format!("{family}_{seed}");
         let work = tmp.path().join(&name);
         scores.extend(
-            score_scene(family, seed, overrides, &[Descriptors::Features], &Default::default(), &work)
+            score_scene(family, seed, overrides, descriptors, &Default::default(), &work)
                 .expect("scene runs"),
         );
         inspect(&name, &work);
