@@ -24,9 +24,9 @@
 //!   mean points within half a voxel of one of the two objects' fitted planes), and
 //!   `cos(f_P, f_Q) ≥ tau_seam`: a flat object lying on a plane (a rug on the floor, a poster on
 //!   a wall) continues it too, and only the features tell it apart. The normals say it where the
-//!   reconstruction leaves the
-//!   Gaussians' shortest axes on the surface's normal; a trained 3DGS scatters them by tens of
-//!   degrees, and there the centres say it (the `rough` family: ids / GT 1.60 → 1.10).
+//!   reconstruction leaves the Gaussians' shortest axes on the surface's normal; a trained 3DGS
+//!   scatters them by tens of degrees, and there the centres say it (the `rough` family: ids / GT
+//!   1.60 → 1.10).
 //!   The pieces of a textured floor or wall have identity features that agree only loosely (cos
 //!   0.53–0.99 on tuning seeds 0..3, where every one of 377 pairs meeting this geometry was two
 //!   pieces of one object), too loosely for the first rule; a box standing on the floor
