@@ -3,8 +3,8 @@
 
 use crate::error::Context;
 use crate::suite::{
-    markdown, parse_seeds, score_scene, Descriptors, SceneOverrides, SceneScore, DEFAULT_FAMILIES,
-    REPORT_SEEDS, TUNING_SEEDS,
+    markdown, parse_seeds, score_scene, DepthSource, Descriptors, SceneOverrides, SceneScore,
+    DEFAULT_FAMILIES, REPORT_SEEDS, TUNING_SEEDS,
 };
 use splatseg_pipeline::PipelineConfig;
 use splatseg_synth::Family;
@@ -22,6 +22,8 @@ pub struct QualityRequest {
     pub overrides: SceneOverrides,
     /// Also run every scene with the model-free descriptors.
     pub no_features: bool,
+    /// The depth every run's merge reads.
+    pub depth: DepthSource,
     /// Output folder for `quality.md` and `quality.json` (and with `keep` the scenes).
     pub out: Option<PathBuf>,
     /// Keep every scene and run folder under `OUT/scenes`.
@@ -63,7 +65,15 @@ pub fn quality(request: &QualityRequest, progress: &mut dyn FnMut(String)) -> cr
     for (k, &family) in families.iter().enumerate() {
         for (j, &seed) in seeds.iter().enumerate() {
             let work = work_root.join(format!("{family}_{seed}"));
-            let scene = score_scene(family, seed, request.overrides, &descriptors, &request.pipeline, &work)?;
+            let scene = score_scene(
+                family,
+                seed,
+                request.overrides,
+                &descriptors,
+                request.depth,
+                &request.pipeline,
+                &work,
+            )?;
             if !request.keep {
                 std::fs::remove_dir_all(&work)
                     .with_context(|| format!("cannot remove the scene folder {}", work.display()))?;
@@ -91,12 +101,13 @@ pub fn quality(request: &QualityRequest, progress: &mut dyn FnMut(String)) -> cr
     }
     let names: Vec<&str> = families.iter().map(|f| f.name()).collect();
     let mut text = format!(
-        "# splatseg bench quality\n\nseeds {} ({} scenes per family), families {}{}{}; {:.0} s in all\n",
+        "# splatseg bench quality\n\nseeds {} ({} scenes per family), families {}{}{}; {}; {:.0} s in all\n",
         request.seeds,
         seeds.len(),
         names.join(" "),
         request.overrides.size.map_or(String::new(), |(w, h)| format!(", size {w}x{h}")),
         request.overrides.views.map_or(String::new(), |v| format!(", {v} views")),
+        request.depth.name(),
         started.elapsed().as_secs_f64()
     );
     // tuning and blind families are never pooled: a blind result is reported on its own
@@ -133,6 +144,7 @@ mod tests {
             families: vec![Family::Rooms, Family::BlindLens],
             overrides: SceneOverrides { size: None, views: Some(4) },
             no_features: false,
+            depth: DepthSource::Rendered,
             out: None,
             keep: false,
             pipeline: PipelineConfig::default(),
@@ -146,5 +158,36 @@ mod tests {
         let (first, second) = text.split_at(blind);
         assert!(first.contains("| rooms |") && !first.contains("| blind_lens |"), "{text}");
         assert!(second.contains("| blind_lens |") && !second.contains("| rooms |"), "{text}");
+    }
+
+    #[test]
+    fn the_monocular_depth_is_what_the_merge_reads_when_asked() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let run = |depth: DepthSource| {
+            let out = tmp.path().join(format!("{depth:?}"));
+            let request = QualityRequest {
+                seeds: "1".into(),
+                families: vec![Family::BlindCues],
+                overrides: SceneOverrides { size: None, views: Some(4) },
+                no_features: false,
+                depth,
+                out: Some(out.clone()),
+                keep: false,
+                pipeline: PipelineConfig::default(),
+                worst: 1,
+            };
+            let text = quality(&request, &mut |_| {}).expect("report");
+            assert!(text.contains(depth.name()), "{text}");
+            let json: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(out.join("quality.json")).expect("json"))
+                    .expect("parses");
+            let scene = &json[0];
+            assert_eq!(scene["depth"], serde_json::json!(format!("{depth:?}").to_lowercase()), "{scene}");
+            scene["ceiling_merged"].as_f64().expect("a number")
+        };
+        // The merged regions differ: the merge read another depth (the monocular one carries the
+        // family's scale error, noise and blur, and without metric depth no crease gate runs).
+        let (rendered, monocular) = (run(DepthSource::Rendered), run(DepthSource::Monocular));
+        assert!((rendered - monocular).abs() > 1e-6, "rendered {rendered}, monocular {monocular}");
     }
 }

@@ -1,7 +1,7 @@
 //! What the two reduced suites in CI share (`suite_tests`, `blind_suite_tests`): running a list of
 //! scenes end to end at a few views, and checking floors with one message for all that fail.
 
-use crate::suite::{score_scene, Descriptors, Distribution, SceneOverrides, SceneScore};
+use crate::suite::{score_scene, DepthSource, Descriptors, Distribution, SceneOverrides, SceneScore};
 use splatseg_synth::Family;
 use std::path::Path;
 
@@ -31,8 +31,16 @@ pub(crate) fn run_scenes_with(
         let name = format!("{family}_{seed}");
         let work = tmp.path().join(&name);
         scores.extend(
-            score_scene(family, seed, overrides, descriptors, &Default::default(), &work)
-                .expect("scene runs"),
+            score_scene(
+                family,
+                seed,
+                overrides,
+                descriptors,
+                DepthSource::Rendered,
+                &Default::default(),
+                &work,
+            )
+            .expect("scene runs"),
         );
         inspect(&name, &work);
         std::fs::remove_dir_all(&work).expect("clean up");

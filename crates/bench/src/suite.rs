@@ -39,6 +39,28 @@ impl Descriptors {
     }
 }
 
+/// Which depth a run's merge reads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DepthSource {
+    /// Metric depth rendered from the scene's Gaussians (`run` without `--depth`, the default).
+    #[default]
+    Rendered,
+    /// The scene's simulated monocular depth (`depth/`: relative inverse depth with the family's
+    /// error and blur, as Depth Anything V2 gives; `run --depth DIR --depth-kind inverse`).
+    Monocular,
+}
+
+impl DepthSource {
+    /// Name in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            DepthSource::Rendered => "depth rendered from the Gaussians",
+            DepthSource::Monocular => "the scene's monocular depth (`depth/`, inverse relative)",
+        }
+    }
+}
+
 /// Overrides of a family's config.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SceneOverrides {
@@ -88,6 +110,8 @@ pub struct SceneScore {
     pub seed: u64,
     /// Descriptors used.
     pub descriptors: Descriptors,
+    /// The depth the run's merge read.
+    pub depth: DepthSource,
     /// Views, width, height.
     pub views: usize,
     /// Image width.
@@ -118,13 +142,14 @@ pub struct SceneScore {
     pub seconds: f64,
 }
 
-/// Generates scene (`family`, `seed`) into `work/scene`, runs the pipeline with `pipeline` into
-/// `work/run_*` once per entry of `descriptors`, and scores each run.
+/// Generates scene (`family`, `seed`) into `work/scene`, runs the pipeline with `pipeline` and
+/// the `depth` source into `work/run_*` once per entry of `descriptors`, and scores each run.
 pub fn score_scene(
     family: Family,
     seed: u64,
     overrides: SceneOverrides,
     descriptors: &[Descriptors],
+    depth: DepthSource,
     pipeline: &PipelineConfig,
     work: &Path,
 ) -> crate::Result<Vec<SceneScore>> {
@@ -142,7 +167,7 @@ pub fn score_scene(
             scene: scene_dir.clone(),
             masks: scene_dir.join("sam"),
             features: (d == Descriptors::Features).then(|| scene_dir.join("features")),
-            depth: None,
+            depth: (depth == DepthSource::Monocular).then(|| scene_dir.join("depth")),
             depth_kind: DepthKind::InverseRelative,
             resize_depth: false,
             gaussians: None,
@@ -185,6 +210,7 @@ pub fn score_scene(
             family,
             seed,
             descriptors: d,
+            depth,
             views: config.views,
             width: config.width,
             height: config.height,
@@ -485,6 +511,7 @@ mod tests {
             family: Family::BlindCues,
             seed,
             descriptors: Descriptors::Features,
+            depth: DepthSource::Rendered,
             views: 4,
             width: 100,
             height: 100,
