@@ -134,12 +134,6 @@ pub struct QualityArgs {
     /// Also run every scene without --features (the model-free descriptors) and report it too.
     #[cfg_attr(feature = "cli", arg(long))]
     pub no_features: bool,
-    /// Run the merge on each scene's simulated monocular depth (`depth/`: relative inverse
-    /// depth with the family's scale and shift error, noise and blur, as Depth Anything V2 gives
-    /// it; `run --depth DIR`) instead of depth rendered from the Gaussians (`run` without
-    /// `--depth`, the default). The concave-crease gate needs metric depth and stays off then.
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub monocular_depth: bool,
     /// Output folder: `quality.md` and `quality.json`.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: Option<PathBuf>,
@@ -160,7 +154,7 @@ impl QualityArgs {
             families: self.families,
             overrides: SceneOverrides { size: None, views: None },
             no_features: self.no_features,
-            depth: if self.monocular_depth { DepthSource::Monocular } else { DepthSource::Rendered },
+            depth: DepthSource::Rendered,
             out: self.out,
             keep: false,
             pipeline: PipelineConfig::from_optional_file(self.config.as_deref())?,
