@@ -62,7 +62,7 @@ fn cues_on_lego_writes_every_cue_and_caches() {
     assert_eq!(depth.shape, vec![100, 100]);
     let log = splatseg_scene::npy::read_npy(&out.path().join("log/r_0.npy")).unwrap();
     assert_eq!(log.shape, vec![100, 100]);
-    let masks = splatseg_scene::sam::read_sam_json(&out.path().join("sam/r_0.json")).unwrap();
+    let masks = splatseg_scene::sam::read_sam_json(&out.path().join("sam/r_0.json")).unwrap().masks;
     assert!(masks.iter().all(|m| m.size() == (100, 100)), "masks at full image resolution");
     let second = splatseg(&argv);
     assert!(second.contains("0 computed, 8 cached"), "{second}");

@@ -30,7 +30,7 @@ fn tiny_scene(dir: &Path) {
 fn png_folder_masks(scene: &Path, dir: &Path) -> PathBuf {
     std::fs::create_dir_all(dir).expect("mkdir");
     std::fs::copy(scene.join("sam/view_001.json"), dir.join("view_001.json")).expect("copy json");
-    let masks = read_sam_json(&scene.join("sam/view_000.json")).expect("synthetic masks");
+    let masks = read_sam_json(&scene.join("sam/view_000.json")).expect("synthetic masks").masks;
     assert!(masks.len() > 3, "the comparison needs several masks");
     write_sam_png_folder(&dir.join("view_000"), &masks).expect("png folder");
     dir.join("view_000")

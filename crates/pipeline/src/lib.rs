@@ -71,7 +71,7 @@ pub use error::{Context, PipelineError, Result};
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 use inputs::RunInputs;
 use lift_stage::ViewResult;
-pub use mask_input::{mask_inputs, read_view_mask_inputs};
+pub use mask_input::{mask_inputs, read_view_mask_inputs, ViewMaskInputs};
 pub use merge_views::{merge_shard, merge_views, MergeRequest, ShardSummary};
 pub use options::RunOptions;
 use profile::Profiler;
@@ -270,8 +270,8 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         every_view(&per_view, &inputs.has_masks, config.options)?
     };
     let regions = RegionCounts::of(&views);
-    let empty_masks = empty_masks_warning(&views, scene, &config.masks);
-    if let Some(w) = &empty_masks {
+    let mask_warnings = mask_warnings(&views, scene, &config.masks);
+    for w in &mask_warnings {
         tracing::warn!("{w}");
     }
     profiler.parts(times.take());
@@ -299,7 +299,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let staging = commit::Staging::begin(&config.out)?;
     let written = run_outputs::write_outputs(config, staging.dir(), &inputs, ply_rows, &load, results)?;
     remove_spills(&cache_dir.join("views"))?;
-    inputs.warnings.extend(empty_masks);
+    inputs.warnings.extend(mask_warnings);
     let summary = summary(config, &inputs, prepared.as_ref(), regions, &matching, written);
     write_json(&staging.dir().join("metrics.json"), &summary)?;
     outputs::write_report(staging.dir(), &inputs.scene, &summary)?;
@@ -330,30 +330,42 @@ fn every_view(
     Ok(views)
 }
 
-/// One sentence with the count of empty SAM masks (all zeros: they select nothing) and the views
-/// holding them, or `None` when there is none.
-fn empty_masks_warning(views: &[Option<ViewResult>], scene: &Scene, dir: &Path) -> Option<String> {
-    let per_view: Vec<(&str, usize)> = views
-        .iter()
-        .zip(&scene.views)
-        .filter_map(|(r, v)| {
-            r.as_ref().filter(|r| r.empty_masks > 0).map(|r| (v.stem.as_str(), r.empty_masks))
+/// What the views' SAM files held that the run went on without, one sentence each with the count
+/// and the views (none when all is well): empty masks (all zeros: they select nothing), and masks
+/// whose `area` / `bbox` disagreed with the mask (the values recomputed from the masks are used).
+/// Said once for the run, not once per file or per pass over the files.
+fn mask_warnings(views: &[Option<ViewResult>], scene: &Scene, dir: &Path) -> Vec<String> {
+    let sentence = |count: fn(&ViewResult) -> usize, said: &str, then: &str| -> Option<String> {
+        let per_view: Vec<(&str, usize)> = views
+            .iter()
+            .zip(&scene.views)
+            .filter_map(|(r, v)| r.as_ref().map(|r| (v.stem.as_str(), count(r))).filter(|&(_, n)| n > 0))
+            .collect();
+        let total: usize = per_view.iter().map(|(_, n)| n).sum();
+        (total > 0).then(|| {
+            let shown: Vec<String> = per_view.iter().take(5).map(|(s, n)| format!("{s} ({n})")).collect();
+            let more =
+                if per_view.len() > 5 { format!(" and {} more", per_view.len() - 5) } else { String::new() };
+            format!(
+                "{total} SAM masks in {} of {} views {said}: {}{more}; {then}: {}",
+                per_view.len(),
+                scene.views.len(),
+                shown.join(", "),
+                dir.display()
+            )
         })
-        .collect();
-    let total: usize = per_view.iter().map(|(_, n)| n).sum();
-    (total > 0).then(|| {
-        let shown: Vec<String> = per_view.iter().take(5).map(|(s, n)| format!("{s} ({n})")).collect();
-        let more =
-            if per_view.len() > 5 { format!(" and {} more", per_view.len() - 5) } else { String::new() };
-        format!(
-            "{total} SAM masks in {} of {} views are empty (all zeros) and select nothing: {}{more}; \
-             each view is segmented by its other masks only: {}",
-            per_view.len(),
-            scene.views.len(),
-            shown.join(", "),
-            dir.display()
-        )
-    })
+    };
+    let empty = sentence(
+        |r| r.empty_masks,
+        "are empty (all zeros) and select nothing",
+        "each view is segmented by its other masks only",
+    );
+    let recomputed = sentence(
+        |r| r.recomputed_masks,
+        "have an area or bbox that disagrees with the mask itself",
+        "the values recomputed from the masks are used",
+    );
+    empty.into_iter().chain(recomputed).collect()
 }
 
 /// What the per-view pass found over all views (before matching takes the regions).

@@ -39,6 +39,9 @@ pub struct ViewResult {
     pub cached: bool,
     /// SAM masks of the view that are empty (all zeros) ([`crate::merge_stage::MergedView::empty_masks`]).
     pub empty_masks: usize,
+    /// SAM masks of the view whose file `area` / `bbox` disagreed with the mask
+    /// ([`crate::merge_stage::MergedView::recomputed_masks`]).
+    pub recomputed_masks: usize,
     /// With Gaussians: the sampled visible Gaussians and their merged labels (matching's 3D
     /// evidence; moved into the matcher).
     pub observations: Option<ViewObservations>,

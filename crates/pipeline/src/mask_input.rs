@@ -6,6 +6,16 @@ use splatseg_cues::regions::MaskInput;
 use splatseg_scene::sam::SamMask;
 use std::path::{Path, PathBuf};
 
+/// One view's SAM masks as merge inputs.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ViewMaskInputs {
+    /// The masks, in file order.
+    pub masks: Vec<MaskInput>,
+    /// Masks whose file `area` / `bbox` disagreed with the mask (recomputed; see
+    /// [`splatseg_scene::sam::SamFile::recomputed`]): a count for the caller's one warning.
+    pub recomputed: usize,
+}
+
 /// The SAM masks of view `stem` (`DIR/<stem>.json`, else `DIR/<stem>/metadata.csv`) as merge
 /// inputs for its `width × height` image, or `None` when the view has none. Each mask's
 /// declared size is checked against the image before it is decoded (the error names the JSON
@@ -17,14 +27,16 @@ pub fn read_view_mask_inputs(
     stem: &str,
     width: usize,
     height: usize,
-) -> crate::Result<Option<Vec<MaskInput>>> {
+) -> crate::Result<Option<ViewMaskInputs>> {
     let too_big = || format!("image of view `{stem}` is {width}×{height}, too large for SAM masks");
     let size =
         (u32::try_from(width).ok().with_context(too_big)?, u32::try_from(height).ok().with_context(too_big)?);
-    let Some(masks) = splatseg_scene::sam::read_view_masks_for_image(dir, stem, size.0, size.1)? else {
+    let Some(file) = splatseg_scene::sam::read_view_masks_for_image(dir, stem, size.0, size.1)? else {
         return Ok(None);
     };
-    mask_inputs(&masks, width, height).map(Some).map_err(|e| {
+    let recomputed = file.recomputed;
+    let inputs = |masks| Some(ViewMaskInputs { masks, recomputed });
+    mask_inputs(&file.masks, width, height).map(inputs).map_err(|e| {
         crate::PipelineError::Invalid(format!(
             "SAM masks of view `{stem}`, {e}: {}",
             mask_source(dir, stem).display()

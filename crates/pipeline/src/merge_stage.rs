@@ -3,11 +3,11 @@
 //! `<stem>.json`; and `<stem>.log.json`, the merge's decisions, when [`MergeContext::keep_log`]).
 
 use super::cache::{read_json, write_json, KeyHasher};
-use super::read_view_mask_inputs;
+use super::{read_view_mask_inputs, ViewMaskInputs};
 use crate::view_data::ViewImage;
 use crate::view_merge::{merge_view_arrays_with_wholes, ViewArrays};
 use serde::{Deserialize, Serialize};
-use splatseg_cues::{DepthMap, DescriptorSource, MaskInput, RegionOptions, RegionSource};
+use splatseg_cues::{DepthMap, DescriptorSource, RegionOptions, RegionSource};
 use splatseg_merge::{MergeConfig, MergeLog, RegionSummary, ViewWholes, WholesEvidence};
 use splatseg_scene::labels::{read_label_png, write_label_png};
 use splatseg_scene::load::LoadOptions;
@@ -27,6 +27,8 @@ pub struct MergedView {
     pub cached: bool,
     /// SAM masks of the view that are empty (all zeros): they select nothing and add no region.
     pub empty_masks: usize,
+    /// SAM masks of the view whose file `area` / `bbox` disagreed with the mask (recomputed).
+    pub recomputed_masks: usize,
     /// What the merge decided, when [`MergeContext::keep_log`] asked for it.
     pub log: Option<ViewMergeLog>,
 }
@@ -48,6 +50,9 @@ struct CacheEntry {
     /// [`MergedView::empty_masks`] (left out when 0, so entries of other views are unchanged).
     #[serde(default, skip_serializing_if = "is_zero")]
     empty_masks: usize,
+    /// [`MergedView::recomputed_masks`] (left out when 0, as `empty_masks`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    recomputed_masks: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -138,6 +143,7 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
         regions: entry.regions,
         cached: true,
         empty_masks: entry.empty_masks,
+        recomputed_masks: entry.recomputed_masks,
         log,
     })
 }
@@ -145,7 +151,7 @@ fn read_cached(ctx: &MergeContext, stem: &str, key: &str, size: (usize, usize)) 
 /// The SAM masks of `view` as merge inputs (none when it has no masks), each checked against
 /// the `width × height` image before it is decoded and turned into row runs straight from its
 /// COCO counts (see [`super::read_view_mask_inputs`]).
-fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> crate::Result<Vec<MaskInput>> {
+fn read_masks(ctx: &MergeContext, view: &View, width: u32, height: u32) -> crate::Result<ViewMaskInputs> {
     let masks = read_view_mask_inputs(ctx.masks_dir, &view.stem, width as usize, height as usize)?;
     Ok(masks.unwrap_or_default())
 }
@@ -185,7 +191,8 @@ pub fn merge_one(
         return Ok(hit);
     }
     let image = image.rgb()?;
-    let masks = read_masks(ctx, view, camera.width, camera.height)?;
+    let ViewMaskInputs { masks, recomputed: recomputed_masks } =
+        read_masks(ctx, view, camera.width, camera.height)?;
     let empty_masks = masks.iter().filter(|m| m.runs.is_empty()).count();
     let result = merge_view_arrays_with_wholes(
         &ViewArrays {
@@ -211,13 +218,14 @@ pub fn merge_one(
         regions: result.regions,
         cached: false,
         empty_masks,
+        recomputed_masks,
         log,
     };
     write_label_png(&ctx.cache_dir.join(format!("{}.raw.png", view.stem)), &merged.raw)?;
     write_label_png(&ctx.cache_dir.join(format!("{}.merged.png", view.stem)), &merged.merged)?;
     write_json(
         &ctx.cache_dir.join(format!("{}.json", view.stem)),
-        &CacheEntry { key: key.clone(), regions: merged.regions.clone(), empty_masks },
+        &CacheEntry { key: key.clone(), regions: merged.regions.clone(), empty_masks, recomputed_masks },
     )?;
     if let Some(log) = &merged.log {
         write_json(
@@ -280,7 +288,12 @@ mod tests {
                 write_sam_png_folder(&tmp.path().join(&view.stem), &view.sam_masks).expect("png folder");
             }
             let read = read_view_mask_inputs(tmp.path(), &view.stem, w, h).expect("readable");
-            assert_eq!(read.as_deref(), Some(&before[..]), "{} read from its files", view.stem);
+            assert_eq!(
+                read.map(|r| r.masks).as_deref(),
+                Some(&before[..]),
+                "{} read from its files",
+                view.stem
+            );
         }
         assert!(masks_seen >= 20, "only {masks_seen} masks: the comparison would prove little");
         assert_eq!(read_view_mask_inputs(tmp.path(), "no_such_view", 160, 120).expect("no error"), None);

@@ -105,7 +105,7 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
     let bar = crate::progress(mine.len(), if export { "merge" } else { "merge shard" }, config.options);
     let counts = mine
         .par_iter()
-        .map(|&v| -> crate::Result<(bool, usize, usize, usize)> {
+        .map(|&v| -> crate::Result<(bool, usize, usize, usize, usize)> {
             let view = &scene.views[v];
             let (metric, normals, visible) = match prepared.as_ref() {
                 Some(p) => {
@@ -132,7 +132,7 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
                 write_view(view, &image, &config.out, &config.pipeline.merge, &merged)?;
             }
             bar.inc(1);
-            Ok((merged.cached, before, merged.regions.len(), merged.empty_masks))
+            Ok((merged.cached, before, merged.regions.len(), merged.empty_masks, merged.recomputed_masks))
         })
         .collect::<Vec<crate::Result<_>>>()
         .into_iter()
@@ -143,6 +143,16 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
         tracing::warn!(
             "{empty} SAM masks in {} of {} views merged are empty (all zeros) and select nothing: {}",
             counts.iter().filter(|c| c.3 > 0).count(),
+            counts.len(),
+            config.masks.display()
+        );
+    }
+    let recomputed: usize = counts.iter().map(|c| c.4).sum();
+    if recomputed > 0 {
+        tracing::warn!(
+            "{recomputed} SAM masks in {} of {} views merged have an area or bbox that disagrees with the mask \
+             itself; the values recomputed from the masks are used: {}",
+            counts.iter().filter(|c| c.4 > 0).count(),
             counts.len(),
             config.masks.display()
         );

@@ -262,6 +262,7 @@ impl PerView<'_> {
             regions: merged.regions,
             cached: merged.cached,
             empty_masks: merged.empty_masks,
+            recomputed_masks: merged.recomputed_masks,
             observations,
             spill,
             data,

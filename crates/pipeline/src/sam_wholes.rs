@@ -85,7 +85,8 @@ pub fn wholes_evidence(
             let sets = if has_masks[v] {
                 let camera = scene.camera(view);
                 let (w, h) = (camera.width as usize, camera.height as usize);
-                let masks = read_view_mask_inputs(masks_dir, &view.stem, w, h)?.unwrap_or_default();
+                // The merge's own read of the masks reports what was recomputed, once per run.
+                let masks = read_view_mask_inputs(masks_dir, &view.stem, w, h)?.unwrap_or_default().masks;
                 let pass = view_visibility(prepared, camera, &view.world_from_cam, None, lift);
                 let sets = ViewMaskSets::new(&masks, &pass.visible.gaussians, &pass.visible.pixels, stride);
                 if spill[v] {

@@ -77,8 +77,8 @@ pub fn transforms_json(data: &[u8]) {
 /// decoded too.
 pub fn sam_json(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else { return };
-    if let Ok(masks) = crate::sam::parse_sam_json(text, Path::new("masks.json"), None) {
-        for mask in masks {
+    if let Ok(file) = crate::sam::parse_sam_json(text, Path::new("masks.json"), None) {
+        for mask in file.masks {
             let rle = &mask.segmentation;
             if rle.height as u64 * rle.width as u64 <= DECODE_PIXELS {
                 if let Err(reason) = rle.decode() {

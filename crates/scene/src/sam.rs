@@ -96,16 +96,16 @@ pub(crate) fn check_declared_mask_size(
     crate::rle::check_declared_size(height, width)
 }
 
-/// Counts the masks whose file `area` / `bbox` disagreed with the decoded mask and logs one
-/// warning for the file (not one per mask).
-pub(crate) fn warn_recomputed(disagreeing: usize, total: usize, path: &Path) {
-    if disagreeing > 0 {
-        tracing::warn!(
-            "{disagreeing} of {total} masks have an area or bbox that disagrees with the mask itself; \
-             using the values recomputed from the masks: {}",
-            path.display()
-        );
-    }
+/// What a reader read from one SAM file or folder: its masks, and how many of them carried an
+/// `area` or `bbox` that disagreed with the mask itself (the readers always use the values
+/// recomputed from the mask). The count is data, not a log line: a caller reading many views
+/// says it once, with the views it came from (`splatseg run` and `splatseg merge` do).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SamFile {
+    /// The masks, in file order.
+    pub masks: Vec<SamMask>,
+    /// Masks whose file `area` / `bbox` disagreed with the mask and were recomputed.
+    pub recomputed: usize,
 }
 
 /// Replaces `mask`'s area and bbox by those of its segmentation. Returns whether the values
@@ -126,7 +126,7 @@ pub fn read_view_masks_for_image(
     stem: &str,
     width: u32,
     height: u32,
-) -> SceneResult<Option<Vec<SamMask>>> {
+) -> SceneResult<Option<SamFile>> {
     read_view_masks_sized(dir, stem, Some((width, height)))
 }
 
@@ -135,7 +135,7 @@ pub fn read_view_masks_for_image(
 /// `Ok(None)` if neither exists; an error if `dir` itself does not exist. Mask sizes are only
 /// checked against [`crate::rle::MAX_MASK_PIXELS`]: prefer [`read_view_masks_for_image`] when
 /// the image size is known.
-pub fn read_view_masks(dir: &Path, stem: &str) -> SceneResult<Option<Vec<SamMask>>> {
+pub fn read_view_masks(dir: &Path, stem: &str) -> SceneResult<Option<SamFile>> {
     read_view_masks_sized(dir, stem, None)
 }
 
@@ -144,7 +144,7 @@ fn read_view_masks_sized(
     dir: &Path,
     stem: &str,
     expected: Option<(u32, u32)>,
-) -> SceneResult<Option<Vec<SamMask>>> {
+) -> SceneResult<Option<SamFile>> {
     if !dir.is_dir() {
         return Err(SceneError::missing("SAM mask folder", dir));
     }

@@ -99,11 +99,11 @@ fn the_other_seeds_are_valid_files() {
     let text = String::from_utf8(read("transforms_json", "seed_ngp.json")).expect("utf-8");
     assert_eq!(splatseg_scene::transforms::parse_transforms_json(&text, p).expect("transforms").len(), 2);
     let text = String::from_utf8(read("sam_json", "seed_coco_rle.json")).expect("utf-8");
-    assert_eq!(splatseg_scene::sam::parse_sam_json(&text, p, None).expect("sam json").len(), 3);
+    assert_eq!(splatseg_scene::sam::parse_sam_json(&text, p, None).expect("sam json").masks.len(), 3);
     let text = String::from_utf8(read("sam_metadata_csv", "seed_metadata.csv")).expect("utf-8");
     let masks =
         splatseg_scene::sam::parse_metadata_csv(&text, p, |_| Ok(splatseg_scene::Plane::filled(4, 3, true)));
-    assert_eq!(masks.expect("metadata.csv").len(), 3);
+    assert_eq!(masks.expect("metadata.csv").masks.len(), 3);
     for name in ["seed_f32.npy", "seed_f16_be.npy", "seed_features.npy"] {
         splatseg_scene::npy::parse_npy(&read("npy", name)).unwrap_or_else(|e| panic!("{name}: {e}"));
     }

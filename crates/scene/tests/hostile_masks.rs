@@ -1,6 +1,6 @@
 //! Untrusted SAM mask input: absurd or mismatched declared sizes are refused before a mask of
-//! that size is allocated, `area` / `bbox` are recomputed from the masks (one warning per
-//! file), and COLMAP keypoints follow the cameras to `--resolution N`.
+//! that size is allocated, `area` / `bbox` are recomputed from the masks (and counted, as
+//! data), and COLMAP keypoints follow the cameras to `--resolution N`.
 
 use crate::colmap_fixture;
 
@@ -98,13 +98,16 @@ fn declared_size_must_match_the_image_when_known() {
     let mask = SamMask::from_rle(Rle::encode(&block_mask()));
     let path = dir.path().join("view.json");
     write_sam_json(&path, std::slice::from_ref(&mask)).unwrap();
-    assert_eq!(read_sam_json_for_image(&path, 6, 4).unwrap(), vec![mask.clone()]);
+    assert_eq!(read_sam_json_for_image(&path, 6, 4).unwrap().masks, vec![mask.clone()]);
     let err = read_sam_json_for_image(&path, 8, 4).unwrap_err().to_string();
     assert_has(&err, &["mask 0", "declared size [4, 6]", "the image, which is [4, 8]", "view.json"]);
     // The per-view loader checks too, and names the file the masks came from.
     let err = read_view_masks_for_image(dir.path(), "view", 6, 5).unwrap_err().to_string();
     assert_has(&err, &["[4, 6]", "[5, 6]", "view.json"]);
-    assert_eq!(read_view_masks_for_image(dir.path(), "view", 6, 4).unwrap(), Some(vec![mask]));
+    assert_eq!(
+        read_view_masks_for_image(dir.path(), "view", 6, 4).unwrap().map(|f| f.masks),
+        Some(vec![mask])
+    );
 
     // A huge declared size is reported as a mismatch with the image, without being decoded.
     let s = huge_rle().to_coco_string();
@@ -185,7 +188,7 @@ fn capture_logs<T>(f: impl FnOnce() -> T) -> (T, String) {
 }
 
 #[test]
-fn area_and_bbox_are_recomputed_with_one_warning_per_file() {
+fn area_and_bbox_are_recomputed_and_counted_without_a_log_line() {
     let dir = tempfile::tempdir().unwrap();
     let rle = Rle::encode(&block_mask());
     let s = rle.to_coco_string();
@@ -201,51 +204,51 @@ fn area_and_bbox_are_recomputed_with_one_warning_per_file() {
         entry("6.5", "[0, 0, 6000, 4000]"),
     );
     let path = write(dir.path(), "lying.json", &json);
-    let (masks, logs) = capture_logs(|| read_sam_json(&path).unwrap());
-    for (i, m) in masks.iter().enumerate() {
+    // The count is the reader's answer; the library logs nothing (a caller reading many views
+    // says it once: tests/bad_inputs.rs).
+    let (file, logs) = capture_logs(|| read_sam_json(&path).unwrap());
+    for (i, m) in file.masks.iter().enumerate() {
         assert_eq!((m.area, m.bbox_xywh), (6, [1.0, 1.0, 1.0, 2.0]), "mask {i}");
     }
-    let warnings: Vec<&str> = logs.lines().filter(|l| l.contains("WARN")).collect();
-    assert_eq!(warnings.len(), 1, "one warning for the file: {logs}");
-    assert_has(warnings[0], &["3 of 4 masks", "lying.json"]);
+    assert_eq!(file.recomputed, 3, "three of the four masks lie");
+    assert!(logs.is_empty(), "the reader logs nothing: {logs}");
 
-    // A truthful file (and one without the fields) logs nothing.
+    // A truthful file (and one without the fields) counts none.
     let path = write(dir.path(), "honest.json", &format!("[{}]", entry("6", "[1, 1, 1, 2]")));
-    let (_, logs) = capture_logs(|| read_sam_json(&path).unwrap());
-    assert!(!logs.contains("WARN"), "{logs}");
+    assert_eq!(read_sam_json(&path).unwrap().recomputed, 0);
     let path = write(
         dir.path(),
         "bare.json",
         &format!(r#"[{{"segmentation": {{"size": [4, 6], "counts": "{s}"}}}}]"#),
     );
-    let (masks, logs) = capture_logs(|| read_sam_json(&path).unwrap());
-    assert!(!logs.contains("WARN"), "{logs}");
-    assert_eq!((masks[0].area, masks[0].bbox_xywh), (6, [1.0, 1.0, 1.0, 2.0]));
+    let file = read_sam_json(&path).unwrap();
+    assert_eq!(file.recomputed, 0);
+    assert_eq!((file.masks[0].area, file.masks[0].bbox_xywh), (6, [1.0, 1.0, 1.0, 2.0]));
 
-    // The same for a PNG folder's metadata.csv.
+    // The same for a PNG folder's metadata.csv, and through the per-view reader.
     let folder = dir.path().join("png");
     write_png_folder(
         &folder,
         &[block_mask(), block_mask()],
         &["0,6,1,1,1,2,1.5,2.5,0.9,0.95,0,0,6,4", "1,7,0,0,5,3,1.5,2.5,0.9,0.95,0,0,6,4"],
     );
-    let (masks, logs) = capture_logs(|| read_sam_png_folder(&folder).unwrap());
-    assert_eq!((masks[1].area, masks[1].bbox_xywh), (6, [1.0, 1.0, 1.0, 2.0]));
-    let warnings: Vec<&str> = logs.lines().filter(|l| l.contains("WARN")).collect();
-    assert_eq!(warnings.len(), 1, "{logs}");
-    assert_has(warnings[0], &["1 of 2 masks", "metadata.csv"]);
+    let (file, logs) = capture_logs(|| read_sam_png_folder(&folder).unwrap());
+    assert_eq!((file.masks[1].area, file.masks[1].bbox_xywh), (6, [1.0, 1.0, 1.0, 2.0]));
+    assert_eq!(file.recomputed, 1);
+    assert!(logs.is_empty(), "{logs}");
+    assert_eq!(read_view_masks(dir.path(), "png").unwrap().map(|f| f.recomputed), Some(1));
+    assert_eq!(read_view_masks(dir.path(), "lying").unwrap().map(|f| f.recomputed), Some(3));
 }
 
 #[test]
 fn segment_anythings_own_output_agrees_with_the_recomputed_values() {
     // Made by tools/fixtures/make_rle_fixtures.py with segment-anything's generator: if our
-    // bbox convention differed from SAM's, every mask here would be flagged.
+    // bbox convention differed from SAM's, every mask here would be counted.
     let fixtures = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures"));
-    let (masks, logs) = capture_logs(|| read_sam_json(&fixtures.join("rle_sam_amg_coco_rle.json")).unwrap());
-    assert!(masks.len() >= 3);
-    assert!(!logs.contains("WARN"), "{logs}");
-    let (_, logs) = capture_logs(|| read_sam_png_folder(&fixtures.join("rle_sam_png")).unwrap());
-    assert!(!logs.contains("WARN"), "{logs}");
+    let file = read_sam_json(&fixtures.join("rle_sam_amg_coco_rle.json")).unwrap();
+    assert!(file.masks.len() >= 3);
+    assert_eq!(file.recomputed, 0);
+    assert_eq!(read_sam_png_folder(&fixtures.join("rle_sam_png")).unwrap().recomputed, 0);
 }
 
 /// Writes a SAM PNG folder with the given masks (8-bit, 255 inside) and metadata rows.

@@ -35,7 +35,7 @@ fn json_with_compressed_and_uncompressed_counts_reads_the_same_mask() {
     );
     let path = dir.path().join("view.json");
     std::fs::write(&path, json).unwrap();
-    let masks = read_sam_json(&path).unwrap();
+    let masks = read_sam_json(&path).unwrap().masks;
     assert_eq!(masks.len(), 2);
     assert_eq!(masks[0].segmentation, rle);
     assert_eq!(masks[1].segmentation, rle);
@@ -67,7 +67,7 @@ fn binary_mask_segmentations_are_read() {
         .collect();
     let path = dir.path().join("b.json");
     std::fs::write(&path, format!(r#"[{{"segmentation": [{}]}}]"#, rows.join(","))).unwrap();
-    let masks = read_sam_json(&path).unwrap();
+    let masks = read_sam_json(&path).unwrap().masks;
     assert_eq!(masks[0].segmentation.decode().unwrap(), block_mask());
 }
 
@@ -87,7 +87,7 @@ fn written_json_reads_back_identically_and_uses_string_counts() {
     assert!(value[0]["segmentation"]["counts"].is_string());
     assert_eq!(value[0]["segmentation"]["size"], serde_json::json!([4, 6]));
     assert_eq!(value[1]["area"], serde_json::json!(24));
-    assert_eq!(read_sam_json(&path).unwrap(), vec![a, b]);
+    assert_eq!(read_sam_json(&path).unwrap().masks, vec![a, b]);
 }
 
 /// Writes a SAM PNG folder with the given masks (8-bit, 255 inside) and metadata rows.
@@ -114,7 +114,7 @@ fn png_folder_is_read_with_its_metadata() {
         &[block_mask(), full.clone()],
         &["0,6,1,1,1,2,1.5,2.5,0.9,0.95,0,0,6,4", "1,24,0,0,5,3,3.0,2.0,0.8,0.85,0,0,6,4"],
     );
-    let masks = read_sam_png_folder(dir.path()).unwrap();
+    let masks = read_sam_png_folder(dir.path()).unwrap().masks;
     assert_eq!(masks.len(), 2);
     assert_eq!(masks[0].segmentation.decode().unwrap(), block_mask());
     assert_eq!(masks[1].segmentation.decode().unwrap(), full);
@@ -134,9 +134,9 @@ fn per_view_loader_finds_json_or_png_folder() {
         &[block_mask()],
         &["0,6,1,1,1,2,1.5,2.5,0.9,0.95,0,0,6,4"],
     );
-    let json = read_view_masks(dir.path(), "frame_001").unwrap().unwrap();
+    let json = read_view_masks(dir.path(), "frame_001").unwrap().unwrap().masks;
     assert_eq!(json, vec![a]);
-    let folder = read_view_masks(dir.path(), "frame_002").unwrap().unwrap();
+    let folder = read_view_masks(dir.path(), "frame_002").unwrap().unwrap().masks;
     assert_eq!(folder[0].segmentation.decode().unwrap(), block_mask());
     assert!(read_view_masks(dir.path(), "frame_003").unwrap().is_none());
 }
@@ -170,9 +170,9 @@ fn segment_anything_generator_output_is_read_in_every_form() {
     // Made by tools/fixtures/make_rle_fixtures.py with segment-anything's own generator.
     let expected = sam_fixture_masks();
     assert!(expected.len() >= 3);
-    let coco = read_sam_json(&fixture("rle_sam_amg_coco_rle.json")).unwrap();
-    let uncompressed = read_sam_json(&fixture("rle_sam_amg_uncompressed_rle.json")).unwrap();
-    let folder = read_sam_png_folder(&fixture("rle_sam_png")).unwrap();
+    let coco = read_sam_json(&fixture("rle_sam_amg_coco_rle.json")).unwrap().masks;
+    let uncompressed = read_sam_json(&fixture("rle_sam_amg_uncompressed_rle.json")).unwrap().masks;
+    let folder = read_sam_png_folder(&fixture("rle_sam_png")).unwrap().masks;
     assert_eq!(coco, uncompressed);
     assert_eq!(folder.len(), coco.len());
     for (i, ((m, f), mask)) in coco.iter().zip(&folder).zip(&expected).enumerate() {
@@ -192,7 +192,7 @@ fn segment_anything_generator_output_is_read_in_every_form() {
 #[test]
 fn our_json_strings_equal_segment_anythings() {
     let path = fixture("rle_sam_amg_coco_rle.json");
-    let masks = read_sam_json(&path).unwrap();
+    let masks = read_sam_json(&path).unwrap().masks;
     let dir = tempfile::tempdir().unwrap();
     let ours = dir.path().join("ours.json");
     write_sam_json(&ours, &masks).unwrap();
@@ -208,14 +208,14 @@ fn our_json_strings_equal_segment_anythings() {
 
 #[test]
 fn png_folder_write_read_round_trip() {
-    let masks = read_sam_json(&fixture("rle_sam_amg_coco_rle.json")).unwrap();
+    let masks = read_sam_json(&fixture("rle_sam_amg_coco_rle.json")).unwrap().masks;
     let mut no_point = SamMask::from_rle(Rle::encode(&Plane::filled(64, 48, true)));
     no_point.predicted_iou = 0.1 + 0.2; // not exactly representable in decimal
     let mut all = masks.clone();
     all.push(no_point);
     let dir = tempfile::tempdir().unwrap();
     write_sam_png_folder(dir.path(), &all).unwrap();
-    assert_eq!(read_sam_png_folder(dir.path()).unwrap(), all);
+    assert_eq!(read_sam_png_folder(dir.path()).unwrap().masks, all);
     let csv = std::fs::read_to_string(dir.path().join("metadata.csv")).unwrap();
     assert!(csv.starts_with("id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,"));
     assert_eq!(csv.lines().count(), all.len() + 1);

@@ -91,7 +91,7 @@ fn written_folder_loads_back_with_the_scene_readers() {
         let stem = &sv.stem;
         let labels = read_label_png(&dir.path().join(format!("gt/instance/{stem}.png"))).expect("labels");
         assert_eq!(labels, sv.gt_instance, "view {v}");
-        let masks = read_sam_json(&dir.path().join(format!("sam/{stem}.json"))).expect("SAM JSON");
+        let masks = read_sam_json(&dir.path().join(format!("sam/{stem}.json"))).expect("SAM JSON").masks;
         assert_eq!(masks.len(), sv.sam_masks.len());
         for (m, o) in masks.iter().zip(&sv.sam_masks) {
             assert_eq!(m.segmentation, o.segmentation);

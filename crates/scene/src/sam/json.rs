@@ -1,7 +1,7 @@
 //! SAM's JSON mask list (`amg.py --output-mode coco_rle`, also `uncompressed_rle` and
 //! `binary_mask`).
 
-use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, warn_recomputed, SamMask};
+use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, SamFile, SamMask};
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
 use crate::plane::Plane;
@@ -27,34 +27,33 @@ struct RawMask {
 /// Reads SAM's JSON list of masks. `segmentation` may be a COCO RLE with compressed string
 /// counts or uncompressed integer counts (`{"size": [h, w], "counts": ...}`), or a binary mask
 /// (list of rows of booleans). `area` and `bbox` are recomputed from each mask (SAM's
-/// conventions: pixel count, [`Rle::bbox_xywh_sam`]); when the file's values disagree, one
-/// warning for the file says how many masks did. Other missing optional fields get the
+/// conventions: pixel count, [`Rle::bbox_xywh_sam`]); [`SamFile::recomputed`] counts the masks
+/// whose file values disagreed. Other missing optional fields get the
 /// defaults of [`SamMask::from_rle`]. Malformed masks (declared size above
 /// [`crate::rle::MAX_MASK_PIXELS`], counts not summing to `h · w`, masks of different sizes)
 /// are errors naming the file and the mask index. Use [`read_sam_json_for_image`] when the
 /// image size is known.
-pub fn read_sam_json(path: &Path) -> SceneResult<Vec<SamMask>> {
+pub fn read_sam_json(path: &Path) -> SceneResult<SamFile> {
     read_json_sized(path, None)
 }
 
 /// [`read_sam_json`] for masks of a `width × height` image: a mask declaring another size is
 /// an error naming the file, the mask and both sizes, raised before the mask is decoded.
-pub fn read_sam_json_for_image(path: &Path, width: u32, height: u32) -> SceneResult<Vec<SamMask>> {
+pub fn read_sam_json_for_image(path: &Path, width: u32, height: u32) -> SceneResult<SamFile> {
     read_json_sized(path, Some((width, height)))
 }
 
 /// [`read_sam_json`] with an optional expected `(width, height)`.
-pub(super) fn read_json_sized(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
+pub(super) fn read_json_sized(path: &Path, expected: Option<(u32, u32)>) -> SceneResult<SamFile> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io("cannot read", path, e))?;
     parse_sam_json(&text, path, expected)
 }
 
 /// Parses the text of a SAM mask JSON file (see [`read_sam_json`]), with an optional expected
-/// `(width, height)`; `path` is only named in errors and warnings. The fuzz targets' entry point.
-pub fn parse_sam_json(text: &str, path: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
+/// `(width, height)`; `path` is only named in errors. The fuzz targets' entry point.
+pub fn parse_sam_json(text: &str, path: &Path, expected: Option<(u32, u32)>) -> SceneResult<SamFile> {
     let raw: Vec<RawMask> = serde_json::from_str(text)
         .map_err(|e| SceneError::invalid(FORMAT, path, format!("expected a JSON list of masks: {e}")))?;
-    let total = raw.len();
     let mut disagreeing = 0;
     let masks = raw
         .into_iter()
@@ -67,8 +66,7 @@ pub fn parse_sam_json(text: &str, path: &Path, expected: Option<(u32, u32)>) -> 
         })
         .collect::<SceneResult<Vec<_>>>()?;
     check_same_size(&masks).map_err(|e| SceneError::invalid(FORMAT, path, e))?;
-    warn_recomputed(disagreeing, total, path);
-    Ok(masks)
+    Ok(SamFile { masks, recomputed: disagreeing })
 }
 
 /// One mask, and whether the file's `area` / `bbox` disagreed with it.

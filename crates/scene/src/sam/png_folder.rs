@@ -1,6 +1,6 @@
 //! SAM's PNG-folder output: `metadata.csv` (one row per mask) and `<id>.png` masks.
 
-use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, warn_recomputed, SamMask};
+use super::{check_declared_mask_size, check_same_size, recompute_area_bbox, SamFile, SamMask};
 use crate::atomic::write_bytes_atomic;
 use crate::error::{SceneError, SceneResult};
 use crate::image_io::{image_size, read_grey8, write_png_luma8};
@@ -32,21 +32,21 @@ const COLUMNS: [&str; 14] = [
 /// `id,area,bbox_x0,bbox_y0,bbox_w,bbox_h,point_input_x,point_input_y,predicted_iou,
 /// stability_score,crop_box_x0,crop_box_y0,crop_box_w,crop_box_h` and, for each row, the mask
 /// `dir/<id>.png` (grey, non-zero = inside). Masks come in the order of the rows. `area` and
-/// the bbox columns are recomputed from the PNGs, as [`super::read_sam_json`] does (one
-/// warning per folder when they disagree). A PNG whose header declares more than
+/// the bbox columns are recomputed from the PNGs, as [`super::read_sam_json`] does
+/// ([`SamFile::recomputed`] counts the rows whose values disagreed). A PNG whose header declares more than
 /// [`crate::rle::MAX_MASK_PIXELS`] pixels is refused before it is decoded.
-pub fn read_sam_png_folder(dir: &Path) -> SceneResult<Vec<SamMask>> {
+pub fn read_sam_png_folder(dir: &Path) -> SceneResult<SamFile> {
     read_folder_sized(dir, None)
 }
 
 /// [`read_sam_png_folder`] for masks of a `width × height` image: a PNG of another size is an
 /// error naming it and both sizes, raised from its header before it is decoded.
-pub fn read_sam_png_folder_for_image(dir: &Path, width: u32, height: u32) -> SceneResult<Vec<SamMask>> {
+pub fn read_sam_png_folder_for_image(dir: &Path, width: u32, height: u32) -> SceneResult<SamFile> {
     read_folder_sized(dir, Some((width, height)))
 }
 
 /// [`read_sam_png_folder`] with an optional expected `(width, height)`.
-pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> SceneResult<Vec<SamMask>> {
+pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> SceneResult<SamFile> {
     let csv_path = dir.join("metadata.csv");
     if !csv_path.is_file() {
         return Err(SceneError::missing("SAM metadata.csv", csv_path));
@@ -57,12 +57,12 @@ pub(super) fn read_folder_sized(dir: &Path, expected: Option<(u32, u32)>) -> Sce
 
 /// Parses the text of a SAM `metadata.csv` (see [`read_sam_png_folder`]); `mask_of(id)` gives
 /// the mask of the row with that `id` (the folder reader decodes `<id>.png`). `csv_path` is only
-/// named in errors and warnings. The fuzz targets' entry point.
+/// named in errors. The fuzz targets' entry point.
 pub fn parse_metadata_csv(
     text: &str,
     csv_path: &Path,
     mut mask_of: impl FnMut(&str) -> SceneResult<Plane<bool>>,
-) -> SceneResult<Vec<SamMask>> {
+) -> SceneResult<SamFile> {
     let invalid = |reason: String| SceneError::invalid(FORMAT, csv_path, reason);
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or_else(|| invalid("the file is empty".to_string()))?;
@@ -117,8 +117,7 @@ pub fn parse_metadata_csv(
         masks.push(mask);
     }
     check_same_size(&masks).map_err(invalid)?;
-    warn_recomputed(disagreeing, masks.len(), csv_path);
-    Ok(masks)
+    Ok(SamFile { masks, recomputed: disagreeing })
 }
 
 /// Reads a mask PNG as booleans (non-zero grey = inside). Its header's size is checked first
