@@ -47,7 +47,9 @@
 //!   cos 0.83–0.84 on blind scenes: `docs/benchmarks/22-one-feature-floor.md`; the convex edge
 //!   alone: `docs/benchmarks/23-edges-of-one-body.md`); or
 //! - **they are pieces of one thin structure:** both thin (their Gaussians spread along a line
-//!   at least `THIN_MIN_ELONGATION` times more than across it), parallel and on one line, at
+//!   at least `THIN_MIN_ELONGATION` times more than across it, the line fitted to the Gaussians
+//!   that lie on it, so that a few strays of the id, a label spilled onto the floor at the post's
+//!   foot, do not widen it), parallel and on one line, at
 //!   least one contact voxel pair: a post that SAM cut where the background behind it changes
 //!   (wall above, floor below).
 //!
