@@ -111,7 +111,9 @@ cameras seen through a trained 3DGS's Gaussians, few whole-object masks; 384×28
 blind_alike (objects closer in feature space than anywhere else, 2–3 touching pairs, few \
 whole-object masks, often one mask over two touching objects; 576×432, 26 views), blind_contact \
 (objects in contact everywhere, mostly multi-coloured with finer patterns, through a trained 3DGS's \
-Gaussians, one mask often over two touching objects; 416×312, 28 views).
+Gaussians, one mask often over two touching objects; 416×312, 28 views), blind_fine (multi-coloured \
+objects nearly everywhere with fine stripes, one large object near the cameras, mildly tilted \
+Gaussians, few whole-object masks; 544×408, 32 views).
 
 Examples:
   splatseg bench quality --seeds 0..4 --family rooms

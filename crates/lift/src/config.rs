@@ -62,8 +62,9 @@ pub struct LiftConfig {
     /// share of the oriented contact voxel pairs concave.
     #[serde(skip)]
     pub part_max_concave_share: f32,
-    /// Not a file key (tests vary it): a part join needs at least this share of the oriented
-    /// contact voxel pairs convex (two boxes side by side meet flush, not at a convex edge).
+    /// Not a file key (tests vary it): a part join with fewer than this share of the oriented
+    /// contact voxel pairs convex (no edge: two boxes side by side meet flush, the bands of a
+    /// striped cylinder too) is asked against the two sets' edge as it stands.
     #[serde(skip)]
     pub part_min_convex_share: f32,
     /// Not a file key (tests vary it): a cluster split off an object must hold at least this

@@ -447,3 +447,128 @@ fn parts_meeting_at_a_mostly_convex_edge_join_though_no_view_holds_them_together
     assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [0, 4]), 0);
     assert_eq!(join_parts_seen(&prepared, 400, eye, true, &config, &PART_FEATURES, [2, 2]), 1);
 }
+
+/// A cylinder's side (radius 0.2, axis along y through (0, 0, 0.5)), the half facing −z, from
+/// angle −1.2 to 1.2 rad in steps of `STEP` along the arc, 20 rows along y: points and their
+/// outward normals, ordered by angle (the first half at negative angles).
+fn cylinder_side() -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let (mut means, mut normals) = (Vec::new(), Vec::new());
+    for i in 0..24 {
+        let t = -1.2 + (i as f32 + 0.5) * STEP / 0.2;
+        for j in 0..20 {
+            means.push([0.2 * t.sin(), j as f32 * STEP, 0.5 - 0.2 * t.cos()]);
+            normals.push([t.sin(), 0.0, -t.cos()]);
+        }
+    }
+    (means, normals)
+}
+
+#[test]
+fn two_pieces_of_a_curved_side_with_no_edge_between_them_join_where_the_views_say_so() {
+    // A cylinder's side cut in two along its axis (SAM cut a checker cylinder at a colour edge):
+    // no edge between the pieces, neither concave nor convex, and no plane either, so neither the
+    // seam nor the convex-edge rule says one body. The views do: one merged mask over both.
+    let (means, normals) = cylinder_side();
+    let prepared = flat(&means, &normals);
+    let (config, eye) = (LiftConfig::default(), [0.0, 0.3, -1.5]);
+    assert_eq!(join_parts_seen(&prepared, 240, eye, true, &config, &PART_FEATURES, [1, 1]), 1);
+    // With no outward normals there is no part join, and where every view keeps them apart the
+    // surface alone does not say it.
+    assert_eq!(join_parts_seen(&prepared, 240, eye, false, &config, &PART_FEATURES, [1, 1]), 0);
+    assert_eq!(join_parts_seen(&prepared, 240, eye, true, &config, &PART_FEATURES, [0, 2]), 0);
+}
+
+#[test]
+fn a_piece_with_no_edge_to_a_part_stays_apart_where_it_meets_the_parts_object_at_a_concave_edge() {
+    // A box: its top (object 1, normal y, y = 0.4) and its side (object 2, normal x, x = 0.4),
+    // joined by their convex edge. Object 3 continues the side's plane beyond it (z from 0.4)
+    // with no edge, and holds a wall standing on the top at its back (z = 0.4, facing −z): a
+    // piece bridging two objects (as a floor piece holding Gaussians of both boxes of a touching
+    // pair, tuning multi_tone seed 105). Its pair with the side alone says nothing against it;
+    // the two sets as they stand (side and top against it) meet at a concave edge.
+    let top = grid([0.0, 0.4, 0.0], X, Z, 20, 20);
+    let side = grid([0.4, 0.0, 0.0], Y, Z, 20, 20);
+    let beyond = grid([0.4, 0.0, 0.4], Y, Z, 20, 20);
+    let wall = grid([0.0, 0.42, 0.4], X, Y, 20, 20);
+    let features = [1.0, 0.0, 0.0, 0.9, 0.435_89, 0.0, 0.3, 0.298_2, 0.906_0];
+    let run = |with_wall: bool| -> Lifted {
+        let mut means = [top.clone(), side.clone(), beyond.clone()].concat();
+        let mut normals: Vec<[f32; 3]> = (0..1200).map(|i| if i < 400 { Y } else { X }).collect();
+        let mut ids: Vec<i32> = (0..1200).map(|i| 1 + i / 400).collect();
+        if with_wall {
+            means.extend(wall.iter().copied());
+            normals.extend(std::iter::repeat_n([0.0, 0.0, -1.0], 400));
+            ids.extend(std::iter::repeat_n(3, 400));
+        }
+        let prepared = flat(&means, &normals);
+        let all: Vec<u32> = (0..prepared.len() as u32).collect();
+        let counts = [ViewCounts::new(&all, &vec![1; all.len()], &ids)];
+        let mut facing = Facing::new(prepared.len());
+        facing.add_view(&prepared, &all, glam::Vec3::new(1.5, 1.5, -1.5));
+        let mut l = lifted(ids);
+        let objects = ObjectFeatures { dim: 3, values: &features };
+        join_touching_objects(
+            &prepared,
+            &mut l,
+            objects,
+            &counts,
+            Some(&facing),
+            None,
+            &LiftConfig::default(),
+        );
+        l
+    };
+    let without = run(false);
+    assert!(without.object_ids.iter().all(|&i| i == 1), "without the wall all three are one body");
+    let with = run(true);
+    assert!(with.object_ids[..800].iter().all(|&i| i == 1));
+    assert!(with.object_ids[800..].iter().all(|&i| i == 3), "the bridging piece keeps its id");
+}
+
+#[test]
+fn a_join_with_no_edge_waits_for_the_other_joins_and_then_sees_the_concave_edge() {
+    // The floor (object 1, y = 0, x < 0.4), a piece of it beyond a wall's foot (object 2,
+    // x ≥ 0.4, coplanar: one surface with the floor) and the wall standing there (object 3, the
+    // plane x = 0.4 facing −x): the wall meets the floor at a concave edge and the piece with no
+    // edge at all. The piece is more like the wall than like the floor (an impure piece: cos 0.9
+    // against 0.6), and one view holds all three in one mask. Joined best cosine first, the piece
+    // would join the wall with no edge to refuse it, and the floor's seam would then take both
+    // (blind_trained seed 107: a box lost to the floor so, 0.985 → 0.827). Asked after the seam,
+    // against the floor and the piece together, it meets the concave edge and is refused.
+    let mut means = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    means.extend(grid([0.4, 0.0, 0.0], X, Z, 10, 20));
+    means.extend(grid([0.4, STEP, 0.0], Y, Z, 20, 20));
+    let normals: Vec<[f32; 3]> =
+        (0..means.len()).map(|i| if i < 600 { Y } else { [-1.0, 0.0, 0.0] }).collect();
+    let prepared = flat(&means, &normals);
+    let ids: Vec<i32> = (0..means.len())
+        .map(|i| {
+            if i < 400 {
+                1
+            } else if i < 600 {
+                2
+            } else {
+                3
+            }
+        })
+        .collect();
+    let features = [1.0, 0.0, 0.0, 0.6, 0.8, 0.0, 0.5, 0.75, 0.433_0];
+    let all: Vec<u32> = (0..prepared.len() as u32).collect();
+    let counts = [ViewCounts::new(&all, &vec![1; all.len()], &ids)];
+    let mut facing = Facing::new(prepared.len());
+    facing.add_view(&prepared, &all, glam::Vec3::new(-1.0, 1.5, 0.2));
+    let mut l = lifted(ids);
+    let objects = ObjectFeatures { dim: 3, values: &features };
+    let joins = join_touching_objects(
+        &prepared,
+        &mut l,
+        objects,
+        &counts,
+        Some(&facing),
+        None,
+        &LiftConfig::default(),
+    );
+    assert_eq!(joins, 1);
+    assert!(l.object_ids[..600].iter().all(|&i| i == 1), "the piece joins the floor");
+    assert!(l.object_ids[600..].iter().all(|&i| i == 3), "the wall stays apart");
+}

@@ -25,6 +25,7 @@
 //! | `blind_closeup` | **blind**: 2–3 large multi-coloured objects near the cameras, parts far apart in feature space, seen through Gaussians as a trained 3DGS leaves them (tilted 8°–20°), SAM seldom nesting wholes; 384×288, 30 views, lenses of 55°–75°, harsher cues |
 //! | `blind_alike` | **blind**: rooms whose objects are closer in feature space than any other family's (two objects ≈ 0.6–0.85 alike), 2–3 touching pairs, stacks, multi-coloured objects SAM seldom covers whole, often one mask over two touching objects; 576×432, 26 views, lenses of 45°–65°, harsher cues |
 //! | `blind_contact` | **blind**: rooms full of objects in contact — 2–3 touching pairs, 2 stacks, one post, 12–16 objects — most of them multi-coloured with finer patterns, seen through a trained 3DGS's Gaussians (tilted 5°–15°, 0.5–1.5 % floaters), SAM seldom covering an object whole and often one mask over two touching objects; 416×312, 28 views, lenses of 50°–72°, harsher cues |
+//! | `blind_fine` | **blind**: rooms of multi-coloured objects (85 %) with the finest stripes of any family but `blind_hires` (periods × 0.3–0.5), one large object near the cameras, touching and stacked objects, Gaussians mildly tilted (3°–12°), SAM seldom covering an object whole; 544×408, 32 views, lenses of 42°–62°, harsher cues |
 //! | `blind_capture` | **blind**: a capture as a person takes it — 100 views of 1280×960 through lenses of 50°–70°, 10–14 objects with touching and stacked ones, harsher cues, SAM nesting wholes half the time |
 //!
 //! Every random family places the white-on-white pair and the same-depth pair.
@@ -117,11 +118,17 @@ pub enum Family {
     /// lift's crease split, cutting an object where two colours meet at a concave edge, whose
     /// diagnosis read blind scenes).
     BlindContact,
+    /// Blind: multi-coloured objects nearly everywhere with fine stripes (each band its own SAM
+    /// part; on a cylinder or sphere the bands meet with no edge), one large object near the
+    /// cameras, touching and stacked objects, mildly tilted Gaussians, SAM seldom covering an
+    /// object whole (added after the part join took pieces meeting with no edge, asked against
+    /// the two sets' edge, whose diagnosis read blind scenes).
+    BlindFine,
 }
 
 impl Family {
     /// Every family, in documentation order.
-    pub const ALL: [Family; 24] = [
+    pub const ALL: [Family; 25] = [
         Family::Default,
         Family::Rooms,
         Family::MultiTone,
@@ -146,6 +153,7 @@ impl Family {
         Family::BlindCloseup,
         Family::BlindAlike,
         Family::BlindContact,
+        Family::BlindFine,
     ];
 
     /// The blind families: scored and reported apart, never used to choose a setting.
@@ -186,6 +194,7 @@ impl Family {
             Family::BlindCloseup => "blind_closeup",
             Family::BlindAlike => "blind_alike",
             Family::BlindContact => "blind_contact",
+            Family::BlindFine => "blind_fine",
         }
     }
 
@@ -440,6 +449,28 @@ impl Family {
                 c.sam.whole_object_probability = 0.35;
                 c.sam.adjacent_merge_probability = 0.3;
             }
+            Family::BlindFine => {
+                let r = &mut c.room;
+                r.objects = [9, 13];
+                r.foreground_objects = 1;
+                r.stacked = 1;
+                r.touching = rng.gen_range(1..=2);
+                r.multi_tone_share = 0.85;
+                r.pattern_scale = rng.gen_range(0.3..0.5);
+                c.fov_x_deg = rng.gen_range(42.0..62.0);
+                c.views = 32;
+                resize(&mut c, 544, 408);
+                harsher_cues(&mut c, &mut rng);
+                // Parts a little further apart than harsher_cues' (0.37–0.45), Gaussians tilted
+                // less than any other blind family's but thinner and nearer their surfaces, and few
+                // whole-object masks: the bands of a striped object must be joined in 3D.
+                c.cues.part_perturbation = rng.gen_range(0.42..0.55);
+                c.cues.gaussian_tilt_deg = rng.gen_range(3.0..12.0);
+                c.cues.gaussian_thickness = rng.gen_range(0.05..0.2);
+                c.cues.gaussian_offset = rng.gen_range(0.03..0.12);
+                c.sam.whole_object_probability = 0.3;
+                c.sam.adjacent_merge_probability = 0.25;
+            }
         }
         c
     }
@@ -649,6 +680,14 @@ mod tests {
                 (5.0..15.0).contains(&contact.cues.gaussian_tilt_deg)
                     && contact.cues.gaussian_floaters >= 0.005
                     && contact.family.is_blind()
+            );
+            let fine = Family::BlindFine.config(seed);
+            assert_eq!((fine.width, fine.height, fine.views), (544, 408, 32));
+            assert!(fine.room.multi_tone_share >= 0.85 && fine.room.pattern_scale < 0.5);
+            assert!(
+                (3.0..12.0).contains(&fine.cues.gaussian_tilt_deg)
+                    && (42.0..62.0).contains(&fine.fov_x_deg)
+                    && fine.sam.whole_object_probability <= 0.3
             );
         }
     }
