@@ -194,11 +194,11 @@ impl Site {
             Err(e) => return Reply::error(400, &format!("bad export request: {e}")),
         };
         let source = &self.source;
+        // one export at a time: each picks a free name and empties the staging folder
+        let mut exports = self.exports.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         match export(&source.gaussians, &source.ply_path, &source.export_dir, &request) {
             Ok(done) => {
-                if let Ok(mut exports) = self.exports.lock() {
-                    exports.insert(done.name.clone(), done.path.clone());
-                }
+                exports.insert(done.name.clone(), done.path.clone());
                 Reply::json(
                     200,
                     &serde_json::json!({
