@@ -5,7 +5,8 @@
 //! connection answering (computing or sending its reply) is never closed for room. So a client
 //! holding dozens of half-sent requests loses its oldest ones, one per new connection, and a real
 //! request is answered at once; on loopback every local process is 127.0.0.1, one peer, and the
-//! rule is "oldest waiting first", which a request that sends its head at once always survives.
+//! rule is "oldest waiting first", which a request that sends its head at once survives unless
+//! some [`MAX_CONNECTIONS`] others arrive in the moment before its head does.
 
 use std::collections::BTreeMap;
 use std::net::{IpAddr, Shutdown, TcpStream};
@@ -13,7 +14,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Connections open at once (each on its own thread) before waiting ones are closed for room;
-/// when every open connection is answering, the next is accepted when one ends.
+/// when every open connection is answering, the next one waits, unread, until one ends.
 pub const MAX_CONNECTIONS: usize = 64;
 
 /// What a connection's thread is doing, as the accepting thread sees it.

@@ -152,21 +152,20 @@ fn accept_loop(listener: &TcpListener, site: &Arc<Site>, access: &Arc<Access>, s
         };
         // A socket that cannot be shared is dropped (closed) here.
         let Ok(ticket) = table.admit(&stream, peer.ip()) else { continue };
-        let newest = ticket.id();
+        // Room for it: over the limit, a connection waiting for its client is closed; when every
+        // one is answering, this one waits (unread, in the table) until one ends.
+        while table.len() > MAX_CONNECTIONS
+            && !table.close_one_waiting(ticket.id())
+            && !stopping.load(Ordering::SeqCst)
+        {
+            std::thread::sleep(Duration::from_millis(10));
+        }
         let (site, access) = (Arc::clone(site), Arc::clone(access));
         let spawned =
             std::thread::Builder::new().spawn(move || serve_connection(stream, &site, &access, &ticket));
         // Out of threads: the connection is closed (its ticket given back with the closure).
         if spawned.is_err() {
             std::thread::sleep(Duration::from_millis(50));
-        }
-        // Room for the next one: over the limit, a connection waiting for its client is closed;
-        // when every one is answering, the next is accepted when one ends.
-        while table.len() > MAX_CONNECTIONS
-            && !table.close_one_waiting(newest)
-            && !stopping.load(Ordering::SeqCst)
-        {
-            std::thread::sleep(Duration::from_millis(10));
         }
     }
 }
