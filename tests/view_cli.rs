@@ -173,14 +173,46 @@ fn raw(addr: &str, bytes: &[u8]) -> String {
     String::from_utf8_lossy(&answer).into_owned()
 }
 
+/// `splatseg view PLY --listen LISTEN`, which must fail: its stderr, after checking that it
+/// says nothing of listening and that the PLY and the folder are as they were.
+fn view_refused(scene: &Path, listen: &str) -> String {
+    let ply = scene.join("gaussians.ply");
+    let before = std::fs::read(&ply).expect("the PLY");
+    let files = std::fs::read_dir(scene).expect("scene").count();
+    let out = splatseg(&["view", utf8(&ply), "--listen", listen]);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "--listen {listen}: {err}");
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("open http"), "--listen {listen}");
+    assert!(!err.contains("other machines") && !err.contains("panicked"), "--listen {listen}: {err}");
+    assert_eq!(std::fs::read(&ply).expect("the PLY"), before, "--listen {listen}: the PLY changed");
+    assert_eq!(std::fs::read_dir(scene).expect("scene").count(), files, "--listen {listen}: a file appeared");
+    err
+}
+
 #[test]
 fn an_unresolvable_listen_host_is_reported_as_such() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let scene = tmp.path().join("scene");
     tiny_scene(&scene);
-    let out = splatseg(&["view", utf8(&scene.join("gaussians.ply")), "--listen", "no-such-host.invalid:0"]);
-    assert!(!out.status.success());
-    let err = stderr(&out);
+    let err = view_refused(&scene, "no-such-host.invalid:0");
     assert!(err.contains("no-such-host.invalid") && err.contains("does not resolve"), "{err}");
     assert!(!err.contains("another program"), "{err}");
+}
+
+/// Issue 59: `127.0.0.1:80:80` was read as the IPv6 host `127.0.0.1:80`, warned that other
+/// machines could see the scene, then failed to resolve; an unresolvable or taken address on all
+/// interfaces warned before its error too.
+#[test]
+fn a_bad_listen_address_is_one_error_with_no_warning_before_it() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    tiny_scene(&scene);
+    let err = view_refused(&scene, "127.0.0.1:80:80");
+    assert!(err.contains("expected HOST:PORT") && err.contains("`127.0.0.1:80:80`"), "{err}");
+    let err = view_refused(&scene, "[::1:8080");
+    assert!(err.contains("expected HOST:PORT") && err.contains("[::1]:8080"), "{err}");
+    let taken = std::net::TcpListener::bind("0.0.0.0:0").expect("bind");
+    let port = taken.local_addr().expect("addr").port();
+    let err = view_refused(&scene, &format!("0.0.0.0:{port}"));
+    assert!(err.contains("cannot listen") && err.contains(&format!("0.0.0.0:{port}")), "{err}");
 }

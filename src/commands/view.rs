@@ -3,22 +3,27 @@
 use anyhow::Context;
 use splatseg_model_cues::clip_objects::ObjectSearch;
 use splatseg_view::search::{ObjectName, SearchHit};
-use splatseg_view::{Site, ViewArgs, ViewServer, ViewSource};
+use splatseg_view::{Listening, Site, ViewArgs, ViewServer, ViewSource};
 use std::io::Write;
 use std::path::Path;
 
 /// Runs the command (until interrupted).
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
+    // The paths checked, then bound: a bad argument is one error, with no warning or "listening"
+    // line before it.
+    ViewSource::check_paths(&args.path, &args.source_options())?;
+    let (host, port) = &args.listen;
+    let listening = Listening::bind(host, *port)?;
     let names = args.names.as_deref().map(splatseg_model_cues::object_names::read_names).transpose()?;
     let source = ViewSource::open(&args.path, &args.source_options())?;
     for warning in &source.warnings {
         tracing::warn!("{warning}");
     }
-    let (host, port) = &args.listen;
-    if !args.is_loopback() {
+    if !listening.is_loopback() {
         tracing::warn!(
-            "listening on {}: other machines on the network can see this scene and write exports into {}",
+            "listening on {} ({}): other machines on the network can see this scene and write exports into {}",
             host,
+            listening.address(),
             source.export_dir.display()
         );
     }
@@ -45,7 +50,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
             Ok(found.iter().map(|f| SearchHit { id: f.id, relevancy: f.relevancy }).collect())
         }));
     }
-    let server = ViewServer::start(site, host, *port)?;
+    let server = ViewServer::serve(listening, site)?;
     println!("splatseg view: {summary}");
     println!("open {}", server.url());
     std::io::stdout().flush().context("writing to stdout")?;

@@ -14,7 +14,8 @@ use std::path::PathBuf;
 ///
 /// The server listens on 127.0.0.1 only, answers only requests addressed to it (`Host`), serves
 /// nothing but this scene's files, and writes exports (the same bytes as `splatseg extract` /
-/// `remove`), asked for by its own page only, into --out, or PATH's folder.
+/// `remove`), asked for by its own page only, into --out, or PATH's folder; an export never
+/// replaces a file there (`extract_3.ply` taken: `extract_3-2.ply`).
 /// Stop it with Ctrl-C.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
@@ -24,8 +25,9 @@ pub struct ViewArgs {
     /// Scene folder with the cameras (COLMAP or transforms.json), if not found automatically.
     #[cfg_attr(feature = "cli", arg(long))]
     pub scene: Option<PathBuf>,
-    /// Address and port to listen on, `HOST:PORT` (port 0 = any free port). Any host but
-    /// 127.0.0.1 / localhost exposes the scene and its export endpoint to other machines.
+    /// Address and port to listen on, `HOST:PORT` (port 0 = any free port; an IPv6 address in
+    /// brackets, `[::1]:8080`). A host other than a loopback address exposes the scene and its
+    /// export endpoint to other machines.
     #[cfg_attr(feature = "cli", arg(long, default_value = "127.0.0.1:8080", value_parser = parse_listen, value_name = "HOST:PORT"))]
     pub listen: (String, u16),
     /// Folder for exported PLYs (default: PATH's folder).
@@ -46,20 +48,31 @@ impl ViewArgs {
     pub fn source_options(&self) -> SourceOptions {
         SourceOptions { scene: self.scene.clone(), out: self.out.clone() }
     }
-
-    /// Whether the address is this machine's loopback only.
-    pub fn is_loopback(&self) -> bool {
-        matches!(self.listen.0.as_str(), "127.0.0.1" | "localhost" | "::1")
-    }
 }
 
-/// Parses `HOST:PORT` (an IPv6 host in brackets: `[::1]:8080`).
+/// Parses `HOST:PORT`: a name or an IPv4 address, or an IPv6 address in brackets (`[::1]:8080`).
+/// Whether the host resolves is checked when the server binds, before it says anything.
 pub fn parse_listen(text: &str) -> Result<(String, u16), String> {
-    let (host, port) = text.rsplit_once(':').ok_or_else(|| format!("expected HOST:PORT, got `{text}`"))?;
-    let port = port.parse::<u16>().map_err(|_| format!("`{port}` is not a port number (0–65535)"))?;
-    let host = host.trim_start_matches('[').trim_end_matches(']');
+    let expected = || {
+        format!("expected HOST:PORT such as 127.0.0.1:8080 (an IPv6 address in brackets: [::1]:8080), got `{text}`")
+    };
+    let (host, port) = text.rsplit_once(':').ok_or_else(expected)?;
+    let port =
+        port.parse::<u16>().map_err(|_| format!("`{port}` is not a port number (0–65535) in `{text}`"))?;
+    let host = match host.strip_prefix('[') {
+        Some(bracketed) => {
+            let inner = bracketed.strip_suffix(']').ok_or_else(expected)?;
+            inner
+                .parse::<std::net::Ipv6Addr>()
+                .map_err(|_| format!("`[{inner}]` is not an IPv6 address in `{text}`"))?;
+            inner
+        }
+        // `127.0.0.1:80:80`, `::1:8080`: a second `:` outside brackets
+        None if host.contains([':', '[', ']']) => return Err(expected()),
+        None => host,
+    };
     if host.is_empty() {
-        return Err(format!("expected HOST:PORT, got `{text}`"));
+        return Err(expected());
     }
     Ok((host.to_string(), port))
 }
@@ -75,5 +88,18 @@ mod tests {
         assert!(parse_listen("8080").is_err());
         assert!(parse_listen(":8080").is_err());
         assert!(parse_listen("localhost:http").unwrap_err().contains("not a port number"));
+    }
+
+    #[test]
+    fn listen_refuses_a_second_colon_and_bad_brackets() {
+        for bad in
+            ["127.0.0.1:80:80", "::1:8080", "[::1:8080", "::1]:8080", "[]:80", "[nohost]:80", "a[b]:80"]
+        {
+            let err = parse_listen(bad).expect_err(bad);
+            assert!(err.contains(&format!("`{bad}`")) || err.contains("IPv6 address"), "{bad}: {err}");
+        }
+        assert!(parse_listen("127.0.0.1:80:80").unwrap_err().contains("expected HOST:PORT"));
+        assert_eq!(parse_listen("[fe80::1]:9"), Ok(("fe80::1".to_string(), 9)));
+        assert_eq!(parse_listen("viewer.local:0"), Ok(("viewer.local".to_string(), 0)));
     }
 }

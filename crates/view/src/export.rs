@@ -1,12 +1,16 @@
 //! Export of a selection: the PLY is written by `splatseg-edit`'s `extract` / `remove` and
 //! `write_edited_ply`, as `splatseg extract` / `remove` do, so the file is byte-identical to the
-//! command's. Files go into the export folder only, atomically (temp file then rename).
+//! command's. Files go into the export folder only, and never replace a file there: the export
+//! is written into the hidden folder [`STAGING_DIR`] of the export folder, then given the first
+//! free name of `extract_3.ply`, `extract_3-2.ply`, `extract_3-3.ply`, … (a hard link, which
+//! fails rather than replace; where the file system has none, a rename to a name found free).
+//! Every export starts by emptying [`STAGING_DIR`] and ends by removing it, so whatever a killed
+//! export left there (its temporary file) goes with the next export.
 
 use crate::error::{ViewError, ViewResult};
 use serde::Deserialize;
 use splatseg_edit::io::write_edited_ply;
 use splatseg_edit::{extract, remove, ExtraFields};
-use splatseg_scene::paths::Role;
 use splatseg_scene::Gaussians;
 use std::path::{Path, PathBuf};
 
@@ -62,25 +66,92 @@ pub fn export_name(request: &ExportRequest) -> String {
     format!("{mode}_{ids_part}.ply")
 }
 
-/// Writes the export of `request` from `g` (read from `ply`) into `dir`.
+/// The hidden folder of the export folder where an export is written before it takes its name.
+pub const STAGING_DIR: &str = ".splatseg-export-partial";
+
+/// Names tried for one export (`extract_3.ply`, then `extract_3-2.ply` … `extract_3-1000.ply`)
+/// before it is refused.
+pub const MAX_NAMES: usize = 1000;
+
+/// The `n`-th name tried for `name` (1: `name` itself, then `stem-n.ply`).
+pub fn numbered_name(name: &str, n: usize) -> String {
+    match (n, name.strip_suffix(".ply")) {
+        (1, _) => name.to_string(),
+        (_, Some(stem)) => format!("{stem}-{n}.ply"),
+        (_, None) => format!("{name}-{n}"),
+    }
+}
+
+/// Writes the export of `request` from `g` (read from `ply`) into `dir`, under a name no file has
+/// there yet ([`numbered_name`]); exports into one folder must not run at once (the server runs
+/// them one at a time).
 pub fn export(g: &Gaussians, ply: &Path, dir: &Path, request: &ExportRequest) -> ViewResult<Exported> {
     let picked = match request.mode {
         ExportMode::Extract => extract(g, &request.ids),
         ExportMode::Remove => remove(g, &request.ids),
     }
     .map_err(|e| ViewError::Export(e.with_path(ply).to_string()))?;
-    let name = export_name(request);
-    let path = dir.join(&name);
-    splatseg_scene::paths::refuse_overwrite(
-        &[Role::file("the served PLY", ply)],
-        &[Role::file("the export", &path)],
-    )
-    .map_err(|e| ViewError::Export(e.to_string()))?;
-    std::fs::create_dir_all(dir).map_err(|e| ViewError::Export(format!("{e}: {}", dir.display())))?;
     let count = picked.len();
+    let name = export_name(request);
+    let staging = dir.join(STAGING_DIR);
+    empty_staging(&staging)?;
+    let staged = staging.join(&name);
     let extras = if request.keep_extras { ExtraFields::Keep } else { ExtraFields::Strip };
-    write_edited_ply(&path, picked, extras).map_err(|e| ViewError::Export(e.to_string()))?;
+    let written = write_edited_ply(&staged, picked, extras)
+        .map_err(|e| ViewError::Export(e.to_string()))
+        .and_then(|()| take_free_name(&staged, dir, &name));
+    let _ = std::fs::remove_dir_all(&staging);
+    let (name, path) = written?;
     Ok(Exported { name, path, count })
+}
+
+/// Creates `staging` (and the export folder), empty: what a killed export left in it is removed.
+fn empty_staging(staging: &Path) -> ViewResult<()> {
+    let failed =
+        |what: &str, e: std::io::Error| ViewError::Export(format!("{what} ({e}): {}", staging.display()));
+    match std::fs::symlink_metadata(staging) {
+        Ok(meta) if meta.is_dir() => {
+            std::fs::remove_dir_all(staging).map_err(|e| failed("cannot empty the staging folder", e))?
+        }
+        Ok(_) => {
+            return Err(ViewError::Export(format!(
+            "the export folder holds a file named {STAGING_DIR}, where exports are staged; move it away: {}",
+            staging.display()
+        )))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(failed("cannot read", e)),
+    }
+    std::fs::create_dir_all(staging).map_err(|e| failed("cannot create the staging folder", e))
+}
+
+/// Gives `staged` the first free name of `name`'s numbered names in `dir`: never replaces a file.
+fn take_free_name(staged: &Path, dir: &Path, name: &str) -> ViewResult<(String, PathBuf)> {
+    for n in 1..=MAX_NAMES {
+        let candidate = numbered_name(name, n);
+        let path = dir.join(&candidate);
+        match std::fs::hard_link(staged, &path) {
+            Ok(()) => return Ok((candidate, path)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            // no hard links on this file system: a rename, to a name nothing holds
+            Err(_) if std::fs::symlink_metadata(&path).is_err() => {
+                return match std::fs::rename(staged, &path) {
+                    Ok(()) => Ok((candidate, path)),
+                    Err(e) => Err(ViewError::Export(format!(
+                        "cannot move the export into place ({e}): {}",
+                        path.display()
+                    ))),
+                };
+            }
+            Err(_) => continue,
+        }
+    }
+    Err(ViewError::Export(format!(
+        "{} and {} more numbered names are taken; exports never replace a file: move them away or give another --out: {}",
+        name,
+        MAX_NAMES - 1,
+        dir.join(name).display()
+    )))
 }
 
 #[cfg(test)]
@@ -117,25 +188,87 @@ mod tests {
         assert!(err.contains("no Gaussian has object id 5"), "{err}");
     }
 
+    fn three_gaussians() -> Gaussians {
+        Gaussians {
+            means: vec![[0.0; 3], [1.0; 3], [2.0; 3]],
+            sh_dc: vec![[0.0; 3]; 3],
+            raw_opacities: vec![0.0; 3],
+            log_scales: vec![[0.0; 3]; 3],
+            rotations: vec![[1.0, 0.0, 0.0, 0.0]; 3],
+            object_ids: Some(vec![1, 2, 1]),
+            ..Gaussians::default()
+        }
+    }
+
+    fn names_in(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
     #[test]
-    fn an_export_named_as_the_served_ply_is_refused() {
+    fn an_export_never_replaces_a_file_and_takes_the_next_free_name() {
         let dir = tempfile::tempdir().unwrap();
+        // the user's own file, and the served PLY, named as the exports would be
+        std::fs::write(dir.path().join("remove_1.ply"), b"the user's file").unwrap();
         let served = dir.path().join("extract_1.ply");
         std::fs::write(&served, b"the served PLY").unwrap();
-        let g = Gaussians {
-            means: vec![[0.0; 3]; 2],
-            sh_dc: vec![[0.0; 3]; 2],
-            raw_opacities: vec![0.0; 2],
-            log_scales: vec![[0.0; 3]; 2],
-            rotations: vec![[1.0, 0.0, 0.0, 0.0]; 2],
-            object_ids: Some(vec![1, 2]),
-            ..Gaussians::default()
-        };
-        let request = ExportRequest { ids: vec![1], mode: ExportMode::Extract, keep_extras: false };
-        let err = export(&g, &served, &dir.path().join("."), &request).unwrap_err().to_string();
-        assert!(err.contains("refusing to overwrite") && err.contains("extract_1.ply"), "{err}");
+        let g = three_gaussians();
+        let remove1 = ExportRequest { ids: vec![1], mode: ExportMode::Remove, keep_extras: false };
+        let first = export(&g, &served, dir.path(), &remove1).unwrap();
+        assert_eq!(first.name, "remove_1-2.ply");
+        assert_eq!(std::fs::read(dir.path().join("remove_1.ply")).unwrap(), b"the user's file");
+        // again: its own earlier export is not replaced either
+        let second = export(&g, &served, dir.path(), &remove1).unwrap();
+        assert_eq!(second.name, "remove_1-3.ply");
+        assert_eq!(std::fs::read(&first.path).unwrap(), std::fs::read(&second.path).unwrap());
+        let extract1 = ExportRequest { ids: vec![1], mode: ExportMode::Extract, keep_extras: false };
+        let third = export(&g, &served, &dir.path().join("."), &extract1).unwrap();
+        assert_eq!((third.name.as_str(), third.count), ("extract_1-2.ply", 2));
         assert_eq!(std::fs::read(&served).unwrap(), b"the served PLY");
-        let remove = ExportRequest { ids: vec![1], mode: ExportMode::Remove, keep_extras: false };
-        assert!(export(&g, &served, dir.path(), &remove).is_ok());
+        assert_eq!(
+            names_in(dir.path()),
+            ["extract_1-2.ply", "extract_1.ply", "remove_1-2.ply", "remove_1-3.ply", "remove_1.ply"],
+            "nothing else is left in the folder"
+        );
+    }
+
+    #[test]
+    fn what_a_killed_export_left_goes_with_the_next_export() {
+        let dir = tempfile::tempdir().unwrap();
+        let staging = dir.path().join(STAGING_DIR);
+        std::fs::create_dir_all(&staging).unwrap();
+        // as a kill in the middle of the write leaves it: write_atomic's temporary file
+        std::fs::write(staging.join(".tmpAbC123"), vec![0u8; 4096]).unwrap();
+        std::fs::write(staging.join("extract_2.ply"), b"half").unwrap();
+        let request = ExportRequest { ids: vec![2], mode: ExportMode::Extract, keep_extras: false };
+        let out = export(&three_gaussians(), Path::new("in.ply"), dir.path(), &request).unwrap();
+        assert_eq!((out.name.as_str(), out.count), ("extract_2.ply", 1));
+        assert_eq!(names_in(dir.path()), ["extract_2.ply"]);
+        // a refused export leaves nothing either
+        let bad = ExportRequest { ids: vec![9], mode: ExportMode::Extract, keep_extras: false };
+        assert!(export(&three_gaussians(), Path::new("in.ply"), dir.path(), &bad).is_err());
+        assert_eq!(names_in(dir.path()), ["extract_2.ply"]);
+    }
+
+    #[test]
+    fn a_file_where_the_staging_folder_goes_is_not_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join(STAGING_DIR), b"a user's file").unwrap();
+        let request = ExportRequest { ids: vec![2], mode: ExportMode::Extract, keep_extras: false };
+        let err =
+            export(&three_gaussians(), Path::new("in.ply"), dir.path(), &request).unwrap_err().to_string();
+        assert!(err.contains("move it away") && err.contains(STAGING_DIR), "{err}");
+        assert_eq!(std::fs::read(dir.path().join(STAGING_DIR)).unwrap(), b"a user's file");
+    }
+
+    #[test]
+    fn numbered_names_keep_the_extension() {
+        assert_eq!(numbered_name("extract_3.ply", 1), "extract_3.ply");
+        assert_eq!(numbered_name("extract_3.ply", 2), "extract_3-2.ply");
+        assert_eq!(numbered_name("remove_unlabelled.ply", 17), "remove_unlabelled-17.ply");
     }
 }

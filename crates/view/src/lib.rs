@@ -11,6 +11,7 @@
 //! - [`pack`]: the 48-byte-per-Gaussian binary layout sent to the page.
 //! - [`manifest`]: the scene description (objects by slot, cameras, views).
 //! - [`routes`]: every URL of the scene (the page itself is [`request`]'s); anything else is 404.
+//! - [`connections`]: the open connections and which is closed when they are too many.
 //! - [`access`], [`request`], [`wire`]: who may drive the server (`Host`, the page's token and
 //!   `Origin`), one request → one reply as a pure function, and HTTP/1.1 within fixed limits
 //!   ([`fuzzing`] runs the whole exchange on bytes).
@@ -22,6 +23,7 @@ pub mod access;
 pub mod args;
 pub mod assets;
 pub mod browser;
+pub mod connections;
 pub mod error;
 pub mod export;
 pub mod fuzzing;
@@ -39,5 +41,5 @@ pub mod wire;
 pub use args::ViewArgs;
 pub use error::{ViewError, ViewResult};
 pub use routes::Site;
-pub use server::{open_in_browser, ViewServer};
+pub use server::{open_in_browser, Listening, ViewServer};
 pub use source::{SourceOptions, ViewSource};

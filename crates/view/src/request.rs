@@ -12,7 +12,7 @@
 use crate::access::{Access, Refusal, TOKEN_HEADER};
 use crate::routes::{Reply, Site, MAX_BODY_BYTES};
 use crate::search::FIND_PATH;
-use crate::wire::Head;
+use crate::wire::{unreadable, Head};
 use std::borrow::Cow;
 use std::io::Read;
 
@@ -41,7 +41,8 @@ pub fn answer<'a>(site: &'a Site, access: &'a Access, head: &Head, body: &mut dy
     let mut bytes = Vec::with_capacity(length);
     match body.take(length as u64).read_to_end(&mut bytes) {
         Ok(n) if n == length => {}
-        _ => return Reply::error(400, "the body is shorter than its Content-Length"),
+        Err(e) => return unreadable(&e),
+        Ok(_) => return Reply::error(400, "the body is shorter than its Content-Length"),
     }
     if reading && (path == "/" || path == "/index.html") {
         return Reply::page(Cow::Borrowed(access.page()));

@@ -180,9 +180,11 @@ fn searches_need_the_token_and_a_bounded_query() {
     .contains("\"search\""));
 
     let (site, access) = site(tmp.path().to_path_buf());
-    // the "ranking": the query's length as the id, to see what arrived
-    let site = site.with_search(Box::new(|q: &str, top: usize| {
-        Ok(vec![SearchHit { id: q.chars().count() as u32, relevancy: 0.75 }; top.min(2)])
+    // the "ranking": the query's length as the id, to see what arrived; refused past 300
+    // characters, as CLIP's tokenizer refuses what does not fit its context
+    let site = site.with_search(Box::new(|q: &str, top: usize| match q.chars().count() {
+        n if n > 300 => Err(format!("the query is {n} tokens long, more than the 75 CLIP reads")),
+        n => Ok(vec![SearchHit { id: n as u32, relevancy: 0.75 }; top.min(2)]),
     }));
     let (code, text) = find(&site, &access, "a+red%20mug", Some(TOKEN));
     assert_eq!(code, 200, "{text}");
@@ -192,10 +194,20 @@ fn searches_need_the_token_and_a_bounded_query() {
     assert_eq!(value["matches"].as_array().map(Vec::len), Some(2));
     assert_eq!(find(&site, &access, "mug", None).0, 403, "without the token");
     assert_eq!(find(&site, &access, "mug", Some("0000")).0, 403, "with another token");
-    assert_eq!(find(&site, &access, "", Some(TOKEN)).0, 400, "empty");
+    for blank in ["", "+++", "%20%09"] {
+        let (code, text) = find(&site, &access, blank, Some(TOKEN));
+        assert!(code == 400 && text.contains("is empty or blank"), "{blank:?}: {code} {text}");
+    }
     assert_eq!(find(&site, &access, "%zz", Some(TOKEN)).0, 400, "bad encoding");
+    // what the search function cannot read whole is refused in its words, 400 (was: 500), and
+    // a query is not cut short of what CLIP reads by a lower bound here (was: 200 characters)
+    let (code, text) = find(&site, &access, &"a".repeat(301), Some(TOKEN));
+    assert!(code == 400 && text.contains("301 tokens long, more than the 75 CLIP reads"), "{code} {text}");
+    let (code, text) = find(&site, &access, &"b".repeat(250), Some(TOKEN));
+    assert_eq!(code, 200, "{text}");
     let long = "a".repeat(MAX_QUERY_CHARS + 1);
-    assert_eq!(find(&site, &access, &long, Some(TOKEN)).0, 400, "too long");
+    let (code, text) = find(&site, &access, &long, Some(TOKEN));
+    assert!(code == 400 && text.contains("shorten it"), "too long: {code} {text}");
     let manifest = request_bytes(
         &site,
         &access,

@@ -194,11 +194,11 @@ impl Site {
             Err(e) => return Reply::error(400, &format!("bad export request: {e}")),
         };
         let source = &self.source;
+        // one export at a time: each picks a free name and empties the staging folder
+        let mut exports = self.exports.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         match export(&source.gaussians, &source.ply_path, &source.export_dir, &request) {
             Ok(done) => {
-                if let Ok(mut exports) = self.exports.lock() {
-                    exports.insert(done.name.clone(), done.path.clone());
-                }
+                exports.insert(done.name.clone(), done.path.clone());
                 Reply::json(
                     200,
                     &serde_json::json!({
@@ -222,13 +222,29 @@ impl Site {
         let Some(query) = query_param(url) else {
             return Reply::error(400, "expected /api/find?q=TEXT (percent-encoded UTF-8)");
         };
-        let query = query.trim();
-        if query.is_empty() || query.chars().count() > MAX_QUERY_CHARS {
-            return Reply::error(400, &format!("the query must hold 1 to {MAX_QUERY_CHARS} characters"));
+        let trimmed = query.trim();
+        if trimmed.is_empty() {
+            return Reply::error(
+                400,
+                &format!(
+                    "the query {query:?} is empty or blank: give the words to look for, e.g. \"a red mug\""
+                ),
+            );
         }
-        match search(query, SEARCH_TOP) {
-            Ok(matches) => Reply::json(200, &serde_json::json!({ "query": query, "matches": matches })),
-            Err(e) => Reply::error(500, &e),
+        let chars = trimmed.chars().count();
+        if chars > MAX_QUERY_CHARS {
+            return Reply::error(
+                400,
+                &format!(
+                    "the query is {chars} characters long, more than the {MAX_QUERY_CHARS} searched (and CLIP \
+                     reads 75 tokens at most): shorten it"
+                ),
+            );
+        }
+        match search(trimmed, SEARCH_TOP) {
+            Ok(matches) => Reply::json(200, &serde_json::json!({ "query": trimmed, "matches": matches })),
+            // the function's words, as `splatseg find` says them (e.g. longer than CLIP's context)
+            Err(e) => Reply::error(400, &e),
         }
     }
 

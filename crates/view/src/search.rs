@@ -6,7 +6,7 @@
 //! The object list's names (`view --names`) are the caller's too ([`ObjectName`], given with
 //! [`crate::Site::with_names`]): they go into the manifest's objects.
 //!
-//! The query is bounded ([`MAX_QUERY_CHARS`]) and, as it runs a model, the request needs the page's
+//! The query is bounded ([`MAX_QUERY_CHARS`]), an empty or blank one refused, and, as it runs a model, the request needs the page's
 //! token (`X-Splatseg-Token`, which another site's page cannot send without a preflight this server
 //! never grants), besides the `Host` check every request has.
 
@@ -14,8 +14,10 @@ use serde::Serialize;
 
 /// The path of the search endpoint.
 pub const FIND_PATH: &str = "/api/find";
-/// Longest query, in characters.
-pub const MAX_QUERY_CHARS: usize = 200;
+/// Longest query, in characters: a bound on what one request may ask for, far above what CLIP reads
+/// (75 tokens and its start and end tokens); a query within it that CLIP cannot read whole is the
+/// search function's to refuse, in the words `splatseg find` uses.
+pub const MAX_QUERY_CHARS: usize = 1000;
 /// Matches returned per query.
 pub const SEARCH_TOP: usize = 10;
 
@@ -39,7 +41,9 @@ pub struct ObjectName {
     pub relevancy: f32,
 }
 
-/// Ranks the objects against a query (at most `top`), best first; an error in words.
+/// Ranks the objects against a query (at most `top`), best first; an error in words, which the
+/// page gets as the reply (400: once the text tower is loaded, what fails is the query, e.g. longer
+/// than CLIP's context), so that the viewer refuses a query as `splatseg find` does.
 pub type Search = Box<dyn Fn(&str, usize) -> Result<Vec<SearchHit>, String> + Send + Sync>;
 
 /// The `q` parameter of a URL's query string, percent-decoded (`+` = space); `None` when absent or

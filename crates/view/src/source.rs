@@ -49,14 +49,21 @@ pub struct SourceOptions {
 }
 
 impl ViewSource {
-    /// Resolves `path` (see the module doc), reads the PLY and loads the cameras.
-    pub fn open(path: &Path, options: &SourceOptions) -> ViewResult<ViewSource> {
+    /// The checks of the paths alone, before anything is read or bound: PATH exists and `--out`,
+    /// when it exists, is a folder.
+    pub fn check_paths(path: &Path, options: &SourceOptions) -> ViewResult<()> {
         if !path.exists() {
             return Err(ViewError::Missing(path.to_path_buf()));
         }
         if let Some(out) = options.out.as_ref().filter(|o| o.exists() && !o.is_dir()) {
             return Err(ViewError::OutNotAFolder(out.clone()));
         }
+        Ok(())
+    }
+
+    /// Resolves `path` (see the module doc), reads the PLY and loads the cameras.
+    pub fn open(path: &Path, options: &SourceOptions) -> ViewResult<ViewSource> {
+        Self::check_paths(path, options)?;
         let (folder, ply_path) = if path.is_dir() {
             (path.to_path_buf(), find_ply(path).ok_or_else(|| ViewError::NoPly(path.to_path_buf()))?)
         } else {

@@ -1,5 +1,5 @@
 //! HTTP/1.1 on the wire, as little of it as the viewer needs: the request head read within
-//! [`MAX_HEAD_BYTES`] and [`MAX_HEADERS`], one request per connection (every reply says
+//! [`MAX_HEAD_BYTES`] and [`MAX_HEADERS`] (and, on a socket, [`HEAD_SECS`]), one request per connection (every reply says
 //! `Connection: close`), bodies only with `Content-Length` (framing and limits in
 //! [`crate::request`]). [`exchange`] is the whole server-side conversation on any reader and
 //! writer: the server runs it on a socket, the fuzz target on bytes.
@@ -7,7 +7,8 @@
 use crate::access::Access;
 use crate::request::answer;
 use crate::routes::{Reply, Site};
-use std::io::{BufRead, Read, Write};
+use crate::server::{CONNECTION_SECS, HEAD_SECS};
+use std::io::{BufRead, ErrorKind, Read, Write};
 
 /// Largest request line plus headers, bytes.
 pub const MAX_HEAD_BYTES: usize = 16 * 1024;
@@ -42,18 +43,20 @@ impl Head {
     }
 }
 
-/// Reads one request head. `Ok(None)`: the connection closed before a byte; `Err`: the reply
-/// to send (400 malformed, 431 too large).
+/// Reads one request head. `Ok(None)`: nothing came (the connection closed, failed or ran out
+/// of time before a byte); `Err`: the reply to send (400 malformed, 431 too large, and for a
+/// read that failed, [`unreadable`]'s).
 pub fn read_head(reader: &mut impl BufRead) -> Result<Option<Head>, Reply<'static>> {
     let mut budget = MAX_HEAD_BYTES;
     let mut lines = Vec::new();
     loop {
         let mut line = Vec::new();
-        let n = reader
-            .by_ref()
-            .take(budget as u64)
-            .read_until(b'\n', &mut line)
-            .map_err(|_| Reply::error(400, "the request could not be read"))?;
+        let n = match reader.by_ref().take(budget as u64).read_until(b'\n', &mut line) {
+            Ok(n) => n,
+            // read_until keeps what it read before the error
+            Err(_) if lines.is_empty() && line.is_empty() => return Ok(None),
+            Err(e) => return Err(unreadable(&e)),
+        };
         if n == 0 && lines.is_empty() {
             return Ok(None);
         }
@@ -78,6 +81,26 @@ pub fn read_head(reader: &mut impl BufRead) -> Result<Option<Head>, Reply<'stati
         lines.push(String::from_utf8(line).map_err(|_| Reply::error(400, "request head is not UTF-8"))?);
     }
     parse_head(&lines).map(Some)
+}
+
+/// The reply to a request whose reading failed: 408 when it did not come in time, 503 when the
+/// server closed the connection to make room for others ([`crate::connections`]), else 400.
+pub fn unreadable(e: &std::io::Error) -> Reply<'static> {
+    match e.kind() {
+        ErrorKind::TimedOut => Reply::error(
+            408,
+            &format!(
+                "the request did not come in time: the request line and headers are awaited {HEAD_SECS} s, \
+                 the whole request {CONNECTION_SECS} s"
+            ),
+        ),
+        ErrorKind::ConnectionAborted => Reply::error(
+            503,
+            "too many connections were waiting for their requests: this one, waiting longest, was \
+             closed to make room; send the request again",
+        ),
+        _ => Reply::error(400, "the request could not be read"),
+    }
 }
 
 fn parse_head(lines: &[String]) -> Result<Head, Reply<'static>> {
@@ -138,10 +161,12 @@ fn reason(status: u16) -> &'static str {
         400 => "Bad Request",
         403 => "Forbidden",
         404 => "Not Found",
+        408 => "Request Timeout",
         411 => "Length Required",
         413 => "Content Too Large",
         431 => "Request Header Fields Too Large",
         500 => "Internal Server Error",
+        503 => "Service Unavailable",
         505 => "HTTP Version Not Supported",
         _ => "",
     }
@@ -157,12 +182,22 @@ pub fn exchange(
 ) -> std::io::Result<()> {
     match read_head(reader) {
         Ok(None) => Ok(()),
-        Ok(Some(head)) => {
-            let reply = answer(site, access, &head, reader);
-            write_reply(writer, &reply, head.method == "HEAD")
-        }
+        Ok(Some(head)) => reply_to(site, access, &head, reader, writer),
         Err(reply) => write_reply(writer, &reply, false),
     }
+}
+
+/// The second half of [`exchange`], once the head is read: [`answer`] (which reads the body
+/// from `body`) and the reply.
+pub fn reply_to(
+    site: &Site,
+    access: &Access,
+    head: &Head,
+    body: &mut impl Read,
+    writer: &mut impl Write,
+) -> std::io::Result<()> {
+    let reply = answer(site, access, head, body);
+    write_reply(writer, &reply, head.method == "HEAD")
 }
 
 #[cfg(test)]
@@ -207,6 +242,33 @@ mod tests {
         assert_eq!(head(&long), Err(431));
         let many = format!("GET / HTTP/1.1\r\n{}\r\n", "X: y\r\n".repeat(MAX_HEADERS + 1));
         assert_eq!(head(many.as_bytes()), Err(431));
+    }
+
+    /// `bytes`, then the error `kind` (as a socket past its deadline, or closed for room).
+    struct FailsAfter(Cursor<Vec<u8>>, ErrorKind);
+
+    impl Read for FailsAfter {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            match self.0.read(buf)? {
+                0 => Err(std::io::Error::new(self.1, "failed")),
+                n => Ok(n),
+            }
+        }
+    }
+
+    #[test]
+    fn a_head_cut_by_a_failed_read_gets_408_503_or_nothing() {
+        let status = |bytes: &[u8], kind| {
+            let mut reader = std::io::BufReader::new(FailsAfter(Cursor::new(bytes.to_vec()), kind));
+            read_head(&mut reader).map(|h| h.is_some()).map_err(|r| r.status)
+        };
+        // nothing sent: no reply at all
+        assert_eq!(status(b"", ErrorKind::TimedOut), Ok(false));
+        assert_eq!(status(b"", ErrorKind::ConnectionAborted), Ok(false));
+        assert_eq!(status(b"GET / HTTP/1.1\r\nHost: a", ErrorKind::TimedOut), Err(408));
+        assert_eq!(status(b"GET / HT", ErrorKind::ConnectionAborted), Err(503));
+        assert_eq!(status(b"GET / HTTP/1.1\r\n", ErrorKind::Other), Err(400));
+        assert_eq!(status(b"GET / HTTP/1.1\r\n\r\n", ErrorKind::TimedOut), Ok(true));
     }
 
     #[test]
