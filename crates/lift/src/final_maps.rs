@@ -23,6 +23,7 @@
 use crate::config::{FinalMaps, LiftConfig};
 use crate::error::LiftError;
 use crate::facing::Facing;
+use crate::graph::ViewCounts;
 use crate::lifting::{Lifted, ObjectFeatures, VoteAccumulator};
 use crate::numbering::drop_specks_and_number;
 use crate::project::PreparedGaussians;
@@ -31,7 +32,7 @@ use crate::render_labels::{render_label_map, render_votes, RenderVotes};
 use crate::run_lengths::RunLengths;
 use crate::snap::snap_view;
 use crate::split::split_disconnected_objects;
-use crate::touching::{join_touching_objects, SeparateWholes, ViewCounts};
+use crate::touching::{join_touching_objects, SeparateWholes};
 use crate::PosedCamera;
 use rayon::prelude::*;
 use splatseg_render::bin::TileBins;

@@ -13,6 +13,8 @@
 //!   where their centre lands, and their fusion weight (frontal, near views weigh more).
 //! - [`final_maps`]: the stage after the per-view pass, step by step, streaming view by view.
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
+//! - `graph`: the object graph: touching objects as edges with their evidence (surface, views,
+//!   appearance), gathered once.
 //! - [`touching`]: objects that touch in 3D and look alike (or meet as parts of one object) become one.
 //! - [`split`]: objects whose Gaussians lie apart in 3D become several.
 //! - `shape`: the typical Gaussian size, planes, thin lines and contacts between objects in 3D.
@@ -31,6 +33,7 @@ pub mod config;
 pub mod error;
 pub mod facing;
 pub mod final_maps;
+mod graph;
 pub mod labelled_ply;
 pub mod lifting;
 pub mod numbering;
@@ -49,6 +52,7 @@ pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
 pub use facing::Facing;
 pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewRegions, ViewStore, VisibleGaussians};
+pub use graph::ViewCounts;
 pub use labelled_ply::{ids_of_every_row, write_labelled_ply};
 pub use lifting::{FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator};
 pub use numbering::{drop_specks_and_number, renumber};
@@ -58,7 +62,7 @@ pub use render_labels::{render_label_map, render_votes, RenderVotes};
 pub use run_lengths::RunLengths;
 pub use snap::{snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};
-pub use touching::{join_touching_objects, SeparateWholes, ViewCounts};
+pub use touching::{join_touching_objects, SeparateWholes};
 pub use visibility::{view_visibility, ViewVisibility, VisibilityPass};
 
 use splatseg_scene::{Camera, Pose};

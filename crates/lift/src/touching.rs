@@ -6,7 +6,9 @@
 //! 3D the pieces are visible as what they are: labelled Gaussians of two objects that *touch*
 //! (their Gaussians share a voxel neighbourhood along a seam; voxel edge = `CONTACT_VOXEL_FACTOR`
 //! × the median Gaussian standard deviation, at least `MIN_CONTACT_VOXELS` pairs of
-//! 26-neighbouring voxels holding one of each). Touching objects `P`, `Q` become one when either
+//! 26-neighbouring voxels holding one of each). The touching pairs and their evidence — surface,
+//! views, appearance — are gathered once as the object graph (`crate::graph`); the rules below
+//! read each edge's terms ([`join_rule`]). Touching objects `P`, `Q` become one when either
 //! - **they look alike:** `cos(f_P, f_Q) ≥ tau_touching` and the views agree: among the views
 //!   that see at least `MIN_SEEN` Gaussians of each, a share of at least [`MIN_TOGETHER_SHARE`]
 //!   (half) has one merged mask holding ≥ 20 % of the Gaussians of each it sees. A look-alike
@@ -102,11 +104,10 @@
 
 use crate::config::LiftConfig;
 use crate::facing::Facing;
+use crate::graph::{Evidence, ObjectGraph, ViewCounts};
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
-use crate::shape::{
-    contacts, coplanar_ids, planes_and_lines, typical_sigma, Contact, SEAM_SMOOTH_SHARE, THIN_MIN_ELONGATION,
-};
+use crate::shape::{typical_sigma, Contact, SEAM_SMOOTH_SHARE};
 use crate::voxels::DisjointSets;
 use std::collections::HashMap;
 
@@ -121,61 +122,6 @@ const MIN_CONTACT_VOXELS: u32 = 8;
 /// A join the geometry does not decide alone (look-alike objects, parts whose edge is not mostly
 /// convex) needs the two objects in one merged mask in at least half the views seeing both.
 pub const MIN_TOGETHER_SHARE: f32 = 0.5;
-
-/// A view counts for a pair only when it sees at least this many Gaussians of each object.
-pub const MIN_SEEN: u32 = 10;
-
-/// Share of an object's Gaussians seen in a view that one mask must hold.
-const MASK_SHARE: f32 = 0.2;
-
-/// One view's per-mask object counts: `(mask, object)` → Gaussians, and object → Gaussians
-/// (what the join reads of a view: small, so a caller streaming views keeps one per view).
-#[derive(Clone, Debug, Default)]
-pub struct ViewCounts {
-    by_mask: HashMap<(u32, u32), u32>,
-    total: HashMap<u32, u32>,
-}
-
-impl ViewCounts {
-    /// The counts of one view: `gaussians: [n_visible]` its visible Gaussians, `masks:
-    /// [n_visible]` the merged (view-local) mask at each one's centre pixel (0 = none), `ids: [N]`
-    /// the lifted object ids.
-    pub fn new(gaussians: &[u32], masks: &[u32], ids: &[i32]) -> Self {
-        let mut counts = ViewCounts::default();
-        for (&g, &mask) in gaussians.iter().zip(masks) {
-            let id = ids.get(g as usize).copied().unwrap_or(-1);
-            if id <= 0 || mask == 0 {
-                continue;
-            }
-            *counts.by_mask.entry((mask, id as u32)).or_insert(0) += 1;
-            *counts.total.entry(id as u32).or_insert(0) += 1;
-        }
-        counts
-    }
-}
-
-/// Share of the views seeing both `a` and `b` in which one mask holds a good part of each.
-fn together_share(views: &[ViewCounts], a: u32, b: u32) -> f32 {
-    let (mut both, mut together) = (0u32, 0u32);
-    for v in views {
-        let (na, nb) = (v.total.get(&a).copied().unwrap_or(0), v.total.get(&b).copied().unwrap_or(0));
-        if na < MIN_SEEN || nb < MIN_SEEN {
-            continue;
-        }
-        both += 1;
-        let holds = v.by_mask.iter().any(|(&(m, id), &n)| {
-            id == a
-                && n as f32 >= MASK_SHARE * na as f32
-                && v.by_mask.get(&(m, b)).is_some_and(|&k| k as f32 >= MASK_SHARE * nb as f32)
-        });
-        together += holds as u32;
-    }
-    if both == 0 {
-        0.0
-    } else {
-        together as f32 / both as f32
-    }
-}
 
 /// True when a contact's oriented voxel pairs say two objects meet at a concave edge (a box on a
 /// box, a box beside a wall): more than `part_max_concave_share` of them concave, and concave
@@ -219,6 +165,68 @@ pub trait SeparateWholes: Sync {
     fn separate(&self, a: &[u32], b: &[u32]) -> bool;
 }
 
+/// The rules of the module docs over one edge's evidence: `Some(check)` when they join `a` and
+/// `b`, with what the two sets' edge must not be for the join to stand.
+fn join_rule(a: u32, b: u32, e: &Evidence, config: &LiftConfig) -> Option<SetEdge> {
+    let (c, cos, share) = (&e.surface.contact, e.cos, e.views.together_share());
+    let thin = e.surface.thin_line;
+    if thin {
+        tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
+    }
+    tracing::trace!(
+        "contact {a}-{b}: cos {cos:.3}, {} voxel pairs ({} measured, {} smooth; {} oriented, {} concave, {} convex), \
+         coplanar {}, together in {share:.2} of views",
+        c.voxel_pairs,
+        c.measured,
+        c.smooth,
+        c.oriented,
+        c.concave,
+        c.convex,
+        e.surface.coplanar,
+    );
+    if c.voxel_pairs < MIN_CONTACT_VOXELS {
+        return thin.then_some(SetEdge::Any);
+    }
+    let seam = c.measured >= MIN_CONTACT_VOXELS
+        && e.surface.coplanar
+        && c.smooth as f32 >= SEAM_SMOOTH_SHARE * c.measured as f32
+        && cos >= config.tau_seam;
+    let alike = cos >= config.tau_touching && share >= MIN_TOGETHER_SHARE;
+    // No edge at all (a curved surface, one body's side continuing into its side): asked like a
+    // look-alike join, against the two sets' edge.
+    let smooth = (c.convex as f32) < config.part_min_convex_share * c.oriented as f32;
+    let parts = !alike
+        && c.oriented >= MIN_CONTACT_VOXELS
+        && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
+        && (mostly_convex(c) || share >= MIN_TOGETHER_SHARE);
+    if seam {
+        tracing::debug!(
+            "objects {a} and {b} continue one surface: cos {cos:.3}, {} of {} contacts smooth",
+            c.smooth,
+            c.measured
+        );
+    } else if alike || parts {
+        tracing::debug!(
+            "objects {a} and {b} (cos {cos:.3}) join as {}: {} concave and {} convex of {} contacts, together in \
+             {share:.2} of views",
+            if alike { "look-alikes" } else { "parts" },
+            c.concave,
+            c.convex,
+            c.oriented
+        );
+    }
+    let check = if seam || thin {
+        SetEdge::Any
+    } else if parts && smooth {
+        SetEdge::NoConcave
+    } else if alike {
+        SetEdge::NotConcave
+    } else {
+        SetEdge::Any
+    };
+    (seam || alike || parts || thin).then_some(check)
+}
+
 /// Joins touching look-alike objects in `lifted` (object and majority ids), see the module
 /// docs. `counts`: per view its [`ViewCounts`] (`[n_views]`, made from the ids of `lifted`
 /// before the join, one view at a time by a caller streaming the views); `facing`: the
@@ -241,91 +249,12 @@ pub fn join_touching_objects(
         return 0;
     }
     let n_objects = features.n_objects();
-    let ids = &lifted.object_ids;
-    let (planes, lines) = planes_and_lines(gaussians, ids, voxel);
-    let contacts = contacts(gaussians, ids, voxel, &planes, facing);
-    let coplanar = |a: u32, b: u32| coplanar_ids(&planes, a, b);
-    let cos_of =
-        |a: u32, b: u32| features.row(a).iter().zip(features.row(b)).map(|(x, y)| x * y).sum::<f32>();
+    let graph = ObjectGraph::new(gaussians, &lifted.object_ids, voxel, &features, counts, facing);
     // (cos, a, b, what the two sets' edge must not be).
-    let mut pairs: Vec<(f32, u32, u32, SetEdge)> = contacts
+    let mut pairs: Vec<(f32, u32, u32, SetEdge)> = graph
+        .edges
         .iter()
-        .map(|(&pair, &c)| (pair, c))
-        .filter(|&((a, b), c)| c.voxel_pairs >= 1 && (b as usize) <= n_objects && a >= 1)
-        .filter_map(|((a, b), c)| {
-            let cos = cos_of(a, b);
-            let thin = THIN_MIN_ELONGATION > 0.0
-                && matches!((lines.get(&a), lines.get(&b)), (Some(p), Some(q)) if p.continues(q));
-            if thin {
-                tracing::debug!("objects {a} and {b} are pieces of one thin structure: cos {cos:.3}");
-            }
-            if tracing::enabled!(tracing::Level::TRACE) {
-                tracing::trace!(
-                    "contact {a}-{b}: cos {cos:.3}, {} voxel pairs ({} measured, {} smooth; {} oriented, {} concave, \
-                     {} convex), coplanar {}, planes {:?} / {:?}, together in {:.2} of views",
-                    c.voxel_pairs,
-                    c.measured,
-                    c.smooth,
-                    c.oriented,
-                    c.concave,
-                    c.convex,
-                    coplanar(a, b),
-                    planes.get(&a).map(|p| (p.by_normals, p.by_centres)),
-                    planes.get(&b).map(|p| (p.by_normals, p.by_centres)),
-                    together_share(counts, a, b)
-                );
-            }
-            if c.voxel_pairs < MIN_CONTACT_VOXELS {
-                return thin.then_some((cos, a, b, SetEdge::Any));
-            }
-            let seam = c.measured >= MIN_CONTACT_VOXELS
-                && coplanar(a, b)
-                && c.smooth as f32 >= SEAM_SMOOTH_SHARE * c.measured as f32
-                && cos >= config.tau_seam;
-            let alike = cos >= config.tau_touching && {
-                let share = together_share(counts, a, b);
-                tracing::debug!(
-                    "touching objects {a} and {b}: cos {cos:.3}, contact {}, together in {share:.2} of views",
-                    c.voxel_pairs
-                );
-                share >= MIN_TOGETHER_SHARE
-            };
-            // No edge at all (a curved surface, one body's side continuing into its side):
-            // asked like a look-alike join, against the two sets' edge.
-            let smooth = (c.convex as f32) < config.part_min_convex_share * c.oriented as f32;
-            let parts = !alike
-                && c.oriented >= MIN_CONTACT_VOXELS
-                && c.concave as f32 <= config.part_max_concave_share * c.oriented as f32
-                && {
-                    let share = together_share(counts, a, b);
-                    tracing::debug!(
-                        "objects {a} and {b} meet at no concave edge: cos {cos:.3}, {} concave and {} convex of {} \
-                         contacts, together in {share:.2} of views",
-                        c.concave,
-                        c.convex,
-                        c.oriented
-                    );
-                    mostly_convex(&c) || share >= MIN_TOGETHER_SHARE
-                };
-            let check = if seam || thin {
-                SetEdge::Any
-            } else if parts && smooth {
-                SetEdge::NoConcave
-            } else if alike {
-                SetEdge::NotConcave
-            } else {
-                SetEdge::Any
-            };
-            let alike = alike || parts || thin;
-            if seam {
-                tracing::debug!(
-                    "objects {a} and {b} continue one surface: cos {cos:.3}, {} of {} contacts smooth",
-                    c.smooth,
-                    c.measured
-                );
-            }
-            (seam || alike).then_some((cos, a, b, check))
-        })
+        .filter_map(|(&(a, b), e)| join_rule(a, b, e, config).map(|check| (e.cos, a, b, check)))
         .collect();
     // Joins on a surface with no edge say least: they come last, asked against the sets every
     // other rule made (else a piece joins one object first and the floor swallows both after).
@@ -359,7 +288,7 @@ pub fn join_touching_objects(
             let mut edge = Contact::default();
             for &x in &set_a {
                 for &y in &set_b {
-                    if let Some(c) = contacts.get(&(x.min(y), x.max(y))) {
+                    if let Some(c) = graph.contact(x, y) {
                         edge.oriented += c.oriented;
                         edge.concave += c.concave;
                         edge.convex += c.convex;
