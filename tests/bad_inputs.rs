@@ -902,3 +902,38 @@ fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
     }
     assert!(failures.is_empty(), "{} case(s) failed:\n{}", failures.len(), failures.join("\n"));
 }
+
+/// A write `extract` did not finish (killed mid-write of a large PLY) leaves its temporary file in the
+/// output folder, named `.splatseg-partial-<pid>-…`; the next `extract` into that folder removes it
+/// (its process is gone), and leaves the folder's other files, another program's `.tmp*` included.
+#[cfg(unix)]
+#[test]
+fn a_killed_extracts_partial_file_is_removed_by_the_next_write_there() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    let out =
+        splatseg(&["synth", "--out", scene.to_str().expect("utf-8"), "--views", "3", "--size", "64x48"]);
+    assert!(out.status.success(), "synth: {}", String::from_utf8_lossy(&out.stderr));
+    labelled_ply(&scene);
+    let before = inputs_digest(&scene);
+    let exports = tmp.path().join("exports");
+    std::fs::create_dir_all(&exports).expect("mkdir");
+    // 2^22 + 1 is past Linux's largest process id: that writer is gone
+    let left = exports.join(".splatseg-partial-4194305-Xy12Zw");
+    std::fs::write(&left, vec![0u8; 1 << 20]).expect("write");
+    let theirs = exports.join(".tmpAb12Cd");
+    std::fs::write(&theirs, b"another program's").expect("write");
+    let picked = exports.join("picked.ply");
+    let (ply, picked_s) = (scene.join("labelled.ply"), picked.to_str().expect("utf-8").to_string());
+    let output = splatseg(&["extract", ply.to_str().expect("utf-8"), "--ids", "1", "--out", &picked_s]);
+    assert!(output.status.success(), "extract: {}", String::from_utf8_lossy(&output.stderr));
+    assert!(picked.is_file(), "the extract is written");
+    assert!(!left.exists(), "the killed write's partial file is removed");
+    assert!(theirs.exists(), "another program's temporary file is kept");
+    let names: Vec<String> = std::fs::read_dir(&exports)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 2, "nothing else is left: {names:?}");
+    assert_eq!(inputs_digest(&scene), before, "no input changed");
+}
