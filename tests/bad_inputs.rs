@@ -695,7 +695,7 @@ fn cases() -> Vec<Case> {
             args: &["find", "SCENE/b", "a chair"],
             expect: Expect::Error(&[
                 "do not belong",
-                "the run: it was made for the run of key",
+                "the run: the index was made for the run of key",
                 "b/objects/objects.json",
             ]),
         },
@@ -705,7 +705,7 @@ fn cases() -> Vec<Case> {
             args: &["extract", "SCENE/run/gaussians.ply", "--query", "a chair", "--out", "OUT/x.ply"],
             expect: Expect::Error(&[
                 "do not belong",
-                "the PLY: it was made for a gaussians.ply of digest",
+                "the PLY: the index was made for a gaussians.ply of digest",
                 "run/gaussians.ply is of digest",
             ]),
         },

@@ -66,8 +66,8 @@ pub struct UsedView {
 /// What an index must match to be used: the run, its PLY and the checkpoint, as they are now.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RunIdentity {
-    /// `OUT/cache/run.json`'s key.
-    pub run_key: String,
+    /// `OUT/cache/run.json` and its key.
+    pub run: (PathBuf, String),
     /// The PLY the ids are looked up in and its digest (`None` when there is no such file).
     pub ply: (PathBuf, Option<String>),
     /// The checkpoint's weights file and its [`checkpoint_identity`].
@@ -123,7 +123,7 @@ impl RunIdentity {
     /// The run in `out`, the PLY `ply` and the weights file `weights` as they are now.
     pub fn of(out: &Path, ply: &Path, weights: &Path) -> crate::Result<RunIdentity> {
         Ok(RunIdentity {
-            run_key: run_key(out)?,
+            run: (out.join("cache").join("run.json"), run_key(out)?),
             ply: (ply.to_path_buf(), ply_digest(ply)?),
             checkpoint: (weights.to_path_buf(), checkpoint_identity(weights)?),
         })
@@ -164,17 +164,20 @@ impl ObjectIndex {
     /// checkpoint identity. The error names each that differs, with both values, and what to do.
     pub fn check_belongs(&self, path: &Path, now: &RunIdentity) -> crate::Result<()> {
         let mut differ = Vec::new();
-        if self.run_key != now.run_key {
+        if self.run_key != now.run.1 {
             differ.push(format!(
-                "the run: it was made for the run of key {}, the folder now holds the run of key {} \
-                 (`splatseg run` ran again on it since)",
-                self.run_key, now.run_key
+                "the run: the index was made for the run of key {}, {} is of key {} (a later `splatseg run` \
+                 on this folder, or an index copied from another)",
+                self.run_key,
+                now.run.0.display(),
+                now.run.1
             ));
         }
         if self.ply_digest != now.ply.1 {
             let show = |d: &Option<String>| d.clone().unwrap_or_else(|| "none (no such file)".into());
             differ.push(format!(
-                "the PLY: it was made for a gaussians.ply of digest {}, {} is of digest {} (another run's?)",
+                "the PLY: the index was made for a gaussians.ply of digest {}, {} is of digest {} (the PLY of \
+                 another run?)",
                 show(&self.ply_digest),
                 now.ply.0.display(),
                 show(&now.ply.1)
@@ -182,7 +185,8 @@ impl ObjectIndex {
         }
         if self.checkpoint_id != now.checkpoint.1 {
             differ.push(format!(
-                "the CLIP checkpoint: the objects were embedded by {} ({}), it is now {}",
+                "the CLIP checkpoint: the objects were embedded by {} when it was {}; it is now {} (another \
+                 checkpoint in its place?)",
                 now.checkpoint.0.display(),
                 self.checkpoint_id,
                 now.checkpoint.1
