@@ -298,6 +298,145 @@ fn config_tau_match_nan(scene: &Path) {
     std::fs::write(scene.join("bad.toml"), "[match]\ntau_match = nan\n").expect("write");
 }
 
+/// `splatseg ARGS`, which must succeed (a case's preparation).
+fn prepared(args: &[&Path]) {
+    let out = splatseg(args);
+    assert!(out.status.success(), "splatseg {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// A tiny random CLIP (`seed`) with the tokenizer's merges in `SCENE/clip`.
+fn random_clip(scene: &Path, seed: u64) -> PathBuf {
+    use splatseg_models::clip::testing::{write_random_checkpoint, RandomClipSpec};
+    let dir = scene.join("clip");
+    write_random_checkpoint(&dir, RandomClipSpec::tiny(651), seed).expect("writes the checkpoint");
+    copy_tiny_merges(&dir);
+    dir
+}
+
+fn copy_tiny_merges(dir: &Path) {
+    let merges =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/models/tests/fixtures/clip_bpe_tiny.txt.gz");
+    std::fs::copy(merges, dir.join(splatseg_models::clip::MERGES_FILE)).expect("copies the merges");
+}
+
+/// `run --clip SCENE/clip` into `SCENE/<name>` (SCENE/clip written first when missing); returns
+/// the output folder, part of the scene folder, so that the table checks it does not change.
+fn run_with_clip(scene: &Path, name: &str) -> PathBuf {
+    let clip = match scene.join("clip").is_dir() {
+        true => scene.join("clip"),
+        false => random_clip(scene, 30),
+    };
+    let out = scene.join(name);
+    let sam = scene.join("sam");
+    prepared(&[
+        Path::new("run"),
+        scene,
+        Path::new("--masks"),
+        &sam,
+        Path::new("--out"),
+        &out,
+        Path::new("--clip"),
+        &clip,
+    ]);
+    out
+}
+
+/// `run` without `--clip`, with `tau_merge = 0.5` (other settings: another run key), into `SCENE/<name>`.
+fn run_with_other_settings(scene: &Path, name: &str) -> PathBuf {
+    let config = scene.join("other.toml");
+    std::fs::write(&config, "[merge]\ntau_merge = 0.5\n").expect("write");
+    let (out, sam) = (scene.join(name), scene.join("sam"));
+    let args = [Path::new("run"), scene, Path::new("--masks"), &sam, Path::new("--out"), &out];
+    prepared(&[&args[..], &[Path::new("--config"), &config]].concat());
+    out
+}
+
+/// A finished `run --clip` in `SCENE/run`.
+fn clip_run(scene: &Path) {
+    run_with_clip(scene, "run");
+}
+
+/// `run --clip` into `SCENE/run`, then a rerun there without `--clip` and with other settings.
+fn clip_run_then_rerun_without_clip(scene: &Path) {
+    run_with_clip(scene, "run");
+    run_with_other_settings(scene, "run");
+}
+
+/// `run --clip` into `SCENE/a`, another run into `SCENE/b`, and a's `objects/` copied beside b's PLY.
+fn objects_of_another_run(scene: &Path) {
+    let a = run_with_clip(scene, "a");
+    let b = run_with_other_settings(scene, "b");
+    std::fs::create_dir_all(b.join("objects")).expect("mkdir");
+    for file in ["objects.json", "clip.npy"] {
+        std::fs::copy(a.join("objects").join(file), b.join("objects").join(file)).expect("copy");
+    }
+}
+
+/// `run --clip` into `SCENE/run`, then its `gaussians.ply` replaced by one whose ids 1 and 2 are
+/// swapped (the PLY of another run of the scene).
+fn clip_run_with_another_ply(scene: &Path) {
+    let ply = run_with_clip(scene, "run").join("gaussians.ply");
+    let mut rows = splatseg_scene::ply::read_ply_rows(&ply).expect("the run's PLY");
+    let ids = rows.gaussians.object_ids.as_mut().expect("a labelled PLY");
+    for id in ids.iter_mut() {
+        *id = match *id {
+            1 => 2,
+            2 => 1,
+            other => other,
+        };
+    }
+    splatseg_scene::ply::write_ply_rows(&ply, &rows.gaussians).expect("write the PLY");
+}
+
+/// `run --clip` into `SCENE/run`, then the checkpoint replaced by another of the same shapes (and
+/// size).
+fn clip_run_then_another_checkpoint(scene: &Path) {
+    run_with_clip(scene, "run");
+    random_clip(scene, 31);
+}
+
+/// A CLIP in `SCENE/clip` whose `ln_final.weight` is all NaN.
+fn clip_with_nan_weights(scene: &Path) {
+    use splatseg_models::clip::testing::{write_random_checkpoint_with_nan, RandomClipSpec};
+    let dir = scene.join("clip");
+    write_random_checkpoint_with_nan(&dir, RandomClipSpec::tiny(651), 30, "ln_final.weight").expect("write");
+    copy_tiny_merges(&dir);
+}
+
+/// transformers' CLIP folder (the models crate's fixture) in `SCENE/clip`, its `tokenizer.json` not JSON.
+fn clip_with_broken_tokenizer_json(scene: &Path) {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/models/tests/fixtures/clip_tiny_hf");
+    let dir = scene.join("clip");
+    std::fs::create_dir_all(&dir).expect("mkdir");
+    for file in ["model.safetensors", "config.json"] {
+        std::fs::copy(fixture.join(file), dir.join(file)).expect("copies the fixture");
+    }
+    std::fs::write(dir.join("tokenizer.json"), "{\"model\": {\"type\": \"BPE\", \"vocab\": ").expect("write");
+}
+
+/// `SCENE/clip/model.safetensors` a FIFO.
+#[cfg(unix)]
+fn clip_weights_a_fifo(scene: &Path) {
+    std::fs::create_dir_all(scene.join("clip")).expect("mkdir");
+    mkfifo(&scene.join("clip/model.safetensors"));
+}
+
+/// `SCENE/clip/model.safetensors` a link to `/dev/zero`.
+#[cfg(unix)]
+fn clip_weights_dev_zero(scene: &Path) {
+    std::fs::create_dir_all(scene.join("clip")).expect("mkdir");
+    std::os::unix::fs::symlink("/dev/zero", scene.join("clip/model.safetensors")).expect("symlink");
+}
+
+/// A finished run in `SCENE/run` copied to `SCENE.copy` (outside the scene folder).
+fn run_then_copy_of_its_folder(scene: &Path) {
+    let (out, sam) = (scene.join("run"), scene.join("sam"));
+    prepared(&[Path::new("run"), scene, Path::new("--masks"), &sam, Path::new("--out"), &out]);
+    let copied =
+        Command::new("cp").arg("-r").arg(&out).arg(scene.with_extension("copy")).status().expect("cp");
+    assert!(copied.success(), "copying the output folder");
+}
+
 const RUN: &[&str] = &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT"];
 
 fn cases() -> Vec<Case> {
@@ -508,6 +647,105 @@ fn cases() -> Vec<Case> {
             args: &["render", "SCENE", "--gaussians", "SCENE/uchar.ply", "--out", "OUT"],
             expect: Expect::Error(&["uchar.ply", "opacity"]),
         },
+        Case {
+            name: "find with an empty query",
+            damage: clip_run,
+            args: &["find", "SCENE/run", ""],
+            expect: Expect::Error(&["the query \"\" is empty or blank"]),
+        },
+        Case {
+            name: "find with a blank query",
+            damage: clip_run,
+            args: &["find", "SCENE/run", "   "],
+            expect: Expect::Error(&["the query \"   \" is empty or blank"]),
+        },
+        Case {
+            name: "extract --query ''",
+            damage: clip_run,
+            args: &["extract", "SCENE/run/gaussians.ply", "--query", "", "--out", "OUT/x.ply"],
+            expect: Expect::Error(&["is empty or blank"]),
+        },
+        Case {
+            name: "remove --query '  '",
+            damage: clip_run,
+            args: &["remove", "SCENE/run/gaussians.ply", "--query", "  ", "--out", "OUT/x.ply"],
+            expect: Expect::Error(&["is empty or blank"]),
+        },
+        Case {
+            name: "find with a query longer than CLIP's context",
+            damage: clip_run,
+            args: &["find", "SCENE/run", "LONG_QUERY"],
+            expect: Expect::Error(&["tokens long, more than the 75 CLIP reads", "shorten it"]),
+        },
+        Case {
+            name: "extract --query longer than CLIP's context",
+            damage: clip_run,
+            args: &["extract", "SCENE/run/gaussians.ply", "--query", "LONG_QUERY", "--out", "OUT/x.ply"],
+            expect: Expect::Error(&["tokens long, more than the 75 CLIP reads"]),
+        },
+        Case {
+            name: "remove --query after a rerun without --clip",
+            damage: clip_run_then_rerun_without_clip,
+            args: &["remove", "SCENE/run/gaussians.ply", "--query", "a chair", "--out", "OUT/x.ply"],
+            expect: Expect::Error(&["run/objects/objects.json", "run `splatseg run --clip CKPT`"]),
+        },
+        Case {
+            name: "find on another run's objects/",
+            damage: objects_of_another_run,
+            args: &["find", "SCENE/b", "a chair"],
+            expect: Expect::Error(&[
+                "do not belong",
+                "the run: the index was made for the run of key",
+                "b/objects/objects.json",
+            ]),
+        },
+        Case {
+            name: "extract --query on the PLY of another run",
+            damage: clip_run_with_another_ply,
+            args: &["extract", "SCENE/run/gaussians.ply", "--query", "a chair", "--out", "OUT/x.ply"],
+            expect: Expect::Error(&[
+                "do not belong",
+                "the PLY: the index was made for a gaussians.ply of digest",
+                "run/gaussians.ply is of digest",
+            ]),
+        },
+        Case {
+            name: "find with another checkpoint in place of the run's",
+            damage: clip_run_then_another_checkpoint,
+            args: &["find", "SCENE/run", "a chair"],
+            expect: Expect::Error(&[
+                "do not belong",
+                "the CLIP checkpoint: the objects were embedded by",
+                "open_clip_model.safetensors",
+            ]),
+        },
+        Case {
+            name: "run --clip with NaN text weights",
+            damage: clip_with_nan_weights,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--clip", "SCENE/clip"],
+            expect: Expect::Error(&[
+                "`ln_final.weight` holds 32 NaN",
+                "SCENE/clip/open_clip_model.safetensors",
+            ]),
+        },
+        Case {
+            name: "run --clip with a broken tokenizer.json",
+            damage: clip_with_broken_tokenizer_json,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--clip", "SCENE/clip"],
+            expect: Expect::Error(&["--clip", "cannot read the CLIP tokenizer", "SCENE/clip/tokenizer.json"]),
+        },
+        Case {
+            name: "extract --ids -1,1 (negative first)",
+            damage: negative_ids_ply,
+            args: &["extract", "SCENE/negative.ply", "--ids", "-1,1", "--out", "OUT/x.ply"],
+            expect: Expect::Notice(&["wrote", "OUT/x.ply"]),
+        },
+        Case {
+            name: "run into a copy of an output folder",
+            damage: run_then_copy_of_its_folder,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "SCENE.copy"],
+            expect: Expect::Notice(&["report: SCENE.copy/report.md"]),
+        },
     ];
     #[cfg(unix)]
     cases.extend([
@@ -530,6 +768,18 @@ fn cases() -> Vec<Case> {
             expect: Expect::Notice(&["SAM masks", "2 of 3 views", "not regular files", "view_000.json"]),
         },
         Case {
+            name: "run --clip whose model.safetensors is a FIFO",
+            damage: clip_weights_a_fifo,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--clip", "SCENE/clip"],
+            expect: Expect::Error(&["not a regular file", "SCENE/clip/model.safetensors"]),
+        },
+        Case {
+            name: "run --clip whose model.safetensors links to /dev/zero",
+            damage: clip_weights_dev_zero,
+            args: &["run", "SCENE", "--masks", "SCENE/sam", "--out", "OUT", "--clip", "SCENE/clip"],
+            expect: Expect::Error(&["not a regular file", "SCENE/clip/model.safetensors"]),
+        },
+        Case {
             name: "a masks file linked to /dev/zero",
             damage: first_masks_dev_zero,
             args: RUN,
@@ -544,8 +794,11 @@ fn splatseg<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
 }
 
 /// `arg` with `SCENE` and `OUT` replaced by the case's paths; `NON_UTF8_OUT` is `OUT` with a byte
-/// that is not UTF-8 appended.
+/// that is not UTF-8 appended; `LONG_QUERY` a query of 10,080 characters (2,160 tokens).
 fn argument(arg: &str, scene: &Path, out: &Path) -> std::ffi::OsString {
+    if arg == "LONG_QUERY" {
+        return "a red mug on the wooden table ".repeat(336).into();
+    }
     #[cfg(unix)]
     if arg == "NON_UTF8_OUT" {
         use std::os::unix::ffi::OsStringExt;
@@ -555,6 +808,11 @@ fn argument(arg: &str, scene: &Path, out: &Path) -> std::ffi::OsString {
     }
     let utf8 = |p: &Path| p.to_str().expect("utf-8 temp path").to_string();
     arg.replace("SCENE", &utf8(scene)).replace("OUT", &utf8(out)).into()
+}
+
+/// An expected text with `SCENE` and `OUT` replaced by the case's paths.
+fn with_paths(text: &str, scene: &Path, out: &Path) -> String {
+    text.replace("SCENE", scene.to_str().unwrap_or_default()).replace("OUT", out.to_str().unwrap_or_default())
 }
 
 /// Every file's digest under `dir`, FIFOs and links to devices left out (read, they would block
@@ -592,8 +850,14 @@ fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
                 if stderr.contains("panicked") {
                     problems.push("a panic".to_string());
                 }
-                let wanted = words.iter().map(|w| w.replace("SCENE", scene.to_str().unwrap_or_default()));
+                let wanted = words.iter().map(|w| with_paths(w, &scene, &out_dir));
                 problems.extend(wanted.filter(|w| !stderr.contains(w.as_str())).map(|w| format!("no `{w}`")));
+                // refused before anything was written: no edited PLY, no run's outputs
+                for written in ["x.ply", "report.md", "objects"] {
+                    if out_dir.join(written).exists() {
+                        problems.push(format!("OUT/{written} was written"));
+                    }
+                }
             }
             Expect::Warning(words) => {
                 if !output.status.success() {
@@ -625,7 +889,8 @@ fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
                     problems.push(format!("exit {:?}, expected success", output.status.code()));
                 }
                 let said = format!("{}{stderr}", String::from_utf8_lossy(&output.stdout));
-                problems.extend(words.iter().filter(|w| !said.contains(**w)).map(|w| format!("no `{w}`")));
+                let wanted = words.iter().map(|w| with_paths(w, &scene, &out_dir));
+                problems.extend(wanted.filter(|w| !said.contains(w.as_str())).map(|w| format!("no `{w}`")));
             }
         }
         if inputs_digest(&scene) != before {
@@ -636,4 +901,39 @@ fn every_bad_input_is_an_error_or_a_warning_and_no_input_changes() {
         }
     }
     assert!(failures.is_empty(), "{} case(s) failed:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// A write `extract` did not finish (killed mid-write of a large PLY) leaves its temporary file in the
+/// output folder, named `.splatseg-partial-<pid>-…`; the next `extract` into that folder removes it
+/// (its process is gone), and leaves the folder's other files, another program's `.tmp*` included.
+#[cfg(unix)]
+#[test]
+fn a_killed_extracts_partial_file_is_removed_by_the_next_write_there() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    let out =
+        splatseg(&["synth", "--out", scene.to_str().expect("utf-8"), "--views", "3", "--size", "64x48"]);
+    assert!(out.status.success(), "synth: {}", String::from_utf8_lossy(&out.stderr));
+    labelled_ply(&scene);
+    let before = inputs_digest(&scene);
+    let exports = tmp.path().join("exports");
+    std::fs::create_dir_all(&exports).expect("mkdir");
+    // 2^22 + 1 is past Linux's largest process id: that writer is gone
+    let left = exports.join(".splatseg-partial-4194305-Xy12Zw");
+    std::fs::write(&left, vec![0u8; 1 << 20]).expect("write");
+    let theirs = exports.join(".tmpAb12Cd");
+    std::fs::write(&theirs, b"another program's").expect("write");
+    let picked = exports.join("picked.ply");
+    let (ply, picked_s) = (scene.join("labelled.ply"), picked.to_str().expect("utf-8").to_string());
+    let output = splatseg(&["extract", ply.to_str().expect("utf-8"), "--ids", "1", "--out", &picked_s]);
+    assert!(output.status.success(), "extract: {}", String::from_utf8_lossy(&output.stderr));
+    assert!(picked.is_file(), "the extract is written");
+    assert!(!left.exists(), "the killed write's partial file is removed");
+    assert!(theirs.exists(), "another program's temporary file is kept");
+    let names: Vec<String> = std::fs::read_dir(&exports)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 2, "nothing else is left: {names:?}");
+    assert_eq!(inputs_digest(&scene), before, "no input changed");
 }

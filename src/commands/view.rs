@@ -34,8 +34,9 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         source.scene.as_ref().map_or(0, |s| s.views.len()),
         source.ply_path.display()
     );
+    let ply_path = source.ply_path.clone();
     let mut site = Site::new(source);
-    let search = object_search(&args.path, names.is_some())?;
+    let search = object_search(&ply_path, names.is_some())?;
     if let (Some(names), Some(search)) = (&names, &search) {
         let named = search.name_objects(names).map_err(|e| anyhow::anyhow!(e.report()))?;
         let named: Vec<ObjectName> = named
@@ -63,16 +64,17 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The object embeddings and text tower of the run at PATH (the folder, or the folder of its PLY)
-/// when it has them (`run --clip`), loaded once for the search box and the names. Without them: no
-/// search box, or an error when `--names` asked for them.
-fn object_search(path: &Path, needed: bool) -> anyhow::Result<Option<ObjectSearch>> {
-    let out = if path.is_dir() { path } else { path.parent().unwrap_or(Path::new(".")) };
+/// The object embeddings and text tower of the run that wrote the served PLY (in its folder) when it
+/// has them (`run --clip`) and they belong to that PLY and run (`ObjectIndex::check_belongs`), loaded
+/// once for the search box and the names. Without them: no search box (a warning says why when an
+/// index is there but stale), or an error when `--names` asked for them.
+fn object_search(ply: &Path, needed: bool) -> anyhow::Result<Option<ObjectSearch>> {
+    let out = ply.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let index = out.join("objects").join("objects.json");
     if !index.is_file() && !needed {
         return Ok(None);
     }
-    match ObjectSearch::open(out) {
+    match ObjectSearch::open_beside(ply) {
         Ok(search) => Ok(Some(search)),
         Err(e) if needed => Err(anyhow::anyhow!("--names needs the object embeddings: {}", e.report())),
         Err(e) => {

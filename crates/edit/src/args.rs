@@ -33,7 +33,7 @@ pub struct ExtractArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
     /// Object ids to keep, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
-    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_negative_numbers = true))]
+    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_hyphen_values = true))]
     pub ids: Vec<i32>,
     /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
     /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
@@ -62,7 +62,7 @@ pub struct RemoveArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
     /// Object ids to remove, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
-    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_negative_numbers = true))]
+    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_hyphen_values = true))]
     pub ids: Vec<i32>,
     /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
     /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder

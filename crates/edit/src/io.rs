@@ -17,8 +17,10 @@ pub fn require_labels(g: Gaussians, path: &Path) -> Result<Gaussians, EditError>
     Ok(g)
 }
 
-/// Writes `g` atomically as a binary 3DGS PLY, with non-INRIA properties handled per `extras`.
+/// Writes `g` atomically as a binary 3DGS PLY, with non-INRIA properties handled per `extras`. The
+/// temporary file is `.splatseg-partial-<pid>-…` beside `path`; one that a killed write left there is
+/// removed by the next write into that folder (`splatseg_scene::atomic::write_atomic_sweeping`).
 pub fn write_edited_ply(path: &Path, g: Gaussians, extras: ExtraFields) -> Result<(), EditError> {
-    splatseg_scene::ply::write_ply(path, &for_output(g, extras))?;
+    splatseg_scene::ply::write_ply_swept(path, &for_output(g, extras))?;
     Ok(())
 }

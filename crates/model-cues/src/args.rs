@@ -122,9 +122,10 @@ pub struct RunArgs {
     /// Output folder.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
-    /// CLIP checkpoint (with `bpe_simple_vocab_16e6.txt.gz` or `tokenizer.json` beside it): after
-    /// the run, embed each object's best views (at most 5 crops) into OUT/objects/ (`clip.npy`,
-    /// `objects.json`) for `splatseg find` and `extract`/`remove --query`. Cached.
+    /// CLIP checkpoint (with `bpe_simple_vocab_16e6.txt.gz` or `tokenizer.json` beside it), loaded
+    /// and checked before the run: after it, embed each object's best views (at most 5 crops) into
+    /// OUT/objects/ (`clip.npy`, `objects.json`) for `splatseg find` and `extract`/`remove --query`.
+    /// Cached. A run without --clip removes the OUT/objects/ of an earlier run it replaces.
     #[cfg_attr(feature = "cli", arg(long))]
     pub clip: Option<PathBuf>,
 }
@@ -198,7 +199,7 @@ impl RunArgs {
     /// Refuses an --out that would overwrite an input, before anything is read: OUT equal to any
     /// input (SCENE, its `gaussians.ply`, --masks, --features, --depth, --gaussians, --gt,
     /// --config, a checkpoint), an input inside what run writes into OUT (`masks/`, `overlays/`,
-    /// `cache/`, `cues/` with models, `objects/` with --clip, `gaussians.ply`, `report.md`,
+    /// `cache/`, `cues/` with models, `objects/`, `gaussians.ply`, `report.md`,
     /// `metrics.json`), OUT inside
     /// an input folder of masks, features, depth or ground truth.
     pub fn refuse_overwrite(&self) -> splatseg_scene::SceneResult<()> {
@@ -219,7 +220,6 @@ impl RunArgs {
         inputs.extend(models);
         if let Some(clip) = &self.clip {
             inputs.push(Role::file("--clip", clip));
-            outputs.push(Role::tree("--out's objects/", self.out.join(crate::clip_objects::OBJECTS_DIR)));
         }
         splatseg_scene::paths::refuse_overwrite(&inputs, &outputs)
     }
@@ -233,6 +233,9 @@ impl RunArgs {
 /// query come from one model. Prints the embedded objects, best first: rank, id, relevancy (above
 /// 0.5: closer to the query than to every generic phrase), cosine, colour and the views its
 /// embedding came from. Equal relevancies keep the order of the margins under them, then ids.
+///
+/// Refused, saying why: an empty query, one longer than CLIP's context (75 tokens), and embeddings
+/// that no longer belong to OUT (its run, its gaussians.ply or the checkpoint changed since).
 ///
 /// Example: splatseg find OUT "a red mug" --top 3 --json
 #[derive(Debug)]

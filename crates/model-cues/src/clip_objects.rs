@@ -5,16 +5,20 @@
 //! [`VIEWS_PER_OBJECT`]), each cropped LERF-style (its box grown by a margin and made square, the pixels
 //! outside its mask greyed), embedded by the image tower; the L2-normalised mean of its crops'
 //! normalised embeddings is its row of `OUT/objects/clip.npy` (`[N, E]` f32), and `OUT/objects/objects.json`
-//! indexes the rows (id, colour, views) and names the checkpoint. Cached: a rerun whose run, checkpoint
-//! and settings are unchanged does nothing.
+//! indexes the rows (id, colour, views), names the checkpoint and records what it belongs to (the run's
+//! key, the PLY's digest, the checkpoint's identity: [`crate::object_index`]). Cached: a rerun whose
+//! run, checkpoint and settings are unchanged does nothing.
 //!
-//! [`ObjectSearch`] (`splatseg find`, `extract`/`remove` with a query): the index, the embeddings and
-//! the text tower loaded once; a query is ranked with LERF's relevancy against the canonical negatives
-//! ([`splatseg_models::clip::relevancy`]).
+//! [`ObjectSearch`] (`splatseg find`, `extract`/`remove` with a query, the viewer's search): the index,
+//! once shown to belong to the run, the PLY and the checkpoint as they are now, the embeddings and the
+//! text tower loaded once; a query (not empty, within CLIP's context) is ranked with LERF's relevancy
+//! against the canonical negatives ([`splatseg_models::clip::relevancy`]).
 
-use crate::{checkpoint_id, fnv1a, Context, ModelCuesError, FNV_OFFSET};
+use crate::object_index::{checkpoint_identity, ply_digest, run_key, FORMAT};
+pub use crate::object_index::{IndexedObject, ObjectIndex, RunIdentity, UsedView};
+use crate::{fnv1a, Context, ModelCuesError, FNV_OFFSET};
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use splatseg_models::clip::relevancy::{rank_objects, Embeddings, CANONICAL_NEGATIVES, LERF_SCALE};
 use splatseg_models::clip::{Clip, ClipHints, ClipTokenizer, CLIP_MEAN, CLIP_STD, CLIP_WEIGHT_NAMES};
 use splatseg_models::resample::{resize_planes, AxisResize, AxisTaps, Resample};
@@ -49,8 +53,6 @@ pub const GREY: u8 = 128;
 /// Crops per image-tower call; the batches follow the objects' order, so results do not depend on
 /// the thread count.
 pub const CROPS_PER_BATCH: usize = 8;
-/// Version of the files' layout and of the crop rules, part of the cache key.
-const FORMAT: u32 = 1;
 
 /// What [`embed_objects`] needs.
 #[derive(Clone, Debug)]
@@ -67,21 +69,44 @@ pub struct ObjectEmbeddingRequest {
 }
 
 impl ObjectEmbeddingRequest {
-    /// Checks what can be checked before the run: the checkpoint's weights resolve and a tokenizer
-    /// file lies beside them (queries need it), so a mistyped path fails at once.
+    /// Checks the checkpoint before the run, so that a bad one fails at once rather than after the
+    /// pipeline: its weights resolve (a FIFO or a device in their place is refused as not a regular
+    /// file), load with finite values (a NaN names its tensor and the file), the tokenizer beside them
+    /// loads and fits the text tower, and the text tower embeds the canonical phrases.
     pub fn check(&self) -> crate::Result<()> {
-        let files =
-            splatseg_models::checkpoint::resolve_named(&self.clip, ModelKind::Clip, &CLIP_WEIGHT_NAMES)
-                .context("the CLIP checkpoint (--clip)")?;
-        splatseg_models::clip::tokenizer_beside(&files.weights).map(|_| ()).with_context(|| {
-            format!(
-                "no tokenizer ({} or {}) beside the CLIP checkpoint (--clip) {}",
-                splatseg_models::clip::MERGES_FILE,
-                splatseg_models::clip::HF_TOKENIZER_FILE,
-                self.clip.display()
-            )
-        })
+        let model = Clip::load(&self.clip, ClipHints::default()).context("the CLIP checkpoint (--clip)")?;
+        model.image_tower().context("the CLIP checkpoint (--clip)")?;
+        let (tokenizer, _) = text_side(&self.clip, &model).context("the CLIP checkpoint (--clip)")?;
+        texts(&model, &tokenizer, &CANONICAL_NEGATIVES).context("the CLIP checkpoint (--clip)")?;
+        Ok(())
     }
+}
+
+/// The tokenizer beside `checkpoint` (and the weights file), checked against `model`'s text tower:
+/// present, readable, and with no id past the tower's token table.
+fn text_side(checkpoint: &Path, model: &Clip) -> crate::Result<(ClipTokenizer, PathBuf)> {
+    let files = splatseg_models::checkpoint::resolve_named(checkpoint, ModelKind::Clip, &CLIP_WEIGHT_NAMES)?;
+    let vocabulary = splatseg_models::clip::tokenizer_beside(&files.weights).with_context(|| {
+        format!(
+            "no tokenizer ({} or {}) beside the CLIP checkpoint {}",
+            splatseg_models::clip::MERGES_FILE,
+            splatseg_models::clip::HF_TOKENIZER_FILE,
+            checkpoint.display()
+        )
+    })?;
+    let tokenizer = ClipTokenizer::load(&vocabulary)?;
+    let tower = model.text_tower()?.config().vocab_size;
+    if tokenizer.vocab_size() > tower {
+        return Err(ModelCuesError::Invalid(format!(
+            "the tokenizer has {} token ids but the checkpoint's text tower {} (not the checkpoint's own tokenizer?): {} \
+             beside {}",
+            tokenizer.vocab_size(),
+            tower,
+            vocabulary.display(),
+            files.weights.display()
+        )));
+    }
+    Ok((tokenizer, files.weights))
 }
 
 /// What [`embed_objects`] did.
@@ -122,49 +147,6 @@ impl ObjectEmbeddingSummary {
             self.dir.display()
         )
     }
-}
-
-/// `OUT/objects/objects.json`: which row of `clip.npy` is which object, and from what.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ObjectIndex {
-    /// Layout version.
-    pub format: u32,
-    /// The cache key (the run's key, the checkpoint's identity, the crop settings).
-    pub key: String,
-    /// The checkpoint as given to `run --clip` (made absolute): queries load its text tower.
-    pub checkpoint: PathBuf,
-    /// The weights file's path, size and modification time.
-    pub checkpoint_id: String,
-    /// Embedding width `E`.
-    pub dim: usize,
-    /// Side of the crops the image tower saw.
-    pub image_size: usize,
-    /// Every object of the final label maps, by id.
-    pub objects: Vec<IndexedObject>,
-}
-
-/// One object of the index.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct IndexedObject {
-    /// Its id (as in the label maps and `gaussians.ply`).
-    pub id: u32,
-    /// Its row in `clip.npy`; `None` when it is smaller than [`MIN_PIXELS`] in every view.
-    pub row: Option<usize>,
-    /// Its palette colour.
-    pub colour: [u8; 3],
-    /// The views its crops came from, best first.
-    pub views: Vec<UsedView>,
-}
-
-/// A view an object's crop came from.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct UsedView {
-    /// The view's image stem.
-    pub stem: String,
-    /// The object's pixels in it.
-    pub pixels: u64,
-    /// `pixels · (1 − share of the box's perimeter on the image border)`.
-    pub score: f64,
 }
 
 /// An object's footprint in one view.
@@ -285,39 +267,6 @@ fn dilate(mask: &[bool], n: usize, radius: usize) -> Vec<bool> {
     pass(&pass(mask, true), false)
 }
 
-/// The run's cache key (`OUT/cache/run.json`), which changes whenever its outputs do.
-fn run_key(out: &Path) -> crate::Result<String> {
-    let path = out.join("cache").join("run.json");
-    let text = std::fs::read_to_string(&path).with_context(|| {
-        format!(
-            "no finished run here (its manifest is missing; run `splatseg run` first): {}",
-            path.display()
-        )
-    })?;
-    let value: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| ModelCuesError::Invalid(format!("not a run's manifest ({e}): {}", path.display())))?;
-    value["key"]
-        .as_str()
-        .map(str::to_string)
-        .with_context(|| format!("the run's manifest has no key: {}", path.display()))
-}
-
-/// The index of `out`, when there is one.
-fn read_index(path: &Path) -> crate::Result<ObjectIndex> {
-    let text = std::fs::read_to_string(path).with_context(|| {
-        format!(
-            "no object embeddings (run `splatseg run --clip CKPT` on this output folder first): {}",
-            path.display()
-        )
-    })?;
-    serde_json::from_str(&text).map_err(|e| {
-        ModelCuesError::Invalid(format!(
-            "not an object index written by `run --clip` ({e}): {}",
-            path.display()
-        ))
-    })
-}
-
 /// Embeds every object of the finished run in `request.out` (see the module docs).
 pub fn embed_objects(request: &ObjectEmbeddingRequest) -> crate::Result<ObjectEmbeddingSummary> {
     let out = &request.out;
@@ -331,19 +280,22 @@ pub fn embed_objects(request: &ObjectEmbeddingRequest) -> crate::Result<ObjectEm
             .with_context(|| format!("cannot resolve the path {}", request.clip.display()))?,
         false => request.clip.clone(),
     };
-    let weights_id = checkpoint_id(&files.weights);
+    let weights_id = checkpoint_identity(&files.weights)?;
+    let run_key = run_key(out)?;
+    let ply_digest = ply_digest(&out.join("gaussians.ply"))?;
     let settings = format!(
         "clip objects v{FORMAT} views {VIEWS_PER_OBJECT} min {MIN_PIXELS} margin {MARGIN_SHARE}/{MIN_MARGIN_PX} \
          dilation {MASK_DILATION_PX} grey {GREY}"
     );
+    let ply_text = ply_digest.as_deref().unwrap_or("no PLY");
     let key = format!(
         "{:016x}",
-        fnv1a(format!("{}\n{weights_id}\n{settings}", run_key(out)?).as_bytes(), FNV_OFFSET)
+        fnv1a(format!("{run_key}\n{ply_text}\n{weights_id}\n{settings}").as_bytes(), FNV_OFFSET)
     );
     let dir = out.join(OBJECTS_DIR);
     let (index_path, npy_path) = (dir.join(INDEX_FILE), dir.join(EMBEDDINGS_FILE));
     if npy_path.is_file() {
-        if let Ok(index) = read_index(&index_path) {
+        if let Ok(index) = ObjectIndex::read(&index_path) {
             if index.key == key && index.checkpoint == checkpoint {
                 let embedded = index.objects.iter().filter(|o| o.row.is_some()).count();
                 return Ok(ObjectEmbeddingSummary {
@@ -483,6 +435,8 @@ pub fn embed_objects(request: &ObjectEmbeddingRequest) -> crate::Result<ObjectEm
     let index = ObjectIndex {
         format: FORMAT,
         key,
+        run_key,
+        ply_digest,
         checkpoint,
         checkpoint_id: weights_id,
         dim,
@@ -546,12 +500,37 @@ pub struct ObjectSearch {
 }
 
 impl ObjectSearch {
-    /// Opens `OUT/objects/` and the text tower of the checkpoint its index names (with the tokenizer
-    /// file beside it); errors name the file that is missing or wrong.
+    /// Opens `OUT/objects/` for the run's own `OUT/gaussians.ply` (see [`ObjectSearch::open_beside`]).
     pub fn open(out: &Path) -> crate::Result<ObjectSearch> {
+        Self::open_for(out, &out.join("gaussians.ply"))
+    }
+
+    /// Opens the object embeddings `run --clip` wrote beside `ply` (a run's `gaussians.ply`: its
+    /// folder is the run's OUT), for queries on the objects of `ply`.
+    pub fn open_beside(ply: &Path) -> crate::Result<ObjectSearch> {
+        let out = match ply.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        Self::open_for(out, ply)
+    }
+
+    /// Opens `OUT/objects/` and the text tower of the checkpoint its index names (with the tokenizer
+    /// file beside it), once the index is shown to belong to the run in `out`, to `ply` and to the
+    /// checkpoint as they are now ([`ObjectIndex::check_belongs`]); errors name the file that is
+    /// missing or wrong, or what differs.
+    fn open_for(out: &Path, ply: &Path) -> crate::Result<ObjectSearch> {
         let dir = out.join(OBJECTS_DIR);
         let index_path = dir.join(INDEX_FILE);
-        let index = read_index(&index_path)?;
+        let index = ObjectIndex::read(&index_path)?;
+        let named = || format!("the CLIP checkpoint that {} names", index_path.display());
+        let files = splatseg_models::checkpoint::resolve_named(
+            &index.checkpoint,
+            ModelKind::Clip,
+            &CLIP_WEIGHT_NAMES,
+        )
+        .with_context(named)?;
+        index.check_belongs(&index_path, &RunIdentity::of(out, ply, &files.weights)?)?;
         let npy_path = dir.join(EMBEDDINGS_FILE);
         let npy = splatseg_scene::npy::read_npy(&npy_path).context("the object embeddings")?;
         let rows = index.objects.iter().filter(|o| o.row.is_some()).count();
@@ -564,24 +543,9 @@ impl ObjectSearch {
                 npy_path.display()
             )));
         }
-        let clip = Clip::load_text_only(&index.checkpoint, ClipHints::default()).with_context(|| {
-            format!("the CLIP checkpoint that {} names: {}", index_path.display(), index.checkpoint.display())
-        })?;
-        let files = splatseg_models::checkpoint::resolve_named(
-            &index.checkpoint,
-            ModelKind::Clip,
-            &CLIP_WEIGHT_NAMES,
-        )
-        .with_context(|| format!("the CLIP checkpoint that {} names", index_path.display()))?;
-        let vocabulary = splatseg_models::clip::tokenizer_beside(&files.weights).with_context(|| {
-            format!(
-                "no tokenizer ({} or {}) beside the CLIP checkpoint {}",
-                splatseg_models::clip::MERGES_FILE,
-                splatseg_models::clip::HF_TOKENIZER_FILE,
-                index.checkpoint.display()
-            )
-        })?;
-        let tokenizer = ClipTokenizer::load(&vocabulary)?;
+        let clip = Clip::load_text_only(&index.checkpoint, ClipHints::default())
+            .with_context(|| format!("{}: {}", named(), index.checkpoint.display()))?;
+        let (tokenizer, _) = text_side(&index.checkpoint, &clip)?;
         if clip.config().embed_dim != index.dim {
             return Err(ModelCuesError::Invalid(format!(
                 "the checkpoint embeds in {} dimensions but the embeddings have {}: {}",
@@ -659,20 +623,17 @@ impl ObjectSearch {
 /// The object `query` matches best among the embeddings `run --clip` wrote beside `ply` (a run's
 /// `gaussians.ply`: its folder is the run's OUT).
 pub fn best_match_beside(ply: &Path, query: &str) -> crate::Result<FoundObject> {
-    let out = match ply.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir,
-        _ => Path::new("."),
-    };
-    ObjectSearch::open(out)
+    ObjectSearch::open_beside(ply)
         .with_context(|| {
             format!("a query needs the object embeddings of the run that wrote {}", ply.display())
         })?
         .best(query)
 }
 
-/// L2-normalised text embeddings, `[texts, dim]` row-major.
+/// L2-normalised text embeddings, `[texts, dim]` row-major; an empty text or one longer than the
+/// tower's context is an error ([`ClipTokenizer::tokenize_query`]), for every caller alike.
 fn texts(clip: &Clip, tokenizer: &ClipTokenizer, texts: &[&str]) -> crate::Result<Vec<f32>> {
-    Ok(clip.embed_texts_flat(tokenizer, texts)?)
+    Ok(clip.embed_queries_flat(tokenizer, texts)?)
 }
 
 /// The ranked objects as `find --json` prints them: a JSON array, best first, each object

@@ -12,6 +12,7 @@
 pub mod args;
 pub mod clip_objects;
 mod error;
+pub mod object_index;
 pub mod object_names;
 
 pub use args::{CuesArgs, FindArgs, RunArgs};

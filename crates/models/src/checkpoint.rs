@@ -24,6 +24,7 @@ pub fn resolve(path: &Path, kind: ModelKind) -> ModelsResult<CheckpointFiles> {
 
 /// [`resolve`] with the weight file names a folder or snapshot may hold, in order of preference.
 pub fn resolve_named(path: &Path, kind: ModelKind, names: &[&str]) -> ModelsResult<CheckpointFiles> {
+    refuse_special_file(path, kind)?;
     if path.is_file() {
         let config = path.parent().map(|d| d.join("config.json")).filter(|c| c.is_file());
         return Ok(CheckpointFiles { weights: path.to_path_buf(), config });
@@ -31,6 +32,9 @@ pub fn resolve_named(path: &Path, kind: ModelKind, names: &[&str]) -> ModelsResu
     if path.is_dir() {
         if let Some(found) = in_snapshot(path, names) {
             return Ok(found);
+        }
+        for name in names {
+            refuse_special_file(&path.join(name), kind)?;
         }
         if let Some(found) = in_cache_repo(path, names) {
             return Ok(found);
@@ -46,6 +50,19 @@ pub fn resolve_named(path: &Path, kind: ModelKind, names: &[&str]) -> ModelsResu
         return from_hf_cache_named(&text, kind, names);
     }
     Err(ModelsError::NotFound { kind, reason: "no such file or folder".into(), path: path.to_path_buf() })
+}
+
+/// Refuses a path that exists but is neither a regular file nor a folder (a FIFO, a socket, a device
+/// or a link to one such as `/dev/zero`), which reading would block on or never finish.
+pub fn refuse_special_file(path: &Path, kind: ModelKind) -> ModelsResult<()> {
+    match std::fs::metadata(path) {
+        Ok(meta) if !meta.is_file() && !meta.is_dir() => Err(ModelsError::Unreadable {
+            kind,
+            reason: "not a regular file (a FIFO, a socket or a device, or a link to one)".into(),
+            path: path.to_path_buf(),
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// Looks a model id (`facebook/dinov2-small`) up in the Hugging Face cache (`$HF_HUB_CACHE`,

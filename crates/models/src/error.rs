@@ -94,6 +94,24 @@ pub enum ModelsError {
         /// The file.
         path: PathBuf,
     },
+    /// A tensor holds NaN or ±Inf values (a damaged or diverged checkpoint).
+    #[error("the {} checkpoint's tensor `{name}` holds {count} NaN or ±Inf values (of {total}); the file is damaged or \
+             not a trained model: {}", kind.name(), path.display())]
+    NonFinite {
+        /// Model the file was meant for.
+        kind: ModelKind,
+        /// Tensor name.
+        name: String,
+        /// Values that are not finite.
+        count: usize,
+        /// Values in the tensor.
+        total: usize,
+        /// The file.
+        path: PathBuf,
+    },
+    /// A text query CLIP cannot embed as it is: empty, or longer than the text tower's context.
+    #[error("{0}")]
+    Query(String),
     /// A checkpoint path or cache lookup found nothing.
     #[error("no {} checkpoint found ({reason}); expected {}: {}", kind.name(), kind.expected_file(), path.display())]
     NotFound {
@@ -112,9 +130,9 @@ pub enum ModelsError {
         /// The file.
         path: PathBuf,
     },
-    /// A CLIP tokenizer's merges file is unreadable or malformed.
-    #[error("cannot read the CLIP tokenizer's merges file ({reason}); expected the `bpe_simple_vocab_16e6.txt.gz` \
-             that comes with the checkpoint (OpenAI's CLIP, open_clip): {}", path.display())]
+    /// A CLIP tokenizer file (merges or `tokenizer.json`) is unreadable or malformed.
+    #[error("cannot read the CLIP tokenizer ({reason}); expected the `bpe_simple_vocab_16e6.txt.gz` or \
+             `tokenizer.json` that comes with the checkpoint (OpenAI's CLIP, open_clip, transformers): {}", path.display())]
     Tokenizer {
         /// What is wrong.
         reason: String,

@@ -24,6 +24,7 @@ impl Weights {
     /// holding one under `model` / `state_dict`).
     pub fn load(path: &Path, kind: ModelKind) -> ModelsResult<Self> {
         let unreadable = |reason: String| ModelsError::Unreadable { kind, reason, path: path.to_path_buf() };
+        crate::checkpoint::refuse_special_file(path, kind)?;
         let mut magic = [0u8; 8];
         {
             use std::io::Read;
@@ -65,6 +66,25 @@ impl Weights {
     /// Wraps tensors already in memory (`path` is only used in messages).
     pub fn from_tensors(tensors: HashMap<String, Tensor>, path: &Path, kind: ModelKind) -> Self {
         Self { tensors, path: path.to_path_buf(), kind, prefix: String::new() }
+    }
+
+    /// Refuses weights holding a NaN or ±Inf: the error names the first such tensor (by name), how many
+    /// of its values are not finite, and the file.
+    pub fn check_finite(&self) -> ModelsResult<()> {
+        for name in self.names() {
+            let values = self.tensors[name].flatten_all()?.to_vec1::<f32>()?;
+            let bad = values.iter().filter(|v| !v.is_finite()).count();
+            if bad > 0 {
+                return Err(ModelsError::NonFinite {
+                    kind: self.kind,
+                    name: format!("{}{name}", self.prefix),
+                    count: bad,
+                    total: values.len(),
+                    path: self.path.clone(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The file the tensors came from.

@@ -106,6 +106,27 @@ fn truncation_keeps_eot_last_and_pads_with_zeros() {
 }
 
 #[test]
+fn queries_that_are_blank_or_too_long_are_refused_not_cut() {
+    let tokenizer = ClipTokenizer::load(&fixture("clip_bpe_tiny.txt.gz")).unwrap();
+    for blank in ["", "   ", "\t\n"] {
+        let err = tokenizer.tokenize_query(blank, CONTEXT_LENGTH).unwrap_err().to_string();
+        assert!(err.contains("is empty or blank"), "{blank:?}: {err}");
+    }
+    // 75 tokens fit beside SOT and EOT; 76 do not
+    let fits = "a ".repeat(75);
+    assert_eq!(tokenizer.encode(&fits).unwrap().len(), 75);
+    assert_eq!(
+        tokenizer.tokenize_query(&fits, CONTEXT_LENGTH).unwrap(),
+        tokenizer.tokenize(&fits, 77).unwrap()
+    );
+    let err = tokenizer.tokenize_query(&"a ".repeat(76), CONTEXT_LENGTH).unwrap_err().to_string();
+    assert!(err.contains("76 tokens long, more than the 75 CLIP reads"), "{err}");
+    assert!(err.contains("152 characters") && err.contains("shorten it"), "{err}");
+    let a_red_mug = tokenizer.tokenize_query("a red mug", CONTEXT_LENGTH).unwrap();
+    assert_eq!(a_red_mug, tokenizer.tokenize("a red mug", CONTEXT_LENGTH).unwrap());
+}
+
+#[test]
 fn openai_layout_with_quick_gelu_matches_open_clip() {
     let model = Clip::load(&fixture("clip_tiny_openai"), ClipHints::default()).unwrap();
     let config = model.config();

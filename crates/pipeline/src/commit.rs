@@ -17,6 +17,11 @@ pub const STAGING: &str = ".staging";
 /// Everything `run` writes besides its cache, in the order it is moved in.
 pub const OUTPUTS: [&str; 5] = ["masks", "overlays", "gaussians.ply", "metrics.json", "report.md"];
 
+/// What later steps make from the outputs (`run --clip`'s object embeddings, `objects/`): they
+/// describe the outputs they were made from, so a commit of new outputs removes them first (a
+/// `run --clip` makes them again; a query on a folder without them says to).
+pub const MADE_FROM_OUTPUTS: [&str; 1] = ["objects"];
+
 /// An empty staging folder for one run's outputs.
 #[derive(Debug)]
 pub struct Staging {
@@ -38,11 +43,14 @@ impl Staging {
         &self.dir
     }
 
-    /// Removes `manifest`, then replaces each of [`OUTPUTS`] in `OUT` by the staged one (or
-    /// removes it when this run did not write it), then removes the staging folder. The caller
-    /// writes the new manifest afterwards.
+    /// Removes `manifest` and what was made from the earlier outputs ([`MADE_FROM_OUTPUTS`]), then
+    /// replaces each of [`OUTPUTS`] in `OUT` by the staged one (or removes it when this run did not
+    /// write it), then removes the staging folder. The caller writes the new manifest afterwards.
     pub fn commit(self, manifest: &Path) -> crate::Result<()> {
         remove_path(manifest)?;
+        for name in MADE_FROM_OUTPUTS {
+            remove_path(&self.out.join(name))?;
+        }
         for name in OUTPUTS {
             let (staged, target) = (self.dir.join(name), self.out.join(name));
             remove_path(&target)?;
@@ -87,6 +95,7 @@ mod tests {
             ("report.md", "old report"),
             ("cache/run.json", "old manifest"),
             ("notes.txt", "the user's"),
+            ("objects/objects.json", "the earlier run's object index"),
             (".staging/masks/.tmp123", "a killed run's temp file"),
         ] {
             let p = out.join(path);
@@ -111,6 +120,7 @@ mod tests {
         assert_eq!(read("metrics.json").as_deref(), Some("{}"));
         assert_eq!(read("cache/run.json"), None, "the caller writes the new manifest");
         assert_eq!(read("notes.txt").as_deref(), Some("the user's"), "other files are kept");
+        assert!(!out.join("objects").exists(), "the earlier run's object index is gone");
         assert!(!out.join(STAGING).exists());
     }
 

@@ -33,6 +33,32 @@ pub fn folder_digests(dir: &Path, skip: impl Fn(&str) -> bool) -> crate::Result<
     Ok(out)
 }
 
+/// The digest of a file's bytes, read in pieces of 1 MiB (a PLY of gigabytes is not held in memory):
+/// what an output that belongs to a run records of the file it was made from (`run --clip`'s object
+/// index of `gaussians.ply`).
+pub fn file_digest(path: &Path) -> crate::Result<String> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut hasher = KeyHasher::default();
+    let mut piece = vec![0u8; 1 << 20];
+    loop {
+        let mut filled = 0;
+        while filled < piece.len() {
+            match file.read(&mut piece[filled..]) {
+                Ok(0) => break,
+                Ok(n) => filled += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+            }
+        }
+        if filled == 0 {
+            break;
+        }
+        hasher.bytes(&piece[..filled]);
+    }
+    Ok(hasher.finish())
+}
+
 /// The digest of a text (what a command printed, say).
 pub fn text_digest(text: &str) -> String {
     KeyHasher::default().text(text).finish()

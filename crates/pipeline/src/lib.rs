@@ -206,9 +206,17 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     let cache_dir = config.out.join("cache");
     let run_key = inputs.key(config)?;
     if let Some(hit) = read_json::<RunCache>(&cache_dir.join("run.json")) {
-        if hit.key == run_key && inputs.outputs_present(&config.out) {
+        let here = same_folder(&hit.summary.out, &config.out);
+        if hit.key == run_key && inputs.outputs_present(&config.out) && here {
             tracing::info!("outputs are up to date with the inputs and settings: nothing to do");
-            return Ok(RunSummary { resumed: true, ..hit.summary });
+            return Ok(RunSummary { resumed: true, out: config.out.clone(), ..hit.summary });
+        }
+        if hit.key == run_key && !here {
+            tracing::info!(
+                "the outputs here were written for {} (a copy or a moved folder): writing them for {}",
+                hit.summary.out.display(),
+                config.out.display()
+            );
         }
     }
 
@@ -307,6 +315,16 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     staging.commit(&manifest)?;
     write_json(&manifest, &RunCache { key: run_key, summary: summary.clone() })?;
     Ok(RunSummary { stages: profiler.finish(), ..summary })
+}
+
+/// Whether `recorded` (the output folder a finished run recorded) is `out`, by their resolved paths: a
+/// copy of an output folder, or one moved, is not (its `metrics.json` and report name the other), and
+/// is written again rather than called up to date.
+fn same_folder(recorded: &Path, out: &Path) -> bool {
+    match (std::fs::canonicalize(recorded), std::fs::canonicalize(out)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
 }
 
 /// The per-view pass over every view with masks, one view at a time on each thread (bounded

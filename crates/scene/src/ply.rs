@@ -25,7 +25,9 @@ mod scalar;
 mod validate;
 
 pub use decode::{parse_ply_bytes, parse_ply_bytes_rows, read_ply, read_ply_rows, PlyRows};
-pub use encode::{to_ply_bytes, write_ply, write_ply_rows, write_ply_rows_with_features, FeatureRows};
+pub use encode::{
+    to_ply_bytes, write_ply, write_ply_rows, write_ply_rows_with_features, write_ply_swept, FeatureRows,
+};
 pub use validate::{degenerate_shape, MAX_LOG_SCALE, MIN_QUATERNION_NORM};
 
 /// Format name used in error messages.

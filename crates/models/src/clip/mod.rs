@@ -139,20 +139,35 @@ impl Clip {
     pub fn embed_texts_flat(&self, tokenizer: &ClipTokenizer, texts: &[&str]) -> ModelsResult<Vec<f32>> {
         Ok(self.embed_texts(tokenizer, texts)?.flatten_all()?.to_vec1::<f32>()?)
     }
+
+    /// [`Clip::embed_texts_flat`] for queries: an empty query or one longer than the tower's context is
+    /// an error ([`ClipTokenizer::tokenize_query`]) instead of being embedded or cut.
+    pub fn embed_queries_flat(&self, tokenizer: &ClipTokenizer, queries: &[&str]) -> ModelsResult<Vec<f32>> {
+        let tower = self.text_tower()?;
+        let context = tower.config().context_length;
+        let rows =
+            queries.iter().map(|q| tokenizer.tokenize_query(q, context)).collect::<ModelsResult<Vec<_>>>()?;
+        Ok(l2_normalise_rows(&tower.embed(&rows)?)?.flatten_all()?.to_vec1::<f32>()?)
+    }
 }
 
 /// The tokenizer file beside a checkpoint (or in its folder), when there is one: the merges file
-/// ([`MERGES_FILE`]), else a Hugging Face [`HF_TOKENIZER_FILE`] ([`ClipTokenizer::load`] reads both).
+/// ([`MERGES_FILE`]), else a Hugging Face [`HF_TOKENIZER_FILE`] ([`ClipTokenizer::load`] reads both,
+/// and refuses what is not a regular file, so a FIFO in its place is named as such, not missed).
 pub fn tokenizer_beside(checkpoint: &Path) -> Option<PathBuf> {
     let dir = if checkpoint.is_dir() { checkpoint } else { checkpoint.parent()? };
-    TOKENIZER_FILES.iter().map(|name| dir.join(name)).find(|p| p.is_file())
+    TOKENIZER_FILES
+        .iter()
+        .map(|name| dir.join(name))
+        .find(|p| std::fs::metadata(p).is_ok_and(|m| !m.is_dir()))
 }
 
-/// The checkpoint's tensors and `hints` completed by the `open_clip_config.json` beside it (or, for
+/// The checkpoint's tensors (refused when one holds a NaN or ±Inf, naming it) and `hints` completed by the `open_clip_config.json` beside it (or, for
 /// transformers' names, its `config.json`).
 fn read_checkpoint(path: &Path, hints: ClipHints) -> ModelsResult<(Weights, ClipHints)> {
     let files = checkpoint::resolve_named(path, ModelKind::Clip, &CLIP_WEIGHT_NAMES)?;
     let weights = Weights::load(&files.weights, ModelKind::Clip)?;
+    weights.check_finite()?;
     let from_file = if hf_names::is_hf_layout(&weights) {
         match &files.config {
             Some(config) => ClipHints::from_hf_config(&read_json(config)?, config)?,

@@ -154,10 +154,36 @@ pub fn random_state_dict(spec: RandomClipSpec, seed: u64) -> ModelsResult<HashMa
 /// `open_clip_config.json` saying QuickGELU and the heads. Returns the weights file. The tokenizer's
 /// merges (`bpe_simple_vocab_16e6.txt.gz`, with `spec.vocab_size` ids) are the caller's to put beside.
 pub fn write_random_checkpoint(dir: &Path, spec: RandomClipSpec, seed: u64) -> ModelsResult<PathBuf> {
+    write_checkpoint(dir, spec, &random_state_dict(spec, seed)?)
+}
+
+/// [`write_random_checkpoint`] with every value of the tensor `poisoned` NaN: a damaged checkpoint,
+/// for the tests of the error that names it.
+pub fn write_random_checkpoint_with_nan(
+    dir: &Path,
+    spec: RandomClipSpec,
+    seed: u64,
+    poisoned: &str,
+) -> ModelsResult<PathBuf> {
+    let mut tensors = random_state_dict(spec, seed)?;
+    let tensor = tensors
+        .get(poisoned)
+        .ok_or_else(|| ModelsError::Input(format!("a random CLIP has no tensor `{poisoned}`")))?;
+    let nan = Tensor::full(f32::NAN, tensor.dims(), &Device::Cpu)?;
+    tensors.insert(poisoned.to_string(), nan);
+    write_checkpoint(dir, spec, &tensors)
+}
+
+/// Writes `tensors` (of `spec`'s shapes) and open_clip's config for `spec` into `dir`.
+fn write_checkpoint(
+    dir: &Path,
+    spec: RandomClipSpec,
+    tensors: &HashMap<String, Tensor>,
+) -> ModelsResult<PathBuf> {
     let io = |e: std::io::Error, path: &Path| ModelsError::Input(format!("{e}: {}", path.display()));
     std::fs::create_dir_all(dir).map_err(|e| io(e, dir))?;
     let weights = dir.join(super::CLIP_WEIGHT_NAMES[0]);
-    candle_core::safetensors::save(&random_state_dict(spec, seed)?, &weights)?;
+    candle_core::safetensors::save(tensors, &weights)?;
     let config = serde_json::json!({
         "model_cfg": {
             "embed_dim": spec.embed_dim,
@@ -202,6 +228,43 @@ mod tests {
         assert_eq!(first, std::fs::read(&weights).unwrap(), "same seed, same bytes");
         write_random_checkpoint(&dir, RandomClipSpec::tiny(651), 8).unwrap();
         assert_ne!(first, std::fs::read(&weights).unwrap(), "another seed, other values");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_nan_tensor_is_refused_naming_it_and_the_file() {
+        let dir = std::env::temp_dir().join(format!("splatseg_nan_clip_{}", std::process::id()));
+        let weights =
+            write_random_checkpoint_with_nan(&dir, RandomClipSpec::tiny(651), 7, "ln_final.weight").unwrap();
+        for err in [
+            Clip::load(&dir, ClipHints::default()).unwrap_err().to_string(),
+            Clip::load_text_only(&dir, ClipHints::default()).unwrap_err().to_string(),
+        ] {
+            assert!(err.contains("`ln_final.weight` holds 32 NaN or ±Inf values (of 32)"), "{err}");
+            assert!(err.contains(&weights.display().to_string()), "{err}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn special_files_are_refused_as_such() {
+        let dir = std::env::temp_dir().join(format!("splatseg_special_clip_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let weights = dir.join(crate::clip::CLIP_WEIGHT_NAMES[3]);
+        std::os::unix::fs::symlink("/dev/zero", &weights).unwrap();
+        for err in [
+            Clip::load(&dir, ClipHints::default()).unwrap_err().to_string(),
+            Clip::load(&weights, ClipHints::default()).unwrap_err().to_string(),
+        ] {
+            assert!(err.contains("not a regular file") && err.contains("model.safetensors"), "{err}");
+            assert!(!err.contains("holds none of"), "{err}");
+        }
+        let merges = dir.join(crate::clip::MERGES_FILE);
+        std::os::unix::fs::symlink("/dev/zero", &merges).unwrap();
+        assert_eq!(crate::clip::tokenizer_beside(&weights), Some(merges.clone()));
+        let err = crate::clip::ClipTokenizer::load(&merges).unwrap_err().to_string();
+        assert!(err.contains("not a regular file") && err.contains(crate::clip::MERGES_FILE), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -57,6 +57,11 @@ impl ClipTokenizer {
     /// `tokenizer.json` (UTF-8 text starting with `{`).
     pub fn load(path: &Path) -> ModelsResult<Self> {
         let error = |reason: String| ModelsError::Tokenizer { reason, path: path.to_path_buf() };
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+            return Err(error(
+                "not a regular file (a folder, a FIFO, a socket or a device, or a link to one)".into(),
+            ));
+        }
         let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
         let text = if bytes.starts_with(&[0x1f, 0x8b]) {
             let mut text = String::new();
@@ -240,6 +245,31 @@ impl ClipTokenizer {
         }
         ids.resize(context_length, 0);
         Ok(ids)
+    }
+
+    /// A query's ids, as [`ClipTokenizer::tokenize`] makes them, but refused rather than cut: a text
+    /// without a token (empty, or only spaces) matches nothing in particular, and one whose tokens do
+    /// not fit the context (with SOT and EOT) would lose its end without a word. The errors quote the
+    /// text (its beginning, when long) and say what is expected; every front end (`find`, `extract`
+    /// and `remove --query`, the viewer's search, `view --names`) gets them from here.
+    pub fn tokenize_query(&self, text: &str, context_length: usize) -> ModelsResult<Vec<u32>> {
+        let ids = self.encode(text)?;
+        if ids.is_empty() {
+            return Err(ModelsError::Query(format!(
+                "the query {text:?} is empty or blank: give the words to look for, e.g. \"a red mug\""
+            )));
+        }
+        let room = context_length.saturating_sub(2);
+        if ids.len() > room {
+            let start: String = text.chars().take(40).collect();
+            return Err(ModelsError::Query(format!(
+                "the query is {} tokens long, more than the {room} CLIP reads (its context of {context_length} \
+                 tokens holds a start and an end token too): shorten it ({} characters, starting {start:?})",
+                ids.len(),
+                text.chars().count(),
+            )));
+        }
+        self.tokenize(text, context_length)
     }
 
     /// The BPE tokens of one piece (its byte characters).

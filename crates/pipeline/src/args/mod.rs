@@ -76,11 +76,12 @@ pub fn pipeline_inputs(
 }
 
 /// What `run` (and `merge`, a part of it) writes into OUT: the folder itself, `masks/`,
-/// `overlays/`, `cache/` (every file), `gaussians.ply`, `report.md`, `metrics.json` and the lock.
+/// `overlays/`, `cache/` (every file), `objects/` (removed by a commit, written by `--clip`),
+/// `gaussians.ply`, `report.md`, `metrics.json` and the lock.
 pub fn run_outputs(out: &std::path::Path) -> Vec<splatseg_scene::paths::Role> {
     use splatseg_scene::paths::Role;
     let mut outputs = vec![Role::folder("--out", out)];
-    for dir in ["masks", "overlays", "cache"] {
+    for dir in ["masks", "overlays", "cache", "objects"] {
         outputs.push(Role::tree(format!("--out's {dir}/"), out.join(dir)));
     }
     for file in ["gaussians.ply", "report.md", "metrics.json", ".splatseg.lock"] {

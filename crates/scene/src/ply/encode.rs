@@ -8,6 +8,7 @@ use crate::error::{SceneError, SceneResult};
 use crate::gaussians::Gaussians;
 use rayon::prelude::*;
 use std::fmt::Write as _;
+use std::io::Write;
 use std::path::Path;
 
 /// Rows encoded by one parallel task.
@@ -53,17 +54,34 @@ pub fn write_ply_rows_with_features(
     }
     let plan = RowPlan::new(g, features.map(|f| f.dim()))
         .map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
-    write_atomic(path, |w| {
-        w.write_all(plan.header.as_bytes())?;
-        let mut buffer = vec![0u8; ROWS_PER_WRITE.min(g.len()) * plan.stride];
-        for first in (0..g.len()).step_by(ROWS_PER_WRITE) {
-            let rows = ROWS_PER_WRITE.min(g.len() - first);
-            let chunk = &mut buffer[..rows * plan.stride];
-            encode_rows(g, features, &plan, first, chunk);
-            w.write_all(chunk)?;
-        }
-        Ok(())
-    })
+    write_atomic(path, |w| write_planned(w, g, features, &plan))
+}
+
+/// [`write_ply`] into a folder of the user's (what `extract`, `remove`, `recolor` and the viewer's
+/// exports write): through [`crate::atomic::write_atomic_sweeping`], so the temporary file a killed
+/// write leaves (hundreds of MB for a large scene) is removed by the next such write there.
+pub fn write_ply_swept(path: &Path, g: &Gaussians) -> SceneResult<()> {
+    g.validate().map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
+    let plan = RowPlan::new(g, None).map_err(|reason| SceneError::invalid(FORMAT, path, reason))?;
+    crate::atomic::write_atomic_sweeping(path, |w| write_planned(w, g, None, &plan))
+}
+
+/// The header and every row of `g`, in pieces of [`ROWS_PER_WRITE`] rows.
+fn write_planned(
+    w: &mut dyn Write,
+    g: &Gaussians,
+    features: Option<&dyn FeatureRows>,
+    plan: &RowPlan,
+) -> std::io::Result<()> {
+    w.write_all(plan.header.as_bytes())?;
+    let mut buffer = vec![0u8; ROWS_PER_WRITE.min(g.len()) * plan.stride];
+    for first in (0..g.len()).step_by(ROWS_PER_WRITE) {
+        let rows = ROWS_PER_WRITE.min(g.len() - first);
+        let chunk = &mut buffer[..rows * plan.stride];
+        encode_rows(g, features, plan, first, chunk);
+        w.write_all(chunk)?;
+    }
+    Ok(())
 }
 
 /// The bytes of the file [`write_ply`] writes. The error says what is wrong with `g`.
