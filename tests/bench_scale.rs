@@ -21,7 +21,7 @@ fn bench_scale_prints_every_stage_of_a_run_on_the_capture_it_wrote() {
     let stages = [
         "load inputs",
         "prepare Gaussians",
-        "other views' SAM masks (separate wholes)",
+        "per view: visibility, SAM masks",
         "per view: depth, merge, visibility",
         "match",
         "lift and render back",

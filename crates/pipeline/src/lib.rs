@@ -231,13 +231,14 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .map(|(v, p)| PosedCamera { camera: scene.camera(v), world_from_cam: p })
         .collect();
 
-    profiler.next("other views' SAM masks (separate wholes)");
+    profiler.next("per view: visibility, SAM masks");
     let sources = per_view::MergeSources::new(
         config,
         &per_view::ply_key(inputs.ply_path.as_deref(), &config.pipeline.lift)?,
     );
     let sharded = shard::expected_shards(&config.out, "merge")?;
     let sample_stride = prepared.as_ref().map_or(1, |p| visible::sample_stride(p.len(), scene.views.len()));
+    let times = PartTimes::default();
     let wholes = match prepared.as_ref().filter(|_| config.pipeline.merge.separate_wholes) {
         Some(p) => {
             let request = sam_wholes::WholesRequest {
@@ -248,17 +249,19 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
                 lift: &config.pipeline.lift,
                 stride: sample_stride,
                 out: &config.out,
+                for_lift: true,
+                times: Some(&times),
             };
             // Built in every run: the lift stage's touching joins read it (every view with masks
             // takes its pass over the Gaussians, so each view's spilled pass is read back).
             let probe = sources.context(scene, &load, config);
-            sam_wholes::prepare(&request, &sources, probe, &inputs.has_masks, true, config.options)?
+            sam_wholes::prepare(&request, &sources, probe, &inputs.has_masks, config.options)?
         }
         None => sam_wholes::Wholes::off(scene.views.len()),
     };
+    profiler.parts(times.take());
 
     profiler.next("per view: depth, merge, visibility");
-    let times = PartTimes::default();
     let mut views = {
         let mut ctx = sources.context(scene, &load, config);
         ctx.wholes_key = wholes.key.clone();

@@ -89,12 +89,14 @@ pub fn merge_views(config: &RunConfig, request: &MergeRequest) -> crate::Result<
                 lift,
                 stride,
                 out: &config.out,
+                for_lift: false,
+                times: None,
             };
             let mut check = vec![false; scene.views.len()];
             mine.iter().for_each(|&v| check[v] = true);
             let mut probe = sources.context(&scene, load, config);
             probe.keep_log = export;
-            crate::sam_wholes::prepare(&request, &sources, probe, &check, false, config.options)?
+            crate::sam_wholes::prepare(&request, &sources, probe, &check, config.options)?
         }
         None => Wholes::off(scene.views.len()),
     };

@@ -219,7 +219,7 @@ impl PerView<'_> {
                         view_visibility(p, c.camera, c.world_from_cam, None, self.lift)
                     })
                 })?;
-                (pass.surface_depth, pass.surface_normals, Some(pass.visible), Some(pass.tile_lists))
+                (pass.surface_depth, pass.surface_normals, Some(pass.visible), pass.tile_lists)
             }
             None => (None, None, None, None),
         };
@@ -246,7 +246,8 @@ impl PerView<'_> {
                 let path = visible::spill_path(self.out, &view.stem);
                 self.times.time("spill the visible Gaussians", || -> crate::Result<()> {
                     visible::write(&path, &vis, &labels)?;
-                    // The tile lists too: rendering the labels back reuses them.
+                    // The tile lists too, unless the evidence pass wrote them: rendering the
+                    // labels back reuses them.
                     match &bins {
                         Some(bins) => visible::write_bins(&visible::bins_path(&path), bins),
                         None => Ok(()),

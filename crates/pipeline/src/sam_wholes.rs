@@ -6,13 +6,18 @@
 //! and the lift stage asks it about two touching objects before joining them
 //! ([`splatseg_lift::SeparateWholes`]); the evidence lives until the lift stage is done.
 //!
-//! The pass of each view the caller merges next is spilled to `OUT/cache/visible/`
-//! ([`crate::visible::write_pass`]): its merge reads it back instead of projecting the Gaussians
-//! again, so a view's visibility is computed once per run.
+//! This pass is each view's visibility pass, made before the merges rather than in them (the
+//! merge of a view needs the other views' evidence, so every view's pass comes first): what the
+//! merge of each view the caller merges next reads of it is spilled to `OUT/cache/visible/`
+//! ([`crate::visible::write_pass`]) and read back instead of projecting the Gaussians again, and
+//! for `run` its tile lists go straight to the file rendering the labels back reads
+//! ([`crate::visible::write_bins`]): a view's visibility is computed once per run, and each part
+//! of it written once.
 
 use crate::cache::KeyHasher;
 use crate::merge_stage::MergeContext;
 use crate::per_view::MergeSources;
+use crate::profile::PartTimes;
 use crate::{read_view_mask_inputs, RunOptions};
 use rayon::prelude::*;
 use splatseg_lift::{view_visibility, LiftConfig, PreparedGaussians};
@@ -48,6 +53,11 @@ pub struct WholesRequest<'a> {
     pub stride: u32,
     /// The output folder, whose `cache/visible/` receives the spilled passes.
     pub out: &'a Path,
+    /// The lift stage follows (`run`): the spilled views' tile lists are written to their file
+    /// beside the visible Gaussians ([`crate::visible::bins_path`]); without it they are dropped.
+    pub for_lift: bool,
+    /// Thread time of the pass's parts.
+    pub times: Option<&'a PartTimes>,
 }
 
 /// What [`prepare`] gives the merges.
@@ -76,8 +86,11 @@ pub fn wholes_evidence(
     spill: &[bool],
     options: RunOptions,
 ) -> crate::Result<WholesEvidence> {
-    let WholesRequest { scene, prepared, masks_dir, has_masks, lift, stride, out } = *request;
-    let bar = crate::progress(scene.views.len(), "masks across views", options);
+    let WholesRequest { scene, prepared, masks_dir, has_masks, lift, stride, out, for_lift, times } =
+        *request;
+    let own = PartTimes::default();
+    let times = times.unwrap_or(&own);
+    let bar = crate::progress(scene.views.len(), "visibility, SAM masks", options);
     let views: Vec<crate::Result<ViewMaskSets>> = (0..scene.views.len())
         .into_par_iter()
         .map(|v| {
@@ -86,11 +99,24 @@ pub fn wholes_evidence(
                 let camera = scene.camera(view);
                 let (w, h) = (camera.width as usize, camera.height as usize);
                 // The merge's own read of the masks reports what was recomputed, once per run.
-                let masks = read_view_mask_inputs(masks_dir, &view.stem, w, h)?.unwrap_or_default().masks;
-                let pass = view_visibility(prepared, camera, &view.world_from_cam, None, lift);
-                let sets = ViewMaskSets::new(&masks, &pass.visible.gaussians, &pass.visible.pixels, stride);
+                let masks = times
+                    .time("read the SAM masks", || read_view_mask_inputs(masks_dir, &view.stem, w, h))?;
+                let masks = masks.unwrap_or_default().masks;
+                let pass = times.time("surface depth and visibility", || {
+                    view_visibility(prepared, camera, &view.world_from_cam, None, lift)
+                });
+                let sets = times.time("mask sets of the sampled Gaussians", || {
+                    ViewMaskSets::new(&masks, &pass.visible.gaussians, &pass.visible.pixels, stride)
+                });
                 if spill[v] {
-                    crate::visible::write_pass(&crate::visible::pass_path(out, &view.stem), &pass)?;
+                    times.time("spill the pass and tile lists", || -> crate::Result<()> {
+                        crate::visible::write_pass(&crate::visible::pass_path(out, &view.stem), &pass)?;
+                        if for_lift {
+                            let spill = crate::visible::spill_path(out, &view.stem);
+                            crate::visible::write_bins(&crate::visible::bins_path(&spill), &pass.tile_lists)?;
+                        }
+                        Ok(())
+                    })?;
                 }
                 sets
             } else {
@@ -106,7 +132,7 @@ pub fn wholes_evidence(
 }
 
 /// The gate's key (for every view's merge key) and its evidence, which is built when the lift
-/// stage follows (`for_lift`: it vetoes the touching joins with it) or a view of `check`
+/// stage follows (`request.for_lift`: it vetoes the touching joins with it) or a view of `check`
 /// (`[n_views]`, the views this call will merge or pass over) is not in the cache: merges from the
 /// cache or from shards already hold it in their keys. When it is built, the passes of the views
 /// of `check` with masks are spilled. `probe`: the merges' context (without the gate), which checks
@@ -116,13 +142,12 @@ pub fn prepare(
     sources: &MergeSources,
     mut probe: MergeContext,
     check: &[bool],
-    for_lift: bool,
     options: RunOptions,
 ) -> crate::Result<Wholes> {
     let key = wholes_key(request.scene, request.masks_dir, request.has_masks, request.stride)?;
     probe.wholes_key = key.clone();
     let spilled: Vec<bool> = check.iter().zip(request.has_masks).map(|(&c, &m)| c && m).collect();
-    if !for_lift && sources.all_cached(&probe, check, true)? {
+    if !request.for_lift && sources.all_cached(&probe, check, true)? {
         return Ok(Wholes { key, ..Wholes::off(spilled.len()) });
     }
     let evidence = wholes_evidence(request, &spilled, options)?;

@@ -10,10 +10,11 @@
 //! 1280×960 view of 1M Gaussians).
 //!
 //! With the separate-wholes gate on, the pass that finds a view's visible Gaussians is made
-//! before any view is merged ([`crate::sam_wholes`]): the whole pass (surface depth, visible
-//! Gaussians with their pixels and weights, tile lists) is spilled to `<stem>.pass`
-//! ([`write_pass`]) and read back, then removed, by the view's merge ([`pass_or`]), instead of
-//! being made twice.
+//! before any view is merged ([`crate::sam_wholes`]): what the view's merge reads of it (surface
+//! depth and normals, visible Gaussians with their pixels and weights) is spilled to
+//! `<stem>.pass` ([`write_pass`]) and read back, then removed, by the merge ([`pass_or`]); its tile
+//! lists go straight to `<stem>.bins`, where rendering the labels back reads them. Each is written
+//! once and nothing is computed twice.
 //!
 //! Matching keeps, in memory, a deterministic sample of every view's list instead
 //! ([`sample_stride`]): the Gaussians whose index is a multiple of a power-of-two stride chosen
@@ -147,7 +148,7 @@ pub fn pass_path(out: &Path, stem: &str) -> PathBuf {
     out.join("cache").join("visible").join(format!("{stem}.pass"))
 }
 
-const PASS_MAGIC: &[u8; 8] = b"SSPAS2\0\0";
+const PASS_MAGIC: &[u8; 8] = b"SSPAS3\0\0";
 
 /// A pixel without a rendered normal, in a spilled pass (no component of a unit normal rounds
 /// to it: they lie in `[-NORMAL_STEPS, NORMAL_STEPS]`).
@@ -171,18 +172,17 @@ fn normal_of_words(w: [i16; 3]) -> [f32; 3] {
     }
 }
 
-/// Writes a view's visibility pass to `path`, streamed (no second copy in memory). Layout
-/// (little-endian): `b"SSPAS2\0\0"`, `width`, `height` (both 0 without a surface depth), `n`,
-/// `tiles_x`, `tiles_y`, `n_ids` (u64 each), `surface_depth: [height · width] f32`,
+/// Writes what a view's merge reads of its visibility pass to `path`, streamed (no second copy in
+/// memory); the tile lists are not written (the evidence pass writes them to their own file,
+/// [`write_bins`]). Layout (little-endian): `b"SSPAS3\0\0"`, `width`, `height` (both 0 without a
+/// surface depth), `n` (u64 each), `surface_depth: [height · width] f32`,
 /// `surface_normals: [height · width · 3] i16` (components × 32767, `i16::MIN` = none),
-/// `gaussians: [n] u32`, `pixels: [n] u32`, `weights: [n] f32`,
-/// `offsets: [tiles_x · tiles_y + 1] u64`, `ids: [n_ids] u32`.
+/// `gaussians: [n] u32`, `pixels: [n] u32`, `weights: [n] f32`.
 pub fn write_pass(path: &Path, pass: &VisibilityPass) -> crate::Result<()> {
-    let VisibilityPass { surface_depth, surface_normals, visible: vis, tile_lists: bins } = pass;
+    let VisibilityPass { surface_depth, surface_normals, visible: vis, tile_lists: _ } = pass;
     let n = vis.gaussians.len();
     if vis.pixels.len() != n
         || vis.weights.len() != n
-        || bins.offsets.len() != bins.tiles_x * bins.tiles_y + 1
         || surface_depth.as_ref().map(Plane::size) != surface_normals.as_ref().map(Plane::size)
     {
         bail!("a visibility pass of unequal lengths for {}", path.display());
@@ -194,96 +194,89 @@ pub fn write_pass(path: &Path, pass: &VisibilityPass) -> crate::Result<()> {
     let normals: Vec<i16> = normals.iter().flat_map(|&n| normal_words(n)).collect();
     splatseg_scene::atomic::write_atomic(path, |w| {
         w.write_all(PASS_MAGIC)?;
-        let header = [width, height, n, bins.tiles_x, bins.tiles_y, bins.ids.len()].map(|v| v as u64);
-        stream_words(w, &header, u64::to_le_bytes)?;
+        stream_words(w, &[width, height, n].map(|v| v as u64), u64::to_le_bytes)?;
         stream_words(w, depth, f32::to_le_bytes)?;
         stream_words(w, &normals, i16::to_le_bytes)?;
         stream_words(w, &vis.gaussians, u32::to_le_bytes)?;
         stream_words(w, &vis.pixels, u32::to_le_bytes)?;
-        stream_words(w, &vis.weights, f32::to_le_bytes)?;
-        let offsets: Vec<u64> = bins.offsets.iter().map(|&o| o as u64).collect();
-        stream_words(w, &offsets, u64::to_le_bytes)?;
-        stream_words(w, &bins.ids, u32::to_le_bytes)
+        stream_words(w, &vis.weights, f32::to_le_bytes)
     })
     .with_context(|| format!("writing the visibility pass to {}", path.display()))?;
     Ok(())
 }
 
-/// Reads back what [`write_pass`] wrote; a file of another size than its header declares is an
-/// error naming it, found before anything is allocated.
-pub fn read_pass(path: &Path) -> crate::Result<VisibilityPass> {
+/// What a view's merge and spills take of its visibility pass ([`pass_or`]).
+#[derive(Clone, Debug)]
+pub struct ViewPass {
+    /// `[H, W]` surface depth, when rendered ([`VisibilityPass::surface_depth`]).
+    pub surface_depth: Option<Plane<f32>>,
+    /// `[H, W]` its normals ([`VisibilityPass::surface_normals`]).
+    pub surface_normals: Option<Plane<[f32; 3]>>,
+    /// The visible Gaussians with their pixels and weights.
+    pub visible: ViewVisibility,
+    /// The tile lists, to be written beside the visible Gaussians; `None` when the evidence pass
+    /// wrote them there already.
+    pub tile_lists: Option<TileBins>,
+}
+
+/// Reads back what [`write_pass`] wrote (without tile lists); a file of another size than its
+/// header declares is an error naming it, found before anything is allocated.
+pub fn read_pass(path: &Path) -> crate::Result<ViewPass> {
     let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
     let len = file.metadata().with_context(|| format!("reading {}", path.display()))?.len();
     let mut r = std::io::BufReader::new(file);
     let mut magic = [0u8; 8];
-    if len < 56 || r.read_exact(&mut magic).is_err() || &magic != PASS_MAGIC {
+    if len < 32 || r.read_exact(&mut magic).is_err() || &magic != PASS_MAGIC {
         bail!("not a view's visibility pass (bad header): {}", path.display());
     }
     let reading = || format!("reading {}", path.display());
-    let words: [u64; 6] =
-        read_words(&mut r, 6, u64::from_le_bytes).with_context(reading)?.try_into().unwrap_or_default();
-    let [width, height, n, tiles_x, tiles_y, n_ids] = words;
+    let words: [u64; 3] =
+        read_words(&mut r, 3, u64::from_le_bytes).with_context(reading)?.try_into().unwrap_or_default();
+    let [width, height, n] = words;
+    // 4 + 6 bytes per pixel (depth, normal), 12 per visible Gaussian, 32 of header.
     let expected = width
         .checked_mul(height)
-        .and_then(|pixels| pixels.checked_add(n.checked_mul(3)?))
-        .and_then(|words| words.checked_add(n_ids)?.checked_mul(4))
-        .and_then(|b| b.checked_add(width.checked_mul(height)?.checked_mul(6)?))
-        .and_then(|b| b.checked_add(tiles_x.checked_mul(tiles_y)?.checked_add(1)?.checked_mul(8)?))
-        .and_then(|b| b.checked_add(56));
+        .and_then(|pixels| pixels.checked_mul(10))
+        .and_then(|b| b.checked_add(n.checked_mul(12)?))
+        .and_then(|b| b.checked_add(32));
     if expected != Some(len) {
         bail!(
-            "visibility pass truncated or malformed ({n} Gaussians, {width}×{height} px, \
-             {tiles_x}×{tiles_y} tiles declared, {len} bytes): {}",
+            "visibility pass truncated or malformed ({n} Gaussians, {width}×{height} px declared, \
+             {len} bytes): {}",
             path.display()
         );
     }
-    let [width, height, n, tiles_x, tiles_y, n_ids] = words.map(|v| v as usize);
-    read_pass_arrays(&mut r, Header { width, height, n, tiles_x, tiles_y, n_ids }).with_context(reading)
-}
-
-/// The sizes a pass's header declares ([`write_pass`]).
-struct Header {
-    width: usize,
-    height: usize,
-    n: usize,
-    tiles_x: usize,
-    tiles_y: usize,
-    n_ids: usize,
+    let [width, height, n] = words.map(|v| v as usize);
+    read_pass_arrays(&mut r, width, height, n).with_context(reading)
 }
 
 /// The arrays of a pass after its header, in the order [`write_pass`] writes them.
-fn read_pass_arrays(r: &mut impl Read, h: Header) -> std::io::Result<VisibilityPass> {
-    let data = read_words(r, h.width * h.height, f32::from_le_bytes)?;
-    let words = read_words(r, h.width * h.height * 3, i16::from_le_bytes)?;
+fn read_pass_arrays(r: &mut impl Read, width: usize, height: usize, n: usize) -> std::io::Result<ViewPass> {
+    let data = read_words(r, width * height, f32::from_le_bytes)?;
+    let words = read_words(r, width * height * 3, i16::from_le_bytes)?;
     let normals = words.chunks_exact(3).map(|w| normal_of_words([w[0], w[1], w[2]])).collect();
-    let surface_normals =
-        (!data.is_empty()).then_some(Plane { width: h.width, height: h.height, data: normals });
-    let surface_depth = (!data.is_empty()).then_some(Plane { width: h.width, height: h.height, data });
+    let surface_normals = (!data.is_empty()).then_some(Plane { width, height, data: normals });
+    let surface_depth = (!data.is_empty()).then_some(Plane { width, height, data });
     let visible = ViewVisibility {
-        gaussians: read_words(r, h.n, u32::from_le_bytes)?,
-        pixels: read_words(r, h.n, u32::from_le_bytes)?,
-        weights: read_words(r, h.n, f32::from_le_bytes)?,
+        gaussians: read_words(r, n, u32::from_le_bytes)?,
+        pixels: read_words(r, n, u32::from_le_bytes)?,
+        weights: read_words(r, n, f32::from_le_bytes)?,
     };
-    let offsets = read_words(r, h.tiles_x * h.tiles_y + 1, u64::from_le_bytes)?;
-    let tile_lists = TileBins {
-        tiles_x: h.tiles_x,
-        tiles_y: h.tiles_y,
-        offsets: offsets.into_iter().map(|o| o as usize).collect(),
-        ids: read_words(r, h.n_ids, u32::from_le_bytes)?,
-    };
-    Ok(VisibilityPass { surface_depth, surface_normals, visible, tile_lists })
+    Ok(ViewPass { surface_depth, surface_normals, visible, tile_lists: None })
 }
 
 /// View `stem`'s visibility pass: when `spilled`, the one the evidence pass spilled under `out`
-/// ([`pass_path`]), read back and removed; otherwise `make()`'s.
+/// ([`pass_path`]), read back and removed (its tile lists are in their file already); otherwise
+/// `make()`'s.
 pub fn pass_or(
     out: &Path,
     stem: &str,
     spilled: bool,
     make: impl FnOnce() -> VisibilityPass,
-) -> crate::Result<VisibilityPass> {
+) -> crate::Result<ViewPass> {
     if !spilled {
-        return Ok(make());
+        let VisibilityPass { surface_depth, surface_normals, visible, tile_lists } = make();
+        return Ok(ViewPass { surface_depth, surface_normals, visible, tile_lists: Some(tile_lists) });
     }
     let path = pass_path(out, stem);
     let pass = read_pass(&path)?;
@@ -432,11 +425,17 @@ mod tests {
         };
         assert_eq!(bits(&back.surface_normals), bits(&pass.surface_normals), "normals read back bit for bit");
         assert_eq!(back.visible, pass.visible);
-        let bins = |b: &TileBins| (b.tiles_x, b.tiles_y, b.offsets.clone(), b.ids.clone());
-        assert_eq!(bins(&back.tile_lists), bins(&pass.tile_lists));
+        assert!(back.tile_lists.is_none(), "the tile lists are not in the pass (they have their own file)");
+        assert_eq!(bytes.len(), 32 + 6 * 10 + 2 * 12, "header, depth and normals, visible Gaussians");
         assert!(!path.exists(), "read once, then removed");
         let made = pass_or(dir.path(), "view_2", false, || pass.clone()).expect("made");
         assert_eq!(made.visible, pass.visible);
+        let bins = |b: &TileBins| (b.tiles_x, b.tiles_y, b.offsets.clone(), b.ids.clone());
+        assert_eq!(
+            made.tile_lists.as_ref().map(bins),
+            Some(bins(&pass.tile_lists)),
+            "a pass made here keeps them"
+        );
         // Without a surface depth (a given depth map) the pass reads back without one.
         let without = VisibilityPass { surface_depth: None, surface_normals: None, ..pass.clone() };
         write_pass(&path, &without).expect("writes");
