@@ -42,7 +42,7 @@ pub struct PlyRows {
 }
 
 impl PlyRows {
-    fn new(gaussians: Gaussians) -> Self {
+    pub(crate) fn new(gaussians: Gaussians) -> Self {
         let non_finite = gaussians.non_finite_rows();
         let mut degenerate = gaussians.degenerate_rows();
         degenerate.retain(|i| non_finite.binary_search(i).is_err());

@@ -1,0 +1,159 @@
+//! Gaussians in the formats people hold them in, beside the INRIA 3DGS PLY ([`crate::ply`]):
+//! Niantic's SPZ ([`spz`]) and antimatter15's `.splat` ([`splat`]). One entry reads any of them,
+//! choosing by content ([`SplatFormat::detect`]), and one writes, choosing by the output's
+//! extension ([`SplatFormat::from_extension`]).
+//!
+//! What each format keeps is in `CONVENTIONS.md` ("Gaussian file formats"): the compact formats
+//! quantise, SPZ keeps SH degree ≤ 3 and `.splat` degree 0, and neither holds normals, `object_id`,
+//! `feat_*` or other properties, so a labelled scene (`splatseg run`'s `gaussians.ply`) stays a PLY.
+
+mod quantise;
+mod splat;
+mod spz;
+
+use crate::error::{SceneError, SceneResult};
+use crate::gaussians::Gaussians;
+use crate::ply::PlyRows;
+use std::io::Read;
+use std::path::Path;
+
+/// A file format of Gaussians.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplatFormat {
+    /// The INRIA 3DGS PLY (`.ply`), full precision, any extra property.
+    Ply,
+    /// Niantic's SPZ (`.spz`): gzip, quantised, SH degree ≤ 3.
+    Spz,
+    /// antimatter15's `.splat`: 32 bytes per Gaussian, SH degree 0.
+    Splat,
+}
+
+impl SplatFormat {
+    /// The name errors and help use.
+    pub fn name(self) -> &'static str {
+        match self {
+            SplatFormat::Ply => crate::ply::FORMAT,
+            SplatFormat::Spz => spz::FORMAT,
+            SplatFormat::Splat => splat::FORMAT,
+        }
+    }
+
+    /// The format an output path asks for by its extension (case-insensitive): `.spz`, `.splat`,
+    /// `.ply`; `None` for any other.
+    pub fn from_extension(path: &Path) -> Option<SplatFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "ply" => Some(SplatFormat::Ply),
+            "spz" => Some(SplatFormat::Spz),
+            "splat" => Some(SplatFormat::Splat),
+            _ => None,
+        }
+    }
+
+    /// The format of a file's bytes, `head` being its first bytes (at least 4 when the file has
+    /// them) and `path` its name: a gzip stream is SPZ, `ply\n` a PLY, and a file named `.splat`
+    /// a `.splat` (which has no header to recognise it by).
+    pub fn detect(head: &[u8], path: &Path) -> Result<SplatFormat, String> {
+        if spz::is_gzip(head) {
+            return Ok(SplatFormat::Spz);
+        }
+        if head.starts_with(b"ply") {
+            return Ok(SplatFormat::Ply);
+        }
+        if head.starts_with(b"NGSP") {
+            return Err("an SPZ file of version 4 or later (its header uncompressed); splatseg reads \
+                        SPZ versions 2 and 3 (gzip): write version 3, e.g. `splat-transform \
+                        --spz-version 3`"
+                .to_string());
+        }
+        if SplatFormat::from_extension(path) == Some(SplatFormat::Splat) {
+            return Ok(SplatFormat::Splat);
+        }
+        Err("not a Gaussian splat file splatseg reads: expected a 3DGS PLY (starts with \"ply\"), an \
+             SPZ (a gzip stream) or a .splat (named *.splat)"
+            .to_string())
+    }
+}
+
+/// Format name of errors that come before the format is known.
+const ANY_FORMAT: &str = "Gaussian splat";
+
+/// Reads the Gaussians of a PLY, SPZ or `.splat` file, chosen by content, and validates them
+/// ([`Gaussians::validate`]), as [`crate::ply::read_ply`] does for a PLY. Errors name the file,
+/// its format and what is wrong.
+pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
+    let (format, rows) = read_gaussian_rows_with_format(path)?;
+    let g = rows.gaussians;
+    g.validate().map_err(|reason| SceneError::invalid(format.name(), path, reason))?;
+    Ok(g)
+}
+
+/// Every Gaussian of a PLY, SPZ or `.splat` file with the non-finite and degenerate ones listed,
+/// as [`crate::ply::read_ply_rows`] reads a PLY; what every command that reads Gaussians calls.
+pub fn read_gaussian_rows(path: &Path) -> SceneResult<PlyRows> {
+    Ok(read_gaussian_rows_with_format(path)?.1)
+}
+
+/// [`read_gaussian_rows`] and the format the file was in.
+pub fn read_gaussian_rows_with_format(path: &Path) -> SceneResult<(SplatFormat, PlyRows)> {
+    let io = |e| SceneError::io("cannot read", path, e);
+    let mut head = Vec::with_capacity(8);
+    std::fs::File::open(path).and_then(|f| f.take(8).read_to_end(&mut head)).map_err(io)?;
+    let format =
+        SplatFormat::detect(&head, path).map_err(|reason| SceneError::invalid(ANY_FORMAT, path, reason))?;
+    if format == SplatFormat::Ply {
+        return Ok((format, crate::ply::read_ply_rows(path)?));
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    let g =
+        parse_compact(format, &bytes).map_err(|reason| SceneError::invalid(format.name(), path, reason))?;
+    Ok((format, PlyRows::new(g)))
+}
+
+/// Decodes the bytes of a file in `format` and checks their structure.
+fn parse_compact(format: SplatFormat, bytes: &[u8]) -> Result<Gaussians, String> {
+    let g = match format {
+        SplatFormat::Spz => spz::parse_spz(bytes)?,
+        SplatFormat::Splat => splat::parse_splat(bytes)?,
+        SplatFormat::Ply => return Ok(crate::ply::parse_ply_bytes_rows(bytes)?.gaussians),
+    };
+    g.validate_structure()?;
+    Ok(g)
+}
+
+/// The rows of a file's bytes in `format` (the fuzz targets' entry point; a PLY goes to
+/// [`crate::ply::parse_ply_bytes_rows`]).
+pub fn parse_gaussian_bytes_rows(format: SplatFormat, bytes: &[u8]) -> Result<PlyRows, String> {
+    match format {
+        SplatFormat::Ply => crate::ply::parse_ply_bytes_rows(bytes),
+        _ => Ok(PlyRows::new(parse_compact(format, bytes)?)),
+    }
+}
+
+/// Writes `g` atomically in the format `path`'s extension names ([`SplatFormat::from_extension`]),
+/// or as a PLY when the extension names none. Refuses (naming the file, writing nothing) what
+/// [`Gaussians::validate`] refuses; SPZ refuses positions beyond its ±2048 range. What a format
+/// cannot hold (see the module docs) is left out.
+pub fn write_gaussians(path: &Path, g: &Gaussians) -> SceneResult<()> {
+    write_gaussians_as(SplatFormat::from_extension(path).unwrap_or(SplatFormat::Ply), path, g)
+}
+
+/// [`write_gaussians`] in a chosen format whatever the extension.
+pub fn write_gaussians_as(format: SplatFormat, path: &Path, g: &Gaussians) -> SceneResult<()> {
+    let invalid = |reason: String| SceneError::invalid(format.name(), path, reason);
+    let bytes = match format {
+        SplatFormat::Ply => return crate::ply::write_ply(path, g),
+        _ => to_gaussian_bytes(format, g).map_err(invalid)?,
+    };
+    crate::atomic::write_bytes_atomic(path, &bytes)
+}
+
+/// The bytes of `g` as a file in `format`; the error says what is wrong with `g`.
+pub fn to_gaussian_bytes(format: SplatFormat, g: &Gaussians) -> Result<Vec<u8>, String> {
+    g.validate()?;
+    match format {
+        SplatFormat::Ply => crate::ply::to_ply_bytes(g),
+        SplatFormat::Spz => spz::to_spz_bytes(g),
+        SplatFormat::Splat => Ok(splat::to_splat_bytes(g)),
+    }
+}

@@ -1,0 +1,281 @@
+//! The compact Gaussian formats (`splatseg_scene::splats`) against the reference: files made by
+//! `@playcanvas/splat-transform` (Niantic's SPZ library inside) from `splats_source.ply`, and our
+//! writers' files as splat-transform read them (`tools/fixtures/make_splat_fixtures.py`). Each
+//! comparison is property by property within the format's quantisation step.
+
+use splatseg_scene::gaussians::SH_C0;
+use splatseg_scene::splats::{
+    read_gaussian_rows_with_format, read_gaussians, to_gaussian_bytes, write_gaussians, SplatFormat,
+};
+use splatseg_scene::Gaussians;
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures")).join(name)
+}
+
+/// Largest allowed difference per property; `None`: the format does not keep it (not compared).
+#[derive(Clone, Copy, Debug)]
+struct Tolerance {
+    position: f32,
+    log_scale: f32,
+    /// On the opacity after the sigmoid.
+    opacity: f32,
+    sh_dc: f32,
+    /// Per component of the normalised quaternions (sign chosen to agree).
+    rotation: f32,
+    /// SH band 1 and bands 2–3.
+    sh_rest: Option<(f32, f32)>,
+}
+
+/// SPZ version 3 as written: half a step of each quantiser, plus float rounding.
+const SPZ: Tolerance = Tolerance {
+    position: 0.5 / 4096.0 + 1e-6,
+    log_scale: 0.5 / 16.0 + 1e-5,
+    opacity: 0.5 / 255.0 + 1e-6,
+    sh_dc: 0.5 / (0.15 * 255.0) + 1e-5,
+    rotation: 2e-3,
+    sh_rest: Some((4.5 / 128.0 + 1e-6, 8.5 / 128.0 + 1e-6)),
+};
+
+/// `.splat`: positions and scales as f32, colours and opacity as bytes, quaternions at 1/128.
+const SPLAT: Tolerance = Tolerance {
+    position: 0.0,
+    log_scale: 1e-5,
+    opacity: 0.5 / 255.0 + 1e-6,
+    sh_dc: 0.5 / 255.0 / SH_C0 + 1e-5,
+    rotation: 0.01,
+    sh_rest: None,
+};
+
+/// Two decodings of the same bytes: float rounding only (and the reference's own quaternion
+/// decoding of `.splat`, `b/255·2 − 1`, against ours, `(b − 128)/128`).
+const SAME_BYTES: Tolerance = Tolerance {
+    position: 1e-6,
+    log_scale: 1e-5,
+    opacity: 1e-5,
+    sh_dc: 1e-4,
+    rotation: 0.01,
+    sh_rest: Some((1e-5, 1e-5)),
+};
+
+fn unit(q: [f32; 4]) -> [f32; 4] {
+    let n = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+    q.map(|v| v / n)
+}
+
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+/// Asserts `got` agrees with `want` property by property; a failure names the property, the
+/// Gaussian and both values.
+fn assert_agree(got: &Gaussians, want: &Gaussians, tol: Tolerance, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: count");
+    let close = |a: f32, b: f32, t: f32| (a - b).abs() <= t;
+    for i in 0..want.len() {
+        for a in 0..3 {
+            let (g, w) = (got.means[i][a], want.means[i][a]);
+            assert!(close(g, w, tol.position), "{what}: position {i}[{a}] {g} vs {w}");
+            let (g, w) = (got.log_scales[i][a], want.log_scales[i][a]);
+            assert!(close(g, w, tol.log_scale), "{what}: log-scale {i}[{a}] {g} vs {w}");
+            let (g, w) = (got.sh_dc[i][a], want.sh_dc[i][a]);
+            assert!(close(g, w, tol.sh_dc), "{what}: f_dc {i}[{a}] {g} vs {w}");
+        }
+        let (g, w) = (sigmoid(got.raw_opacities[i]), sigmoid(want.raw_opacities[i]));
+        assert!(close(g, w, tol.opacity), "{what}: opacity {i} {g} vs {w}");
+        let (g, w) = (unit(got.rotations[i]), unit(want.rotations[i]));
+        let sign = if g.iter().zip(&w).map(|(a, b)| a * b).sum::<f32>() < 0.0 { -1.0 } else { 1.0 };
+        for c in 0..4 {
+            assert!(close(sign * g[c], w[c], tol.rotation), "{what}: rotation {i} {g:?} vs {w:?}");
+        }
+        if let Some((band1, rest)) = tol.sh_rest {
+            assert_eq!(got.sh_degree, want.sh_degree, "{what}: SH degree");
+            let k = want.rest_per_channel();
+            for c in 0..3 {
+                for j in 0..k {
+                    let (g, w) = (got.sh_rest[i * 3 * k + c * k + j], want.sh_rest[i * 3 * k + c * k + j]);
+                    let t = if j < 3 { band1 } else { rest };
+                    assert!(close(g, w, t), "{what}: f_rest {i} channel {c} coefficient {j} {g} vs {w}");
+                }
+            }
+        }
+    }
+}
+
+fn source() -> Gaussians {
+    let g = read_gaussians(&fixture("splats_source.ply")).expect("the source PLY");
+    assert_eq!((g.len(), g.sh_degree), (24, 3));
+    g
+}
+
+#[test]
+fn the_reference_spz_reads_as_its_source_ply() {
+    let path = fixture("splats_reference.spz");
+    let (format, rows) = read_gaussian_rows_with_format(&path).expect("splat-transform's SPZ");
+    assert_eq!(format, SplatFormat::Spz);
+    assert_eq!(rows.skipped(), 0);
+    assert_agree(&rows.gaussians, &source(), SPZ, "splat-transform's SPZ");
+}
+
+#[test]
+fn our_spz_reads_back_as_its_source_and_as_the_reference_reads_it() {
+    let source = source();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.spz");
+    write_gaussians(&path, &source).expect("writes an SPZ");
+    let ours = read_gaussians(&path).expect("reads it back");
+    assert_agree(&ours, &source, SPZ, "our SPZ read back");
+    // The committed file is what the writer makes today, read by splat-transform as by us.
+    let committed = read_gaussians(&fixture("splats_ours.spz")).unwrap();
+    assert_eq!(committed, ours, "the writer changed since the fixture was made");
+    let by_reference = read_gaussians(&fixture("splats_ours_spz_by_reference.ply")).unwrap();
+    assert_agree(&by_reference, &ours, SAME_BYTES, "splat-transform's reading of our SPZ");
+}
+
+#[test]
+fn our_splat_reads_back_as_its_source_and_as_the_reference_reads_it() {
+    let source = source();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.splat");
+    write_gaussians(&path, &source).expect("writes a .splat");
+    let (format, rows) = read_gaussian_rows_with_format(&path).unwrap();
+    assert_eq!(format, SplatFormat::Splat);
+    let ours = rows.gaussians;
+    assert_eq!(ours.sh_degree, 0, ".splat holds no SH rest");
+    assert_agree(&ours, &source, SPLAT, "our .splat read back");
+    assert_eq!(read_gaussians(&fixture("splats_ours.splat")).unwrap(), ours);
+    let by_reference = read_gaussians(&fixture("splats_ours_splat_by_reference.ply")).unwrap();
+    assert_agree(&by_reference, &ours, SAME_BYTES, "splat-transform's reading of our .splat");
+}
+
+#[test]
+fn the_format_comes_from_the_content_not_the_name() {
+    let dir = tempfile::tempdir().unwrap();
+    // An SPZ named .ply and a PLY named .spz read as what they hold.
+    let spz_named_ply = dir.path().join("looks.ply");
+    std::fs::copy(fixture("splats_reference.spz"), &spz_named_ply).unwrap();
+    assert_eq!(read_gaussian_rows_with_format(&spz_named_ply).unwrap().0, SplatFormat::Spz);
+    let ply_named_spz = dir.path().join("looks.spz");
+    std::fs::copy(fixture("splats_source.ply"), &ply_named_spz).unwrap();
+    assert_eq!(read_gaussian_rows_with_format(&ply_named_spz).unwrap().0, SplatFormat::Ply);
+    // Writing follows the extension, case-insensitively; an unknown one writes a PLY.
+    let g = source();
+    for (name, format) in
+        [("a.SPZ", SplatFormat::Spz), ("b.splat", SplatFormat::Splat), ("c.out", SplatFormat::Ply)]
+    {
+        let path = dir.path().join(name);
+        write_gaussians(&path, &g).unwrap();
+        assert_eq!(read_gaussian_rows_with_format(&path).unwrap().0, format, "{name}");
+    }
+}
+
+/// The error of reading `bytes` as a file named `name`, which must name the file and say each of `needles`.
+fn read_error(name: &str, bytes: &[u8], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    let err = read_gaussians(&path).expect_err("a bad file must not read").to_string();
+    assert!(err.contains(name), "the error names the file: {err}");
+    for needle in needles {
+        assert!(err.contains(needle), "expected {needle:?} in: {err}");
+    }
+}
+
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(bytes).unwrap();
+    e.finish().unwrap()
+}
+
+/// An SPZ header: version, count, SH degree, fractional bits, flags.
+fn spz_header(version: u32, count: u32, sh_degree: u8, flags: u8) -> Vec<u8> {
+    let mut h = b"NGSP".to_vec();
+    h.extend_from_slice(&version.to_le_bytes());
+    h.extend_from_slice(&count.to_le_bytes());
+    h.extend_from_slice(&[sh_degree, 12, flags, 0]);
+    h
+}
+
+#[test]
+fn bad_spz_files_are_clear_errors_naming_the_file() {
+    let good = std::fs::read(fixture("splats_reference.spz")).unwrap();
+    read_error("cut.spz", &good[..good.len() / 2], &["SPZ", "truncated or corrupt"]);
+    read_error("cut_trailer.spz", &good[..good.len() - 4], &["SPZ", "truncated or corrupt"]);
+    read_error("magic.spz", &gzip(b"XGSP\x03\0\0\0\x01\0\0\0\0\x0c\0\0"), &["magic"]);
+    read_error("version.spz", &gzip(&spz_header(7, 1, 0, 0)), &["SPZ version 7"]);
+    read_error("short_header.spz", &gzip(b"NGSP"), &["16-byte header"]);
+    read_error("degree.spz", &gzip(&spz_header(3, 1, 4, 0)), &["SH degree 4"]);
+    read_error("extensions.spz", &gzip(&spz_header(3, 1, 0, 2)), &["extensions"]);
+    // A count larger than the data: refused without allocating for it.
+    read_error(
+        "count.spz",
+        &gzip(&spz_header(3, 1_000_000, 0, 0)),
+        &["declares 1000000 Gaussians", "0 after"],
+    );
+    read_error("huge.spz", &gzip(&spz_header(3, u32::MAX, 0, 0)), &["2^27"]);
+    // Version 4 keeps its header outside the compression.
+    read_error("v4.spz", &spz_header(4, 1, 0, 0), &["version 4", "--spz-version 3"]);
+    read_error("what.bin", b"hello, world", &["not a Gaussian splat file"]);
+}
+
+#[test]
+fn bad_splat_files_are_clear_errors_naming_the_file() {
+    let mut row = Vec::new();
+    for v in [0.0f32, 1.0, 2.0, 0.1, 0.1, 0.1] {
+        row.extend_from_slice(&v.to_le_bytes());
+    }
+    row.extend_from_slice(&[128, 128, 128, 200, 255, 128, 128, 128]);
+    assert!(read_gaussians(&{
+        let dir = tempfile::tempdir().unwrap().keep();
+        let p = dir.join("one.splat");
+        std::fs::write(&p, &row).unwrap();
+        p
+    })
+    .is_ok());
+    read_error("cut.splat", &row[..31], &[".splat", "not a multiple of the 32 bytes"]);
+    let mut nan = row.clone();
+    nan[4..8].copy_from_slice(&f32::NAN.to_le_bytes());
+    read_error("nan.splat", &nan, &["non-finite"]);
+    let mut zero_scale = row.clone();
+    zero_scale[12..16].copy_from_slice(&0f32.to_le_bytes());
+    read_error("zero_scale.splat", &zero_scale, &["non-finite"]);
+}
+
+#[test]
+fn writers_refuse_what_the_format_cannot_hold_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut far = source();
+    far.means[5] = [0.0, 3000.0, 0.0];
+    let path = dir.path().join("far.spz");
+    let err = write_gaussians(&path, &far).unwrap_err().to_string();
+    assert!(err.contains("Gaussian 5") && err.contains("±2048") && err.contains("far.spz"), "{err}");
+    assert!(!path.exists(), "nothing written");
+    let mut nan = source();
+    nan.sh_dc[2][1] = f32::NAN;
+    for format in [SplatFormat::Spz, SplatFormat::Splat] {
+        assert!(to_gaussian_bytes(format, &nan).unwrap_err().contains("non-finite"));
+    }
+    let path = dir.path().join("nan.splat");
+    assert!(write_gaussians(&path, &nan).unwrap_err().to_string().contains("nan.splat"));
+    assert!(!Path::new(&path).exists());
+}
+
+fn gunzip(path: &Path) -> Vec<u8> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    flate2::read::GzDecoder::new(std::fs::File::open(path).unwrap()).read_to_end(&mut out).unwrap();
+    out
+}
+
+#[test]
+fn our_spz_writer_makes_the_reference_libraries_bytes() {
+    // Niantic's library (inside splat-transform) and ours, from the same PLY: the same header,
+    // frame turn, quantisation and SH buckets, byte for byte once gunzipped (gzip's own header
+    // differs: the OS byte).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ours.spz");
+    write_gaussians(&path, &source()).unwrap();
+    assert_eq!(gunzip(&path), gunzip(&fixture("splats_reference.spz")));
+}
