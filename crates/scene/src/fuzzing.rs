@@ -14,10 +14,11 @@ use std::path::Path;
 pub type Target = (&'static str, fn(&[u8]));
 
 /// Every target.
-pub const TARGETS: [Target; 12] = [
+pub const TARGETS: [Target; 13] = [
     ("ply", ply),
     ("spz", spz),
     ("splat", splat),
+    ("compressed_ply", compressed_ply),
     ("colmap_bin", colmap_bin),
     ("colmap_txt", colmap_txt),
     ("transforms_json", transforms_json),
@@ -53,6 +54,11 @@ pub fn spz(data: &[u8]) {
 /// A `.splat` file (32-byte rows), checked as [`spz`].
 pub fn splat(data: &[u8]) {
     compact(crate::splats::SplatFormat::Splat, data);
+}
+
+/// A PlayCanvas compressed PLY, checked as [`spz`].
+pub fn compressed_ply(data: &[u8]) {
+    compact(crate::splats::SplatFormat::CompressedPly, data);
 }
 
 fn compact(format: crate::splats::SplatFormat, data: &[u8]) {

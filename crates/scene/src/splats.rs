@@ -1,5 +1,6 @@
 //! Gaussians in the formats people hold them in, beside the INRIA 3DGS PLY ([`crate::ply`]):
-//! Niantic's SPZ ([`spz`]) and antimatter15's `.splat` ([`splat`]). One entry reads any of them,
+//! Niantic's SPZ ([`spz`]), antimatter15's `.splat` ([`splat`]) and PlayCanvas's compressed PLY
+//! ([`compressed_ply`]). One entry reads any of them,
 //! choosing by content ([`SplatFormat::detect`]), and one writes, choosing by the output's
 //! extension ([`SplatFormat::from_extension`]).
 //!
@@ -7,6 +8,7 @@
 //! quantise, SPZ keeps SH degree ≤ 3 and `.splat` degree 0, and neither holds normals, `object_id`,
 //! `feat_*` or other properties, so a labelled scene (`splatseg run`'s `gaussians.ply`) stays a PLY.
 
+mod compressed_ply;
 mod quantise;
 mod splat;
 mod spz;
@@ -26,6 +28,9 @@ pub enum SplatFormat {
     Spz,
     /// antimatter15's `.splat`: 32 bytes per Gaussian, SH degree 0.
     Splat,
+    /// PlayCanvas / SuperSplat's compressed PLY (`.compressed.ply`): chunks of 256 with bounds,
+    /// 11-10-11 / 2-10-10-10 / 8-8-8-8 packed words, SH as bytes.
+    CompressedPly,
 }
 
 impl SplatFormat {
@@ -35,12 +40,17 @@ impl SplatFormat {
             SplatFormat::Ply => crate::ply::FORMAT,
             SplatFormat::Spz => spz::FORMAT,
             SplatFormat::Splat => splat::FORMAT,
+            SplatFormat::CompressedPly => compressed_ply::FORMAT,
         }
     }
 
     /// The format an output path asks for by its extension (case-insensitive): `.spz`, `.splat`,
-    /// `.ply`; `None` for any other.
+    /// `.compressed.ply`, `.ply`; `None` for any other.
     pub fn from_extension(path: &Path) -> Option<SplatFormat> {
+        let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+        if name.ends_with(".compressed.ply") {
+            return Some(SplatFormat::CompressedPly);
+        }
         let ext = path.extension()?.to_str()?.to_ascii_lowercase();
         match ext.as_str() {
             "ply" => Some(SplatFormat::Ply),
@@ -50,14 +60,18 @@ impl SplatFormat {
         }
     }
 
-    /// The format of a file's bytes, `head` being its first bytes (at least 4 when the file has
-    /// them) and `path` its name: a gzip stream is SPZ, `ply\n` a PLY, and a file named `.splat`
-    /// a `.splat` (which has no header to recognise it by).
+    /// The format of a file's bytes, `head` being its first bytes (up to [`DETECT_BYTES`]) and
+    /// `path` its name: a gzip stream is SPZ, `ply` a PLY (compressed when its header declares a
+    /// `chunk` element), and a file named `.splat` a `.splat` (which has no header to recognise it
+    /// by).
     pub fn detect(head: &[u8], path: &Path) -> Result<SplatFormat, String> {
         if spz::is_gzip(head) {
             return Ok(SplatFormat::Spz);
         }
         if head.starts_with(b"ply") {
+            if compressed_ply::is_compressed_ply(head) {
+                return Ok(SplatFormat::CompressedPly);
+            }
             return Ok(SplatFormat::Ply);
         }
         if head.starts_with(b"NGSP") {
@@ -69,16 +83,19 @@ impl SplatFormat {
         if SplatFormat::from_extension(path) == Some(SplatFormat::Splat) {
             return Ok(SplatFormat::Splat);
         }
-        Err("not a Gaussian splat file splatseg reads: expected a 3DGS PLY (starts with \"ply\"), an \
-             SPZ (a gzip stream) or a .splat (named *.splat)"
+        Err("not a Gaussian splat file splatseg reads: expected a 3DGS or compressed PLY (starts with \
+             \"ply\"), an SPZ (a gzip stream) or a .splat (named *.splat)"
             .to_string())
     }
 }
 
+/// How many leading bytes [`SplatFormat::detect`] looks at (a compressed PLY's header is ≈ 1 KB).
+pub const DETECT_BYTES: usize = 64 * 1024;
+
 /// Format name of errors that come before the format is known.
 const ANY_FORMAT: &str = "Gaussian splat";
 
-/// Reads the Gaussians of a PLY, SPZ or `.splat` file, chosen by content, and validates them
+/// Reads the Gaussians of a PLY, compressed PLY, SPZ or `.splat` file, chosen by content, and validates them
 /// ([`Gaussians::validate`]), as [`crate::ply::read_ply`] does for a PLY. Errors name the file,
 /// its format and what is wrong.
 pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
@@ -88,7 +105,7 @@ pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
     Ok(g)
 }
 
-/// Every Gaussian of a PLY, SPZ or `.splat` file with the non-finite and degenerate ones listed,
+/// Every Gaussian of a PLY, compressed PLY, SPZ or `.splat` file with the non-finite and degenerate ones listed,
 /// as [`crate::ply::read_ply_rows`] reads a PLY; what every command that reads Gaussians calls.
 pub fn read_gaussian_rows(path: &Path) -> SceneResult<PlyRows> {
     Ok(read_gaussian_rows_with_format(path)?.1)
@@ -97,8 +114,8 @@ pub fn read_gaussian_rows(path: &Path) -> SceneResult<PlyRows> {
 /// [`read_gaussian_rows`] and the format the file was in.
 pub fn read_gaussian_rows_with_format(path: &Path) -> SceneResult<(SplatFormat, PlyRows)> {
     let io = |e| SceneError::io("cannot read", path, e);
-    let mut head = Vec::with_capacity(8);
-    std::fs::File::open(path).and_then(|f| f.take(8).read_to_end(&mut head)).map_err(io)?;
+    let mut head = Vec::new();
+    std::fs::File::open(path).and_then(|f| f.take(DETECT_BYTES as u64).read_to_end(&mut head)).map_err(io)?;
     let format =
         SplatFormat::detect(&head, path).map_err(|reason| SceneError::invalid(ANY_FORMAT, path, reason))?;
     if format == SplatFormat::Ply {
@@ -115,6 +132,7 @@ fn parse_compact(format: SplatFormat, bytes: &[u8]) -> Result<Gaussians, String>
     let g = match format {
         SplatFormat::Spz => spz::parse_spz(bytes)?,
         SplatFormat::Splat => splat::parse_splat(bytes)?,
+        SplatFormat::CompressedPly => compressed_ply::parse_compressed_ply(bytes)?,
         SplatFormat::Ply => return Ok(crate::ply::parse_ply_bytes_rows(bytes)?.gaussians),
     };
     g.validate_structure()?;
@@ -155,5 +173,6 @@ pub fn to_gaussian_bytes(format: SplatFormat, g: &Gaussians) -> Result<Vec<u8>, 
         SplatFormat::Ply => crate::ply::to_ply_bytes(g),
         SplatFormat::Spz => spz::to_spz_bytes(g),
         SplatFormat::Splat => Ok(splat::to_splat_bytes(g)),
+        SplatFormat::CompressedPly => Ok(compressed_ply::to_compressed_ply_bytes(g)),
     }
 }

@@ -161,9 +161,14 @@ fn the_format_comes_from_the_content_not_the_name() {
     assert_eq!(read_gaussian_rows_with_format(&ply_named_spz).unwrap().0, SplatFormat::Ply);
     // Writing follows the extension, case-insensitively; an unknown one writes a PLY.
     let g = source();
-    for (name, format) in
-        [("a.SPZ", SplatFormat::Spz), ("b.splat", SplatFormat::Splat), ("c.out", SplatFormat::Ply)]
-    {
+    let by_name = [
+        ("a.SPZ", SplatFormat::Spz),
+        ("b.splat", SplatFormat::Splat),
+        ("c.Compressed.PLY", SplatFormat::CompressedPly),
+        ("d.ply", SplatFormat::Ply),
+        ("e.out", SplatFormat::Ply),
+    ];
+    for (name, format) in by_name {
         let path = dir.path().join(name);
         write_gaussians(&path, &g).unwrap();
         assert_eq!(read_gaussian_rows_with_format(&path).unwrap().0, format, "{name}");
@@ -278,4 +283,132 @@ fn our_spz_writer_makes_the_reference_libraries_bytes() {
     let path = dir.path().join("ours.spz");
     write_gaussians(&path, &source()).unwrap();
     assert_eq!(gunzip(&path), gunzip(&fixture("splats_reference.spz")));
+}
+
+/// A compressed PLY's steps on `g` when all of it is one chunk (as the fixtures are): half of
+/// each quantiser's step across the chunk's range, plus float rounding.
+fn compressed_tolerance(g: &Gaussians) -> Tolerance {
+    let span = |v: &mut dyn Iterator<Item = f32>| {
+        let (lo, hi) = v.fold((f32::MAX, f32::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)));
+        hi - lo
+    };
+    let widest = |f: &dyn Fn(usize, usize) -> f32| {
+        (0..3).map(|a| span(&mut (0..g.len()).map(|i| f(i, a)))).fold(0.0, f32::max)
+    };
+    let position = widest(&|i, a| g.means[i][a]);
+    let log_scale = widest(&|i, a| g.log_scales[i][a]);
+    let colour = widest(&|i, a| 0.5 + SH_C0 * g.sh_dc[i][a]);
+    Tolerance {
+        position: 0.5 * position / 1023.0 + 1e-5,
+        log_scale: 0.5 * log_scale / 1023.0 + 1e-5,
+        opacity: 0.5 / 255.0 + 1e-6,
+        sh_dc: 0.5 * colour / 255.0 / SH_C0 + 1e-5,
+        rotation: 2e-3,
+        sh_rest: Some((0.5 * 8.0 / 256.0 + 1e-5, 0.5 * 8.0 / 256.0 + 1e-5)),
+    }
+}
+
+/// `g`'s Gaussians in the order of `like`'s, each the one nearest in position (the reference
+/// writer sorts a compressed PLY along a Morton curve).
+fn in_order_of(g: &Gaussians, like: &Gaussians) -> Gaussians {
+    let d = |a: [f32; 3], b: [f32; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f32>();
+    let order: Vec<usize> = like
+        .means
+        .iter()
+        .map(|&p| (0..g.len()).min_by(|&i, &j| d(g.means[i], p).total_cmp(&d(g.means[j], p))).unwrap())
+        .collect();
+    let mut sorted = order.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    assert_eq!(sorted.len(), g.len(), "every Gaussian matched once");
+    g.select(&order)
+}
+
+#[test]
+fn the_reference_compressed_ply_reads_as_its_source_ply() {
+    let path = fixture("splats_reference.compressed.ply");
+    let (format, rows) = read_gaussian_rows_with_format(&path).expect("splat-transform's compressed PLY");
+    assert_eq!(format, SplatFormat::CompressedPly);
+    let source = source();
+    let tol = compressed_tolerance(&source);
+    assert_agree(&in_order_of(&rows.gaussians, &source), &source, tol, "splat-transform's compressed PLY");
+}
+
+#[test]
+fn our_compressed_ply_reads_back_as_its_source_and_as_the_reference_reads_it() {
+    let source = source();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.compressed.ply");
+    write_gaussians(&path, &source).expect("writes a compressed PLY");
+    let (format, rows) = read_gaussian_rows_with_format(&path).unwrap();
+    assert_eq!(format, SplatFormat::CompressedPly);
+    let ours = rows.gaussians;
+    assert_agree(&ours, &source, compressed_tolerance(&source), "our compressed PLY read back");
+    assert_eq!(read_gaussians(&fixture("splats_ours.compressed.ply")).unwrap(), ours);
+    let by_reference = read_gaussians(&fixture("splats_ours_compressed_by_reference.ply")).unwrap();
+    assert_agree(&by_reference, &ours, SAME_BYTES, "splat-transform's reading of our compressed PLY");
+}
+
+#[test]
+fn many_chunks_and_sh_degree_1_round_trip() {
+    // 600 Gaussians: three chunks, the last one partial.
+    let mut g = source();
+    let many: Vec<usize> = (0..600).map(|i| i % 24).collect();
+    g = g.select(&many);
+    g.means.iter_mut().enumerate().for_each(|(i, p)| p[0] += i as f32 * 0.01);
+    g.sh_degree = 1;
+    g.sh_rest = (0..600 * 9).map(|k| ((k % 17) as f32 - 8.0) * 0.05).collect();
+    let bytes = to_gaussian_bytes(SplatFormat::CompressedPly, &g).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("many.compressed.ply");
+    std::fs::write(&path, &bytes).unwrap();
+    let back = read_gaussians(&path).unwrap();
+    let mut tol = compressed_tolerance(&g);
+    tol.position = 0.5 * 6.0 / 1023.0 + 0.5 * 2.56 / 1023.0 + 1e-5; // a chunk spans at most its own 2.56 in x
+    assert_agree(&back, &g, tol, "three chunks, SH degree 1");
+}
+
+#[test]
+fn gsplat_compressed_export_reads_near_its_values() {
+    // gsplat's `ply_compressed` exporter (tools/fixtures/make_ply_fixtures.py), 4 Gaussians.
+    let g = read_gaussians(&fixture("ply_gsplat_compressed.ply")).expect("gsplat's compressed PLY");
+    let full = read_gaussians(&fixture("ply_gsplat_sh3.ply")).unwrap().select(&[0, 1, 2, 3]);
+    assert_eq!((g.len(), g.sh_degree), (4, 3));
+    let mut tol = compressed_tolerance(&full);
+    tol.sh_rest = Some((0.5 * 8.0 / 256.0 + 1e-5, 0.5 * 8.0 / 256.0 + 1e-5));
+    assert_agree(&in_order_of(&g, &full), &full, tol, "gsplat's compressed PLY");
+}
+
+#[test]
+fn bad_compressed_plys_are_clear_errors_naming_the_file() {
+    let good = std::fs::read(fixture("splats_reference.compressed.ply")).unwrap();
+    read_error("cut.compressed.ply", &good[..good.len() - 10], &["compressed PLY", "truncated"]);
+    let text = String::from_utf8_lossy(&good).into_owned();
+    let header_end = text.find("end_header\n").unwrap() + "end_header\n".len();
+    let header = &text[..header_end];
+    let body = &good[header_end..];
+    let swap = |from: &str, to: &str| {
+        let mut bytes = header.replacen(from, to, 1).into_bytes();
+        bytes.extend_from_slice(body);
+        bytes
+    };
+    read_error("chunks.compressed.ply", &swap("element chunk 1", "element chunk 2"), &["2 chunks for 24"]);
+    read_error(
+        "rows.compressed.ply",
+        &swap("element vertex 24", "element vertex 200"),
+        &["24 sh rows for 200"],
+    );
+    let more = {
+        let header = header.replacen("element vertex 24", "element vertex 200", 1);
+        let mut bytes = header.replacen("element sh 24", "element sh 200", 1).into_bytes();
+        bytes.extend_from_slice(body);
+        bytes
+    };
+    read_error("count.compressed.ply", &more, &["follow it (truncated)"]);
+    read_error(
+        "type.compressed.ply",
+        &swap("property uint packed_color", "property float packed_color"),
+        &["'packed_color'", "uint"],
+    );
+    read_error("huge.compressed.ply", &swap("element vertex 24", "element vertex 4000000000"), &["2^27"]);
 }
