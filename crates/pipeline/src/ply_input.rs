@@ -1,4 +1,4 @@
-//! Reading Gaussians for a command (a 3DGS or compressed PLY, an SPZ or a `.splat`, chosen by content:
+//! Reading Gaussians for a command (a 3DGS or compressed PLY, an SPZ, a `.splat` or a `.ksplat`, chosen by content:
 //! `splatseg_scene::splats::read_gaussian_rows`): Gaussians with a non-finite value (NaN, ±Inf — 3DGS
 //! trainers leave a few behind) or a degenerate shape (a zero rotation quaternion, a log-scale
 //! above 20, which the rasteriser would cull) are skipped with one warning per kind and file, or
@@ -9,7 +9,7 @@ use splatseg_scene::splats::read_gaussian_rows;
 use splatseg_scene::Gaussians;
 use std::path::Path;
 
-/// Every row of the Gaussians file at `path` (PLY, compressed PLY, SPZ or `.splat`) with the skipped ones listed. With `strict` (`--strict`) a
+/// Every row of the Gaussians file at `path` (PLY, compressed PLY, SPZ, `.splat` or `.ksplat`) with the skipped ones listed. With `strict` (`--strict`) a
 /// file with non-finite values or degenerate Gaussians is an error naming the first one;
 /// otherwise one warning per kind says how many rows are skipped and `consequence` (what happens to them in the outputs).
 pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<PlyRows> {

@@ -14,11 +14,12 @@ use std::path::Path;
 pub type Target = (&'static str, fn(&[u8]));
 
 /// Every target.
-pub const TARGETS: [Target; 13] = [
+pub const TARGETS: [Target; 14] = [
     ("ply", ply),
     ("spz", spz),
     ("splat", splat),
     ("compressed_ply", compressed_ply),
+    ("ksplat", ksplat),
     ("colmap_bin", colmap_bin),
     ("colmap_txt", colmap_txt),
     ("transforms_json", transforms_json),
@@ -59,6 +60,11 @@ pub fn splat(data: &[u8]) {
 /// A PlayCanvas compressed PLY, checked as [`spz`].
 pub fn compressed_ply(data: &[u8]) {
     compact(crate::splats::SplatFormat::CompressedPly, data);
+}
+
+/// A `.ksplat` file, checked as [`spz`].
+pub fn ksplat(data: &[u8]) {
+    compact(crate::splats::SplatFormat::Ksplat, data);
 }
 
 fn compact(format: crate::splats::SplatFormat, data: &[u8]) {

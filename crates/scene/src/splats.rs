@@ -1,6 +1,6 @@
 //! Gaussians in the formats people hold them in, beside the INRIA 3DGS PLY ([`crate::ply`]):
-//! Niantic's SPZ ([`spz`]), antimatter15's `.splat` ([`splat`]) and PlayCanvas's compressed PLY
-//! ([`compressed_ply`]). One entry reads any of them,
+//! Niantic's SPZ ([`spz`]), antimatter15's `.splat` ([`splat`]), mkkellogg's `.ksplat` ([`ksplat`])
+//! and PlayCanvas's compressed PLY ([`compressed_ply`]). One entry reads any of them,
 //! choosing by content ([`SplatFormat::detect`]), and one writes, choosing by the output's
 //! extension ([`SplatFormat::from_extension`]).
 //!
@@ -9,6 +9,7 @@
 //! `feat_*` or other properties, so a labelled scene (`splatseg run`'s `gaussians.ply`) stays a PLY.
 
 mod compressed_ply;
+mod ksplat;
 mod quantise;
 mod splat;
 mod spz;
@@ -31,6 +32,8 @@ pub enum SplatFormat {
     /// PlayCanvas / SuperSplat's compressed PLY (`.compressed.ply`): chunks of 256 with bounds,
     /// 11-10-11 / 2-10-10-10 / 8-8-8-8 packed words, SH as bytes.
     CompressedPly,
+    /// mkkellogg's `.ksplat` (GaussianSplats3D): sections of buckets, compression levels 0–2.
+    Ksplat,
 }
 
 impl SplatFormat {
@@ -41,11 +44,12 @@ impl SplatFormat {
             SplatFormat::Spz => spz::FORMAT,
             SplatFormat::Splat => splat::FORMAT,
             SplatFormat::CompressedPly => compressed_ply::FORMAT,
+            SplatFormat::Ksplat => ksplat::FORMAT,
         }
     }
 
     /// The format an output path asks for by its extension (case-insensitive): `.spz`, `.splat`,
-    /// `.compressed.ply`, `.ply`; `None` for any other.
+    /// `.ksplat`, `.compressed.ply`, `.ply`; `None` for any other.
     pub fn from_extension(path: &Path) -> Option<SplatFormat> {
         let name = path.file_name()?.to_str()?.to_ascii_lowercase();
         if name.ends_with(".compressed.ply") {
@@ -56,14 +60,15 @@ impl SplatFormat {
             "ply" => Some(SplatFormat::Ply),
             "spz" => Some(SplatFormat::Spz),
             "splat" => Some(SplatFormat::Splat),
+            "ksplat" => Some(SplatFormat::Ksplat),
             _ => None,
         }
     }
 
     /// The format of a file's bytes, `head` being its first bytes (up to [`DETECT_BYTES`]) and
     /// `path` its name: a gzip stream is SPZ, `ply` a PLY (compressed when its header declares a
-    /// `chunk` element), and a file named `.splat` a `.splat` (which has no header to recognise it
-    /// by).
+    /// `chunk` element), a file named `.ksplat` with a `.ksplat` header (version 0.x, which is no
+    /// magic) a `.ksplat`, and a file named `.splat` a `.splat` (which has no header at all).
     pub fn detect(head: &[u8], path: &Path) -> Result<SplatFormat, String> {
         if spz::is_gzip(head) {
             return Ok(SplatFormat::Spz);
@@ -80,11 +85,17 @@ impl SplatFormat {
                         --spz-version 3`"
                 .to_string());
         }
-        if SplatFormat::from_extension(path) == Some(SplatFormat::Splat) {
-            return Ok(SplatFormat::Splat);
+        match SplatFormat::from_extension(path) {
+            Some(SplatFormat::Splat) => return Ok(SplatFormat::Splat),
+            Some(SplatFormat::Ksplat) if ksplat::looks_like_ksplat(head) => return Ok(SplatFormat::Ksplat),
+            Some(SplatFormat::Ksplat) => {
+                return Err("named .ksplat but its header is not one (version 0.x, compression level 0-2)"
+                    .to_string())
+            }
+            _ => {}
         }
         Err("not a Gaussian splat file splatseg reads: expected a 3DGS or compressed PLY (starts with \
-             \"ply\"), an SPZ (a gzip stream) or a .splat (named *.splat)"
+             \"ply\"), an SPZ (a gzip stream), a .ksplat (named *.ksplat) or a .splat (named *.splat)"
             .to_string())
     }
 }
@@ -95,7 +106,7 @@ pub const DETECT_BYTES: usize = 64 * 1024;
 /// Format name of errors that come before the format is known.
 const ANY_FORMAT: &str = "Gaussian splat";
 
-/// Reads the Gaussians of a PLY, compressed PLY, SPZ or `.splat` file, chosen by content, and validates them
+/// Reads the Gaussians of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file, chosen by content, and validates them
 /// ([`Gaussians::validate`]), as [`crate::ply::read_ply`] does for a PLY. Errors name the file,
 /// its format and what is wrong.
 pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
@@ -105,7 +116,7 @@ pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
     Ok(g)
 }
 
-/// Every Gaussian of a PLY, compressed PLY, SPZ or `.splat` file with the non-finite and degenerate ones listed,
+/// Every Gaussian of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file with the non-finite and degenerate ones listed,
 /// as [`crate::ply::read_ply_rows`] reads a PLY; what every command that reads Gaussians calls.
 pub fn read_gaussian_rows(path: &Path) -> SceneResult<PlyRows> {
     Ok(read_gaussian_rows_with_format(path)?.1)
@@ -133,6 +144,7 @@ fn parse_compact(format: SplatFormat, bytes: &[u8]) -> Result<Gaussians, String>
         SplatFormat::Spz => spz::parse_spz(bytes)?,
         SplatFormat::Splat => splat::parse_splat(bytes)?,
         SplatFormat::CompressedPly => compressed_ply::parse_compressed_ply(bytes)?,
+        SplatFormat::Ksplat => ksplat::parse_ksplat(bytes)?,
         SplatFormat::Ply => return Ok(crate::ply::parse_ply_bytes_rows(bytes)?.gaussians),
     };
     g.validate_structure()?;
@@ -174,5 +186,10 @@ pub fn to_gaussian_bytes(format: SplatFormat, g: &Gaussians) -> Result<Vec<u8>, 
         SplatFormat::Spz => spz::to_spz_bytes(g),
         SplatFormat::Splat => Ok(splat::to_splat_bytes(g)),
         SplatFormat::CompressedPly => Ok(compressed_ply::to_compressed_ply_bytes(g)),
+        SplatFormat::Ksplat => {
+            u32::try_from(g.len())
+                .map_err(|_| format!("{} Gaussians are more than .ksplat's u32 count", g.len()))?;
+            Ok(ksplat::to_ksplat_bytes(g))
+        }
     }
 }

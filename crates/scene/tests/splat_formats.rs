@@ -412,3 +412,127 @@ fn bad_compressed_plys_are_clear_errors_naming_the_file() {
     );
     read_error("huge.compressed.ply", &swap("element vertex 24", "element vertex 4000000000"), &["2^27"]);
 }
+
+/// `.ksplat` level 0 as written: floats, colours and opacity as bytes.
+const KSPLAT_0: Tolerance = Tolerance {
+    position: 0.0,
+    log_scale: 1e-5,
+    opacity: 0.5 / 255.0 + 1e-6,
+    sh_dc: 0.5 / 255.0 / SH_C0 + 1e-5,
+    rotation: 1e-6,
+    sh_rest: Some((0.0, 0.0)),
+};
+
+#[test]
+fn our_ksplat_reads_back_as_its_source_and_as_the_reference_reads_it() {
+    let source = source();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.ksplat");
+    write_gaussians(&path, &source).expect("writes a .ksplat");
+    let (format, rows) = read_gaussian_rows_with_format(&path).unwrap();
+    assert_eq!(format, SplatFormat::Ksplat);
+    let ours = rows.gaussians;
+    assert_agree(&ours, &source, KSPLAT_0, "our .ksplat read back");
+    assert_eq!(read_gaussians(&fixture("splats_ours.ksplat")).unwrap(), ours);
+    let by_reference = read_gaussians(&fixture("splats_ours_ksplat_by_reference.ply")).unwrap();
+    assert_agree(&by_reference, &ours, SAME_BYTES, "splat-transform's reading of our .ksplat");
+}
+
+/// A level-1 or level-2 `.ksplat` of two Gaussians with SH degree 1 in one section of one bucket
+/// centred at (1, 2, 3), block size 5, the default quantisation range, made by hand from the
+/// layout (no writer makes these levels).
+fn quantised_ksplat(level: u16) -> Vec<u8> {
+    let mut file = vec![0u8; 4096 + 1024];
+    file[1] = 1;
+    file[4..8].copy_from_slice(&1u32.to_le_bytes());
+    file[16..20].copy_from_slice(&2u32.to_le_bytes());
+    file[20..22].copy_from_slice(&level.to_le_bytes());
+    let s = 4096;
+    for (o, v) in [(0, 2u32), (4, 2), (8, 256), (12, 1), (36, 1)] {
+        file[s + o..s + o + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    file[s + 16..s + 20].copy_from_slice(&5.0f32.to_le_bytes());
+    file[s + 20..s + 22].copy_from_slice(&12u16.to_le_bytes());
+    file[s + 40..s + 42].copy_from_slice(&1u16.to_le_bytes());
+    file.extend_from_slice(&2u32.to_le_bytes()); // the partial bucket holds both
+    for c in [1.0f32, 2.0, 3.0] {
+        file.extend_from_slice(&c.to_le_bytes());
+    }
+    let f16 = |v: f32| half::f16::from_f32(v).to_bits().to_le_bytes();
+    for (q, scale, value) in [(32767u16 + 6553, 0.5f32, 0.25f32), (32767 - 13107, 0.125, -0.5)] {
+        for _ in 0..3 {
+            file.extend_from_slice(&q.to_le_bytes());
+        }
+        for _ in 0..3 {
+            file.extend_from_slice(&f16(scale));
+        }
+        for r in [1.0, 0.0, 0.0, 0.0] {
+            file.extend_from_slice(&f16(r));
+        }
+        file.extend_from_slice(&[255, 128, 0, 191]);
+        for j in 0..9 {
+            let v = if j == 4 { value } else { 0.0 };
+            if level == 1 {
+                file.extend_from_slice(&f16(v));
+            } else {
+                file.push(((v + 1.5) / 3.0 * 255.0).round() as u8);
+            }
+        }
+    }
+    file
+}
+
+#[test]
+fn quantised_ksplat_levels_decode_from_their_buckets() {
+    let dir = tempfile::tempdir().unwrap();
+    for level in [1u16, 2] {
+        let path = dir.path().join(format!("level{level}.ksplat"));
+        std::fs::write(&path, quantised_ksplat(level)).unwrap();
+        let g = read_gaussians(&path).unwrap();
+        assert_eq!((g.len(), g.sh_degree), (2, 1));
+        // (q − 32767) · 5 / 2 / 32767 + centre: +6553 → +0.5, −13107 → −1.0.
+        let unit = 5.0 / 2.0 / 32767.0;
+        for (i, offset) in [(0, 6553.0 * unit), (1, -13107.0 * unit)] {
+            for (a, centre) in [1.0f32, 2.0, 3.0].into_iter().enumerate() {
+                assert!(
+                    (g.means[i][a] - (centre + offset)).abs() < 1e-5,
+                    "level {level} mean {i}: {:?}",
+                    g.means[i]
+                );
+            }
+        }
+        assert!(
+            (g.log_scales[0][0] - 0.5f32.ln()).abs() < 1e-3
+                && (g.log_scales[1][2] - 0.125f32.ln()).abs() < 1e-3
+        );
+        assert_eq!(g.rotations[1], [1.0, 0.0, 0.0, 0.0]);
+        assert!((g.sh_dc[0][0] - 0.5 / SH_C0).abs() < 1e-4 && (g.sh_dc[0][2] + 0.5 / SH_C0).abs() < 1e-4);
+        // Value 4 of band 1 is green's coefficient 1: f_rest index 1·3 + 1 = 4.
+        let tol = if level == 1 { 1e-3 } else { 3.0 / 255.0 };
+        assert!((g.sh_rest[4] - 0.25).abs() < tol && (g.sh_rest[9 + 4] + 0.5).abs() < tol, "{:?}", g.sh_rest);
+        assert!(g.sh_rest.iter().enumerate().all(|(j, v)| j % 9 == 4 || v.abs() < tol));
+    }
+}
+
+#[test]
+fn bad_ksplats_are_clear_errors_naming_the_file() {
+    let good = quantised_ksplat(1);
+    read_error("cut.ksplat", &good[..good.len() - 3], &[".ksplat", "truncated: section 0"]);
+    read_error("tiny.ksplat", &good[..100], &["fewer than the 4096-byte"]);
+    let mut version = good.clone();
+    version[1] = 0;
+    read_error("version.ksplat", &version, &["header is not one"]);
+    let mut sections = good.clone();
+    sections[4..8].copy_from_slice(&100_000u32.to_le_bytes());
+    read_error("sections.ksplat", &sections, &["100000 section headers do not fit"]);
+    let mut total = good.clone();
+    total[16..20].copy_from_slice(&3u32.to_le_bytes());
+    read_error("total.ksplat", &total, &["the sections hold 2 Gaussians, the header says 3"]);
+    let mut room = good.clone();
+    room[4096..4100].copy_from_slice(&3u32.to_le_bytes());
+    room[16..20].copy_from_slice(&3u32.to_le_bytes());
+    read_error("room.ksplat", &room, &["holds 3 Gaussians in room for 2"]);
+    let mut degree = good;
+    degree[4096 + 40] = 7;
+    read_error("degree.ksplat", &degree, &["SH degree 7"]);
+}

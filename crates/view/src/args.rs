@@ -7,7 +7,7 @@ use std::path::PathBuf;
 /// and export a selection as a PLY.
 ///
 /// PATH is `splatseg run`'s or `train`'s output folder (e.g. `out/demo/run`), an INRIA 3DGS output
-/// folder, or a file of Gaussians: any 3DGS or compressed PLY, an SPZ or a .splat, chosen by content (without
+/// folder, or a file of Gaussians: any 3DGS or compressed PLY, an SPZ, a .splat or a .ksplat, chosen by content (without
 /// `object_id`, which only a PLY holds, it is one object). The viewer starts at the
 /// capture's first camera: the scene `run` recorded in its report.md, a `scene/` folder beside
 /// PATH, or --scene. The page (HTML, JS, WebGL2 shaders) is built into the binary: no network, no
