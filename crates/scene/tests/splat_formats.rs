@@ -217,7 +217,7 @@ fn bad_spz_files_are_clear_errors_naming_the_file() {
     read_error(
         "count.spz",
         &gzip(&spz_header(3, 1_000_000, 0, 0)),
-        &["declares 1000000 Gaussians", "0 after"],
+        &["declares 1000000 Gaussians", "ends after 0 of them, in the positions"],
     );
     read_error("huge.spz", &gzip(&spz_header(3, u32::MAX, 0, 0)), &["2^27"]);
     // Version 4 keeps its header outside the compression.

@@ -37,7 +37,9 @@ pub(crate) fn sh_rest_to_coefficient_major(sh_rest: &[f32], rest_per_channel: us
     out
 }
 
-/// The inverse of [`sh_rest_to_coefficient_major`]: `[N, K, 3]` → `[N, 3, K]`.
+/// The inverse of [`sh_rest_to_coefficient_major`]: `[N, K, 3]` → `[N, 3, K]` (the SPZ reader
+/// does it in place, in parallel; this checks the writer's order).
+#[cfg(test)]
 pub(crate) fn sh_rest_to_channel_major(coefficient_major: &[f32], rest_per_channel: usize) -> Vec<f32> {
     let k = rest_per_channel;
     let mut out = vec![0.0; coefficient_major.len()];

@@ -13,12 +13,11 @@
 //! y·z change sign. Writing makes version 3 with 12 fractional bits (positions within ±2048) and
 //! SH bands 1 at 5 bits and 2–3 at 4 bits, as the reference library does by default.
 
-use super::quantise::{
-    logit_of_byte, sh_rest_to_channel_major, sh_rest_to_coefficient_major, sigmoid, to_u8,
-};
+use super::quantise::{logit_of_byte, sh_rest_to_coefficient_major, sigmoid, to_u8};
 use crate::gaussians::{sh_coeffs_for_degree, Gaussians};
 use flate2::read::GzDecoder;
 use flate2::write::GzEncoder;
+use rayon::prelude::*;
 use std::io::{Read, Write};
 
 /// Format name used in error messages.
@@ -113,9 +112,12 @@ pub(crate) fn is_gzip(bytes: &[u8]) -> bool {
     bytes.starts_with(&[0x1f, 0x8b])
 }
 
-/// Decodes a whole `.spz` file. Sizes are checked before any per-Gaussian array is made: the
-/// decompressed stream is read up to the size the header declares and no further (then drained
-/// to check gzip's CRC), so a small file declaring many Gaussians is an error, not an allocation.
+/// Decodes a whole `.spz` file. Each attribute is decoded (in parallel) while the stream goes on
+/// inflating the next, and the SH rest chunk by chunk, so reading takes little more than inflating.
+/// Sizes are checked before any per-Gaussian array is made: an attribute is read up to the size
+/// the header declares and no further, and its array is made once its bytes have arrived (the SH
+/// array once the 20 bytes of every Gaussian's other attributes have), so a small file declaring
+/// many Gaussians is an error, not an allocation. The stream is then drained to check gzip's CRC.
 pub(crate) fn parse_spz(file: &[u8]) -> Result<Gaussians, String> {
     if !is_gzip(file) {
         return Err("not a gzip stream (SPZ files start with bytes 1f 8b)".to_string());
@@ -124,38 +126,86 @@ pub(crate) fn parse_spz(file: &[u8]) -> Result<Gaussians, String> {
     let mut head = Vec::with_capacity(HEADER_BYTES);
     (&mut stream).take(HEADER_BYTES as u64).read_to_end(&mut head).map_err(gzip_error)?;
     let header = Header::parse(&head)?;
-    let body_bytes = header.count as u64 * header.row_bytes() as u64;
-    let mut body = Vec::new();
-    (&mut stream).take(body_bytes).read_to_end(&mut body).map_err(gzip_error)?;
-    if (body.len() as u64) < body_bytes {
-        return Err(format!(
-            "truncated: the header declares {} Gaussians × {} bytes = {body_bytes} bytes but the \
-             stream holds {} after the header",
-            header.count,
-            header.row_bytes(),
-            body.len()
-        ));
-    }
+    let n = header.count;
+    let k = header.rest_per_channel();
+    let mut g = Gaussians { sh_degree: header.sh_degree, ..Gaussians::default() };
+    let Gaussians { means, sh_dc, sh_rest, raw_opacities, log_scales, rotations, .. } = &mut g;
+    let mut read = Attributes { stream: &mut stream, header, done: 0 };
+    rayon::scope(|scope| -> Result<(), String> {
+        let bytes = read.next(9 * n, "positions")?;
+        scope.spawn(move |_| *means = decode_positions(&bytes, header.fractional_bits));
+        let bytes = read.next(n, "alphas")?;
+        scope.spawn(move |_| *raw_opacities = bytes.par_iter().map(|&a| logit_of_byte(a)).collect());
+        let bytes = read.next(3 * n, "colours")?;
+        scope.spawn(move |_| {
+            *sh_dc = bytes
+                .par_chunks_exact(3)
+                .map(|c| [0, 1, 2].map(|i| (c[i] as f32 / 255.0 - 0.5) / COLOUR_SCALE))
+                .collect()
+        });
+        let bytes = read.next(3 * n, "scales")?;
+        scope.spawn(move |_| {
+            *log_scales =
+                bytes.par_chunks_exact(3).map(|s| [0, 1, 2].map(|i| s[i] as f32 / 16.0 - 10.0)).collect()
+        });
+        let rotation_bytes = header.rotation_bytes();
+        let bytes = read.next(rotation_bytes * n, "rotations")?;
+        scope.spawn(move |_| *rotations = decode_rotations(&bytes, rotation_bytes));
+        if k > 0 {
+            *sh_rest = vec![0.0f32; 3 * k * n];
+            for out in sh_rest.chunks_mut(3 * k * SH_ROWS_PER_TASK) {
+                let bytes = read.next(out.len(), "SH coefficients")?;
+                scope.spawn(move |_| decode_sh(&bytes, out, k));
+            }
+        }
+        Ok(())
+    })?;
     std::io::copy(&mut stream, &mut std::io::sink()).map_err(gzip_error)?;
-    Ok(decode_body(&header, &body))
+    Ok(g)
+}
+
+/// Gaussians whose SH rest one task decodes while the stream inflates the next ones.
+const SH_ROWS_PER_TASK: usize = 64 * 1024;
+
+/// The attributes of the body, read one after the other from the inflating stream.
+struct Attributes<'a, R: Read> {
+    stream: &'a mut R,
+    header: Header,
+    /// Body bytes read so far.
+    done: u64,
+}
+
+impl<R: Read> Attributes<'_, R> {
+    /// The next `len` bytes of the body (`what` they hold), or an error saying the stream ends first.
+    fn next(&mut self, len: usize, what: &str) -> Result<Vec<u8>, String> {
+        let mut bytes = Vec::with_capacity(len);
+        (&mut *self.stream).take(len as u64).read_to_end(&mut bytes).map_err(gzip_error)?;
+        self.done += bytes.len() as u64;
+        if bytes.len() < len {
+            let h = &self.header;
+            return Err(format!(
+                "truncated: the header declares {} Gaussians × {} bytes = {} bytes but the stream \
+                 ends after {} of them, in the {what}",
+                h.count,
+                h.row_bytes(),
+                h.count as u64 * h.row_bytes() as u64,
+                self.done
+            ));
+        }
+        Ok(bytes)
+    }
 }
 
 fn gzip_error(e: std::io::Error) -> String {
     format!("the gzip stream is truncated or corrupt ({e})")
 }
 
-/// The Gaussians of a body whose length the header's sizes were checked against.
-fn decode_body(header: &Header, body: &[u8]) -> Gaussians {
-    let n = header.count;
-    let (positions, rest) = body.split_at(9 * n);
-    let (alphas, rest) = rest.split_at(n);
-    let (colours, rest) = rest.split_at(3 * n);
-    let (scales, rest) = rest.split_at(3 * n);
-    let (rotations, sh) = rest.split_at(header.rotation_bytes() * n);
-    let unit = 1.0 / (1u32 << header.fractional_bits) as f32;
+/// `[N]` centres in the PLY's frame from `[N, 3]` 24-bit fixed-point coordinates.
+fn decode_positions(bytes: &[u8], fractional_bits: u8) -> Vec<[f32; 3]> {
+    let unit = 1.0 / (1u32 << fractional_bits) as f32;
     let flip = [1.0, -1.0, -1.0];
-    let means = positions
-        .chunks_exact(9)
+    bytes
+        .par_chunks_exact(9)
         .map(|p| {
             [0, 1, 2].map(|a| {
                 let b = &p[3 * a..3 * a + 3];
@@ -163,37 +213,28 @@ fn decode_body(header: &Header, body: &[u8]) -> Gaussians {
                 flip[a] * fixed as f32 * unit
             })
         })
-        .collect();
-    let rotations = if header.version >= 3 {
-        rotations.chunks_exact(4).map(|r| rdf_quaternion(smallest_three_xyzw(r))).collect()
-    } else {
-        rotations.chunks_exact(3).map(|r| rdf_quaternion(first_three_xyzw(r))).collect()
-    };
-    let k = header.rest_per_channel();
-    let coefficient_major: Vec<f32> = sh
-        .chunks_exact(3)
-        .enumerate()
-        .flat_map(|(i, rgb)| {
-            let sign = if k == 0 { 1.0 } else { SH_FLIP[i % k] };
-            rgb.iter().map(move |&q| sign * (q as f32 - 128.0) / 128.0)
+        .collect()
+}
+
+/// `[N]` quaternions `w x y z` in the PLY's frame from version 2's (3 bytes) or 3's (4 bytes).
+fn decode_rotations(bytes: &[u8], rotation_bytes: usize) -> Vec<[f32; 4]> {
+    bytes
+        .par_chunks_exact(rotation_bytes)
+        .map(|r| {
+            rdf_quaternion(if rotation_bytes == 4 { smallest_three_xyzw(r) } else { first_three_xyzw(r) })
         })
-        .collect();
-    Gaussians {
-        means,
-        normals: None,
-        sh_dc: colours
-            .chunks_exact(3)
-            .map(|c| [0, 1, 2].map(|i| (c[i] as f32 / 255.0 - 0.5) / COLOUR_SCALE))
-            .collect(),
-        sh_degree: header.sh_degree,
-        sh_rest: sh_rest_to_channel_major(&coefficient_major, k),
-        raw_opacities: alphas.iter().map(|&a| logit_of_byte(a)).collect(),
-        log_scales: scales.chunks_exact(3).map(|s| [0, 1, 2].map(|i| s[i] as f32 / 16.0 - 10.0)).collect(),
-        rotations,
-        object_ids: None,
-        features: None,
-        extra: Vec::new(),
-    }
+        .collect()
+}
+
+/// SH rest stored `[rows, K, 3]` (channel fastest) into `out`, `[rows, 3, K]`, in the PLY's frame.
+fn decode_sh(bytes: &[u8], out: &mut [f32], k: usize) {
+    out.par_chunks_mut(3 * k).zip(bytes.par_chunks_exact(3 * k)).for_each(|(row, q)| {
+        for j in 0..k {
+            for c in 0..3 {
+                row[c * k + j] = SH_FLIP[j] * (q[3 * j + c] as f32 - 128.0) / 128.0;
+            }
+        }
+    });
 }
 
 /// Version 2: x y z of a unit quaternion with w ≥ 0; w is what makes the norm 1.
