@@ -9,7 +9,8 @@ use splatseg_scene::splats::read_gaussian_rows;
 use splatseg_scene::Gaussians;
 use std::path::Path;
 
-/// Every row of the Gaussians file at `path` (PLY, compressed PLY, SPZ, `.splat` or `.ksplat`) with the skipped ones listed. With `strict` (`--strict`) a
+/// Every row of the Gaussians file at `path` (PLY, compressed PLY, SPZ, `.splat` or `.ksplat`)
+/// with the skipped ones listed. With `strict` (`--strict`) a
 /// file with non-finite values or degenerate Gaussians is an error naming the first one;
 /// otherwise one warning per kind says how many rows are skipped and `consequence` (what happens to them in the outputs).
 pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<PlyRows> {

@@ -106,9 +106,9 @@ pub const DETECT_BYTES: usize = 64 * 1024;
 /// Format name of errors that come before the format is known.
 const ANY_FORMAT: &str = "Gaussian splat";
 
-/// Reads the Gaussians of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file, chosen by content, and validates them
-/// ([`Gaussians::validate`]), as [`crate::ply::read_ply`] does for a PLY. Errors name the file,
-/// its format and what is wrong.
+/// Reads the Gaussians of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file, chosen by
+/// content, and validates them ([`Gaussians::validate`]), as [`crate::ply::read_ply`] does for a
+/// PLY. Errors name the file, its format and what is wrong.
 pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
     let (format, rows) = read_gaussian_rows_with_format(path)?;
     let g = rows.gaussians;
@@ -116,8 +116,9 @@ pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
     Ok(g)
 }
 
-/// Every Gaussian of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file with the non-finite and degenerate ones listed,
-/// as [`crate::ply::read_ply_rows`] reads a PLY; what every command that reads Gaussians calls.
+/// Every Gaussian of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file with the non-finite
+/// and degenerate ones listed, as [`crate::ply::read_ply_rows`] reads a PLY; what every command
+/// that reads Gaussians calls.
 pub fn read_gaussian_rows(path: &Path) -> SceneResult<PlyRows> {
     Ok(read_gaussian_rows_with_format(path)?.1)
 }
