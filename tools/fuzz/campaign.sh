@@ -10,7 +10,7 @@ set -u
 seconds=${1:-240}
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=$root/fuzz/target/x86_64-unknown-linux-gnu/release
-targets=${TARGETS:-"ply colmap_bin colmap_txt transforms_json sam_json sam_metadata_csv npy npz label_png rle_string config_toml view_request"}
+targets=${TARGETS:-"ply spz splat ksplat compressed_ply colmap_bin colmap_txt transforms_json sam_json sam_metadata_csv npy npz label_png rle_string config_toml view_request"}
 mkdir -p "$root/fuzz/corpus-local" "$root/fuzz/artifacts" "$root/fuzz/logs"
 echo -e "target\texecutions\tseconds\tartifacts"
 for t in $targets; do

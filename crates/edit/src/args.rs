@@ -26,6 +26,7 @@ pub struct ObjectsArgs {
 /// that viewers open: splatseg's `object_id` and `feat_*` properties (and any other non-standard
 /// property) are dropped unless --keep-extras is given. The objects are given by --ids
 /// (`splatseg objects PLY` lists them) or, after `run --clip`, by --query (the best match).
+/// `--out` ending in .spz, .splat, .ksplat or .compressed.ply writes that format (quantised, no extras; see CONVENTIONS.md).
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 #[cfg_attr(feature = "cli", command(group(clap::ArgGroup::new("objects").required(true).args(["ids", "query"]))))]
@@ -40,7 +41,8 @@ pub struct ExtractArgs {
     /// (`objects/objects.json` beside `gaussians.ply`).
     #[cfg_attr(feature = "cli", arg(long, value_name = "TEXT"))]
     pub query: Option<String>,
-    /// Output PLY.
+    /// Output file: a 3DGS PLY, or an SPZ / .splat / .ksplat / compressed PLY when it ends in
+    /// .spz / .splat / .ksplat / .compressed.ply.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
     /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).
@@ -54,7 +56,8 @@ pub struct ExtractArgs {
 /// the standard INRIA 3DGS layout that viewers open: splatseg's `object_id` and `feat_*`
 /// properties (and any other non-standard property) are dropped unless --keep-extras is given.
 /// The objects are given by --ids (`splatseg objects PLY` lists them) or, after `run --clip`, by
-/// --query (the best match).
+/// --query (the best match). `--out` ending in .spz, .splat, .ksplat or .compressed.ply writes that format (quantised, no
+/// extras; see CONVENTIONS.md).
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 #[cfg_attr(feature = "cli", command(group(clap::ArgGroup::new("objects").required(true).args(["ids", "query"]))))]
@@ -69,7 +72,8 @@ pub struct RemoveArgs {
     /// (`objects/objects.json` beside `gaussians.ply`).
     #[cfg_attr(feature = "cli", arg(long, value_name = "TEXT"))]
     pub query: Option<String>,
-    /// Output PLY.
+    /// Output file: a 3DGS PLY, or an SPZ / .splat / .ksplat / compressed PLY when it ends in
+    /// .spz / .splat / .ksplat / .compressed.ply.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
     /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).
@@ -83,13 +87,15 @@ pub struct RemoveArgs {
 /// Sets each labelled Gaussian's base colour (`f_dc`) to its object's colour and zeroes its
 /// view-dependent part (`f_rest`), and Gaussians without an object flat dark grey; positions,
 /// shapes and opacities are unchanged. The output
-/// has the standard INRIA 3DGS layout unless --keep-extras is given.
+/// has the standard INRIA 3DGS layout unless --keep-extras is given, or is an SPZ, a .splat, a
+/// .ksplat or a compressed PLY when `--out` ends so.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct RecolorArgs {
     /// Labelled 3DGS PLY.
     pub ply: PathBuf,
-    /// Output PLY.
+    /// Output file: a 3DGS PLY, or an SPZ / .splat / .ksplat / compressed PLY when it ends in
+    /// .spz / .splat / .ksplat / .compressed.ply.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
     /// Keep `object_id`, `feat_*` and other non-standard properties (some viewers reject them).

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 pub enum EditError {
     /// The Gaussians carry no `object_id`.
     #[error(
-        "the PLY has no `object_id` property, so there are no objects to edit: run `splatseg run` first and use its gaussians.ply{}",
+        "the PLY has no `object_id` property, so there are no objects to edit (SPZ and .splat files never have one): run `splatseg run` first and use its gaussians.ply{}",
         location(.path)
     )]
     NoObjectIds {
@@ -39,6 +39,17 @@ pub enum EditError {
         expected: usize,
         /// The PLY, when known.
         path: Option<PathBuf>,
+    },
+    /// `--keep-extras` asked for a format that holds no `object_id`, `feat_*` or other property.
+    #[error(
+        "--keep-extras: {format} holds no `object_id`, `feat_*` or other extra property; write a .ply to keep them, or leave out --keep-extras: {}",
+        path.display()
+    )]
+    ExtrasNotHeld {
+        /// The output's format.
+        format: &'static str,
+        /// The output file.
+        path: PathBuf,
     },
     /// Reading or writing a file failed.
     #[error(transparent)]

@@ -148,3 +148,26 @@ fn unlabelled_ply_and_unknown_ids_are_clear_errors() {
         "{err}"
     );
 }
+
+#[test]
+fn an_spz_or_splat_out_path_writes_that_format_without_ids() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crate::testing::labelled_gaussians(&[1, 1, 2, 2, -1]);
+    let picked = extract(&scene, &[2]).unwrap();
+    for name in ["object.spz", "object.splat", "object.ksplat", "object.compressed.ply"] {
+        let path = dir.path().join(name);
+        write_edited_ply(&path, picked.clone(), ExtraFields::Strip).unwrap();
+        let (format, rows) = splatseg_scene::splats::read_gaussian_rows_with_format(&path).unwrap();
+        let expected =
+            [("spz", "SPZ"), (".splat", ".splat"), ("ksplat", ".ksplat"), ("ply", "compressed PLY")];
+        assert_eq!(Some(format.name()), expected.iter().find(|(e, _)| name.ends_with(e)).map(|(_, f)| *f));
+        assert_eq!(rows.gaussians.len(), 2);
+        assert!(rows.gaussians.object_ids.is_none());
+        // Keeping `object_id` in a format without properties is refused before anything is written.
+        let kept = dir.path().join(format!("kept_{name}"));
+        let err = write_edited_ply(&kept, picked.clone(), ExtraFields::Keep).unwrap_err();
+        assert!(matches!(err, EditError::ExtrasNotHeld { .. }), "{err}");
+        assert!(err.to_string().contains("--keep-extras") && err.to_string().ends_with(name), "{err}");
+        assert!(!kept.exists());
+    }
+}

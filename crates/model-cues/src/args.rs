@@ -108,7 +108,8 @@ pub struct RunArgs {
     /// transposed one, is an error naming the file and both shapes).
     #[cfg_attr(feature = "cli", arg(long))]
     pub resize_depth: bool,
-    /// 3DGS PLY (default: SCENE/gaussians.ply when present).
+    /// Gaussians: a 3DGS PLY, a compressed PLY, an SPZ, a .splat or a .ksplat, chosen by content
+    /// (default: SCENE/gaussians.ply when present). The labelled output is a PLY whatever the input.
     #[cfg_attr(feature = "cli", arg(long))]
     pub gaussians: Option<PathBuf>,
     /// Ground truth: a folder of `<image stem>.png` instance maps, or a synthetic scene's `gt/`

@@ -1,13 +1,16 @@
-//! Reading a 3DGS PLY for a command: Gaussians with a non-finite value (NaN, ±Inf — 3DGS
+//! Reading Gaussians for a command (a 3DGS or compressed PLY, an SPZ, a `.splat` or a `.ksplat`, chosen by content:
+//! `splatseg_scene::splats::read_gaussian_rows`): Gaussians with a non-finite value (NaN, ±Inf — 3DGS
 //! trainers leave a few behind) or a degenerate shape (a zero rotation quaternion, a log-scale
 //! above 20, which the rasteriser would cull) are skipped with one warning per kind and file, or
 //! refused with `--strict`.
 
-use splatseg_scene::ply::{read_ply_rows, PlyRows};
+use splatseg_scene::ply::PlyRows;
+use splatseg_scene::splats::read_gaussian_rows;
 use splatseg_scene::Gaussians;
 use std::path::Path;
 
-/// Every row of the PLY at `path` with the skipped ones listed. With `strict` (`--strict`) a
+/// Every row of the Gaussians file at `path` (PLY, compressed PLY, SPZ, `.splat` or `.ksplat`)
+/// with the skipped ones listed. With `strict` (`--strict`) a
 /// file with non-finite values or degenerate Gaussians is an error naming the first one;
 /// otherwise one warning per kind says how many rows are skipped and `consequence` (what happens to them in the outputs).
 pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<PlyRows> {
@@ -21,7 +24,7 @@ pub fn read_rows(path: &Path, consequence: &str, strict: bool) -> crate::Result<
 /// [`read_rows`] without the warning, for a caller that reports it itself
 /// ([`PlyRows::skip_warnings`]).
 pub fn read_rows_quietly(path: &Path, strict: bool) -> crate::Result<PlyRows> {
-    let rows = read_ply_rows(path)?;
+    let rows = read_gaussian_rows(path)?;
     if strict {
         rows.refuse_skipped(path)?;
     }

@@ -215,3 +215,47 @@ fn run_outputs_read_back_what_the_run_returned() {
     let err = crate::RunOutputs::open(tmp.path()).expect_err("no run there").report();
     assert!(err.contains("metrics.json"), "{err}");
 }
+
+/// Issue 61: `run` on an SPZ made from the scene's PLY (quantised positions, colours, shapes and
+/// SH) finds the same objects: per Gaussian, its object in one run is its object in the other
+/// (each object of one run matched to the other run's object most of its Gaussians carry, both ways).
+#[test]
+fn run_on_an_spz_of_the_ply_labels_the_gaussians_as_on_the_ply() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    synth(&scene, &SynthConfig { seed: 2, views: 3, width: 160, height: 120, ..SynthConfig::default() });
+    let g = splatseg_scene::ply::read_ply(&scene.join("gaussians.ply")).expect("the scene's PLY");
+    let spz = tmp.path().join("scene.spz");
+    splatseg_scene::splats::write_gaussians(&spz, &g).expect("writes the SPZ");
+    let ids = |out: &Path, gaussians: Option<std::path::PathBuf>| {
+        let config = RunConfig { gt: None, gaussians, ..run_config(&scene, out) };
+        run_pipeline(&config).expect("pipeline runs");
+        crate::RunOutputs::open(out).expect("finished run").object_ids().expect("labelled PLY")
+    };
+    let on_ply = ids(&tmp.path().join("out_ply"), None);
+    let on_spz = ids(&tmp.path().join("out_spz"), Some(spz));
+    assert_eq!(on_ply.len(), on_spz.len());
+    // Matched both ways, so that neither a split nor a merge of objects scores well.
+    let agreement = |from: &[i32], to: &[i32]| {
+        let mut pairs = std::collections::BTreeMap::<(i32, i32), usize>::new();
+        for (&a, &b) in from.iter().zip(to) {
+            *pairs.entry((a, b)).or_default() += 1;
+        }
+        let mut best = std::collections::BTreeMap::<i32, usize>::new();
+        for (&(a, _), &count) in &pairs {
+            let slot = best.entry(a).or_default();
+            *slot = (*slot).max(count);
+        }
+        best.values().sum::<usize>() as f64 / from.len() as f64
+    };
+    let agreement = agreement(&on_ply, &on_spz).min(agreement(&on_spz, &on_ply));
+    let objects = |ids: &[i32]| ids.iter().collect::<std::collections::BTreeSet<_>>().len();
+    eprintln!(
+        "PLY vs SPZ run: agreement {agreement:.4} over {} Gaussians, {} vs {} ids, exactly equal: {}",
+        on_ply.len(),
+        objects(&on_ply),
+        objects(&on_spz),
+        on_ply == on_spz
+    );
+    assert!(agreement >= 0.99, "per-Gaussian label agreement {agreement:.4} < 0.99");
+}

@@ -14,8 +14,12 @@ use std::path::Path;
 pub type Target = (&'static str, fn(&[u8]));
 
 /// Every target.
-pub const TARGETS: [Target; 10] = [
+pub const TARGETS: [Target; 14] = [
     ("ply", ply),
+    ("spz", spz),
+    ("splat", splat),
+    ("compressed_ply", compressed_ply),
+    ("ksplat", ksplat),
     ("colmap_bin", colmap_bin),
     ("colmap_txt", colmap_txt),
     ("transforms_json", transforms_json),
@@ -39,6 +43,41 @@ pub fn ply(data: &[u8]) {
         if let Err(reason) = finite.validate() {
             panic!("the finite rows of a PLY that read must validate: {reason}");
         }
+    }
+}
+
+/// An SPZ file (gzip stream): read keeping non-finite rows, the usable rows validated, and written
+/// again as SPZ when they can be (positions within SPZ's ±2048), which must read back as many.
+pub fn spz(data: &[u8]) {
+    compact(crate::splats::SplatFormat::Spz, data);
+}
+
+/// A `.splat` file (32-byte rows), checked as [`spz`].
+pub fn splat(data: &[u8]) {
+    compact(crate::splats::SplatFormat::Splat, data);
+}
+
+/// A PlayCanvas compressed PLY, checked as [`spz`].
+pub fn compressed_ply(data: &[u8]) {
+    compact(crate::splats::SplatFormat::CompressedPly, data);
+}
+
+/// A `.ksplat` file, checked as [`spz`].
+pub fn ksplat(data: &[u8]) {
+    compact(crate::splats::SplatFormat::Ksplat, data);
+}
+
+fn compact(format: crate::splats::SplatFormat, data: &[u8]) {
+    use crate::splats::{parse_gaussian_bytes_rows, to_gaussian_bytes};
+    let Ok(rows) = parse_gaussian_bytes_rows(format, data) else { return };
+    let usable = rows.into_usable();
+    if let Err(reason) = usable.validate() {
+        panic!("the usable rows of a {} that read must validate: {reason}", format.name());
+    }
+    if let Ok(bytes) = to_gaussian_bytes(format, &usable) {
+        let again = parse_gaussian_bytes_rows(format, &bytes)
+            .unwrap_or_else(|reason| panic!("what the {} writer wrote must read: {reason}", format.name()));
+        assert_eq!(again.gaussians.len(), usable.len(), "a written {} keeps every Gaussian", format.name());
     }
 }
 

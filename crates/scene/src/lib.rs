@@ -4,6 +4,7 @@
 //! - [`colmap`]: COLMAP sparse models, binary and text, read and write.
 //! - [`transforms`]: NeRF/Blender `transforms_*.json` and instant-ngp/nerfstudio `transforms.json`.
 //! - [`gaussians`] + [`ply`]: the INRIA 3DGS PLY layout, with round-tripped extra properties.
+//! - [`splats`]: SPZ, `.splat`, `.ksplat` and compressed PLY beside the PLY; [`splats::read_gaussians`] reads any of them by content.
 //! - [`rle`] + [`sam`]: Segment Anything automatic-mask output (COCO RLE JSON and PNG folders).
 //! - [`labels`]: 8/16-bit label-map PNGs (0 = unlabelled).
 //! - [`image_io`]: PNG and JPEG files to and from pixel buffers ([`image_io::RgbImage`]), resizing.
@@ -30,6 +31,7 @@ pub mod plane;
 pub mod ply;
 pub mod rle;
 pub mod sam;
+pub mod splats;
 pub mod transforms;
 
 pub use camera::{Camera, CameraModel, Distortion, Pose};

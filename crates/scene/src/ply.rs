@@ -18,10 +18,10 @@
 mod ascii;
 mod decode;
 mod encode;
-mod header;
+pub(crate) mod header;
 mod layout;
 mod rows;
-mod scalar;
+pub(crate) mod scalar;
 mod validate;
 
 pub use decode::{parse_ply_bytes, parse_ply_bytes_rows, read_ply, read_ply_rows, PlyRows};

@@ -19,4 +19,5 @@ mod ply_roundtrip;
 mod real_data;
 mod rle_codec;
 mod sam_masks;
+mod splat_formats;
 mod transforms_load;

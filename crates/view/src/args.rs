@@ -7,7 +7,8 @@ use std::path::PathBuf;
 /// and export a selection as a PLY.
 ///
 /// PATH is `splatseg run`'s or `train`'s output folder (e.g. `out/demo/run`), an INRIA 3DGS output
-/// folder, or any 3DGS PLY (without `object_id` it is one object). The viewer starts at the
+/// folder, or a file of Gaussians: any 3DGS or compressed PLY, an SPZ, a .splat or a .ksplat, chosen by content (without
+/// `object_id`, which only a PLY holds, it is one object). The viewer starts at the
 /// capture's first camera: the scene `run` recorded in its report.md, a `scene/` folder beside
 /// PATH, or --scene. The page (HTML, JS, WebGL2 shaders) is built into the binary: no network, no
 /// GPU toolkit, any browser with WebGL2.

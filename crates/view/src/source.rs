@@ -3,7 +3,7 @@
 //!
 //! PATH is `run`'s or `train`'s output folder (`gaussians.ply`, `masks/`, `overlays/`), an INRIA
 //! 3DGS output folder (`point_cloud.ply`, or `point_cloud/iteration_<n>/point_cloud.ply`, the
-//! highest n), or a `.ply` file. The cameras come from `--scene`, else from the scene `run`
+//! highest n), or a file of Gaussians: a 3DGS or compressed PLY, an SPZ, a `.splat` or a `.ksplat` (chosen by content). The cameras come from `--scene`, else from the scene `run`
 //! recorded in its `report.md` (`Scene: \`…\``), else from a `scene/` folder beside PATH (the
 //! demo's layout); without cameras the viewer starts from a camera looking at the bounding box.
 
@@ -102,9 +102,9 @@ fn find_ply(dir: &Path) -> Option<PathBuf> {
         .map(|(_, ply)| ply)
 }
 
-/// Reads and checks the PLY: it must have Gaussians.
+/// Reads and checks the Gaussians (PLY, compressed PLY, SPZ, `.splat` or `.ksplat`, by content): there must be some.
 fn read_gaussians(path: &Path) -> ViewResult<Gaussians> {
-    let g = splatseg_scene::ply::read_ply(path).map_err(ViewError::BadPly)?;
+    let g = splatseg_scene::splats::read_gaussians(path).map_err(ViewError::BadPly)?;
     if g.is_empty() {
         return Err(ViewError::EmptyPly(path.to_path_buf()));
     }

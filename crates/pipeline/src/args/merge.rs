@@ -47,7 +47,8 @@ pub struct MergeArgs {
     /// What the `--depth` maps hold.
     #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "inverse"))]
     pub depth_kind: DepthMeaning,
-    /// 3DGS PLY for rendered depth (default: SCENE/gaussians.ply when present).
+    /// Gaussians for rendered depth: a 3DGS or compressed PLY, an SPZ, a .splat or a .ksplat
+    /// (default: SCENE/gaussians.ply when present).
     #[cfg_attr(feature = "cli", arg(long))]
     pub gaussians: Option<PathBuf>,
     /// `run`'s pipeline TOML (`splatseg config`; the merge settings are its [merge] table), the

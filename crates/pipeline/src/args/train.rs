@@ -41,10 +41,10 @@ use std::path::PathBuf;
 pub struct TrainArgs {
     /// Scene folder (COLMAP `sparse/0` + `images/`, or `transforms.json`).
     pub scene: PathBuf,
-    /// Starting Gaussians: a 3DGS PLY (with `object_id` for the joint stage). Without it, training
-    /// starts as 3DGS does: one Gaussian of SH degree 3 per COLMAP sparse point, or, for scenes
-    /// without points (Blender / transforms.json), 100,000 random points in a cube of half side 1.3
-    /// around the origin (3DGS's NeRF-synthetic values).
+    /// Starting Gaussians: a 3DGS PLY (with `object_id` for the joint stage), a compressed PLY, an SPZ,
+    /// a .splat or a .ksplat. Without it, training starts as 3DGS does: one Gaussian of SH degree 3
+    /// per COLMAP sparse point, or, for scenes without points (Blender / transforms.json), 100,000
+    /// random points in a cube of half side 1.3 around the origin (3DGS's NeRF-synthetic values).
     #[cfg_attr(feature = "cli", arg(long))]
     pub gaussians: Option<PathBuf>,
     /// Output folder.

@@ -214,7 +214,8 @@ def merge_view(
 
 
 def read_ply(path: PathLike, *, strict: bool = False) -> Dict[str, Any]:
-    """Read a 3DGS PLY (binary or ASCII, SH degree 0-3) as a dict of arrays.
+    """Read a 3DGS PLY (binary or ASCII, SH degree 0-3) as a dict of arrays; an SPZ (versions 2-3),
+    a ``.splat``, a ``.ksplat`` or a compressed PLY is read too (chosen by content; quantised, without ids or extras).
 
     Keys: ``means`` ``float32[N, 3]``, ``log_scales`` ``float32[N, 3]``, ``rotations_wxyz``
     ``float32[N, 4]`` (unnormalised), ``raw_opacities`` ``float32[N]`` (before the sigmoid),
@@ -234,6 +235,8 @@ def write_ply(path: PathLike, gaussians: Mapping[str, Any], *, keep_extras: bool
 
     ``keep_extras=False`` leaves out ``object_ids``, ``features`` and ``extra`` (exactly the INRIA
     properties, which every viewer opens), as ``splatseg extract`` / ``remove`` write by default.
+    A path ending in ``.spz``, ``.splat``, ``.ksplat`` or ``.compressed.ply`` writes that format, which holds no ids, features or
+    extras: with any of them in ``gaussians``, pass ``keep_extras=False``.
     """
     _native.write_ply(_path(path, "path"), _gaussians(gaussians), bool(keep_extras))
 

@@ -42,7 +42,7 @@ pub struct PlyRows {
 }
 
 impl PlyRows {
-    fn new(gaussians: Gaussians) -> Self {
+    pub(crate) fn new(gaussians: Gaussians) -> Self {
         let non_finite = gaussians.non_finite_rows();
         let mut degenerate = gaussians.degenerate_rows();
         degenerate.retain(|i| non_finite.binary_search(i).is_err());
@@ -203,7 +203,8 @@ fn vertex_layout(header: &Header) -> Result<(usize, VertexLayout), String> {
     let properties = &header.elements[vertex_index].properties;
     if properties.iter().any(|p| p.name == "packed_position") {
         return Err("this is a compressed PLY (SuperSplat / gsplat 'ply_compressed': packed_position, \
-                    ...), which splatseg does not read; export the uncompressed 3DGS PLY instead"
+                    ...), which the INRIA PLY reader does not read; splatseg_scene::splats::read_gaussians \
+                    (what every command uses) does"
             .to_string());
     }
     let layout = VertexLayout::from_properties(properties)?;

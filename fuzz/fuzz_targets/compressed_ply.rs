@@ -1,0 +1,4 @@
+//! Fuzz target: `splatseg_scene::fuzzing::compressed_ply` (see its docs for what the bytes are).
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| splatseg_scene::fuzzing::compressed_ply(data));
