@@ -21,6 +21,9 @@ pub struct ObjectInfo {
     pub colour: [u8; 3],
     /// Number of label maps showing it (None when no label maps were given).
     pub views_seen: Option<usize>,
+    /// The name `splatseg apply` gave it from the edits' `rename` (none: left out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
 }
 
 /// All objects of a labelled PLY.
@@ -55,6 +58,7 @@ pub fn objects(g: &Gaussians) -> Result<ObjectTable, EditError> {
                 bbox_max: p,
                 colour: splatseg_scene::labels::colour_of_id(id.max(0) as u32),
                 views_seen: None,
+                name: None,
             }),
         }
     }
