@@ -14,8 +14,10 @@ use std::path::{Path, PathBuf};
 /// Name of the staging folder inside `OUT`.
 pub const STAGING: &str = ".staging";
 
-/// Everything `run` writes besides its cache, in the order it is moved in.
-pub const OUTPUTS: [&str; 5] = ["masks", "overlays", "gaussians.ply", "metrics.json", "report.md"];
+/// Everything `run` and `apply` write besides their cache, in the order it is moved in
+/// (`objects.json`, the edited objects' table, is `apply`'s alone: a new run removes it).
+pub const OUTPUTS: [&str; 6] =
+    ["masks", "overlays", "gaussians.ply", "objects.json", "metrics.json", "report.md"];
 
 /// An empty staging folder for one run's outputs.
 #[derive(Debug)]
