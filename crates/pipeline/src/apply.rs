@@ -86,16 +86,18 @@ pub fn edit_inputs(out: &Path) -> crate::Result<EditInputs> {
     Ok(EditInputs { gaussians: g.len() as u64, ply_digest: centres_digest(&g.means), run: run.key })
 }
 
-/// The run's manifest, as bytes and parsed.
+/// The run's manifest, as bytes and parsed (or the one an apply killed while committing left in
+/// the staging folder: this apply rewrites every output of that run).
 fn read_manifest(out: &Path) -> crate::Result<(Vec<u8>, RunCache)> {
     let path = out.join("cache").join("run.json");
-    let bytes = std::fs::read(&path).map_err(|_| {
-        crate::PipelineError::Invalid(format!(
-            "no finished run here (its manifest is missing): run `splatseg run` with --out {} first: {}",
-            out.display(),
-            path.display()
-        ))
-    })?;
+    let bytes =
+        commit::pending_manifest(out, &path).map_or_else(|| std::fs::read(&path), Ok).map_err(|_| {
+            crate::PipelineError::Invalid(format!(
+                "no finished run here (its manifest is missing): run `splatseg run` with --out {} first: {}",
+                out.display(),
+                path.display()
+            ))
+        })?;
     let run: RunCache = serde_json::from_slice(&bytes)
         .with_context(|| format!("not a run's manifest: {}", path.display()))?;
     Ok((bytes, run))
@@ -106,8 +108,8 @@ pub fn apply_edits(out: &Path, options: RunOptions) -> crate::Result<ApplySummar
     let edits_path = out.join(EDITS_FILE);
     let edits = read_edits(&edits_path)?;
     let _lock = lock::lock_output(out, "apply")?;
-    commit::remove_leftover_staging(out)?;
     let (manifest_bytes, run) = read_manifest(out)?;
+    commit::remove_leftover_staging(out)?;
     let scene = run_scene(out, &run.key)?;
     let stems: Vec<&str> = scene.views.iter().map(|v| v.stem.as_str()).collect();
     let base = Base::open_or_take(out, &run.key, &stems)?;
@@ -162,8 +164,7 @@ pub fn apply_edits(out: &Path, options: RunOptions) -> crate::Result<ApplySummar
     let report = base.report()? + &edits_section(&edits.operations, &edited, objects);
     splatseg_scene::atomic::write_bytes_atomic(&staging.dir().join("report.md"), report.as_bytes())?;
     let manifest = out.join("cache").join("run.json");
-    staging.commit(&manifest)?;
-    splatseg_scene::atomic::write_bytes_atomic(&manifest, &manifest_bytes)?;
+    staging.commit_same_manifest(&manifest, &manifest_bytes)?;
     Ok(ApplySummary {
         operations: edits.operations.len(),
         changed_gaussians: edited.changed_rows,
