@@ -137,6 +137,16 @@ fn a_merge_shows_one_id_in_every_view_and_the_ply_and_applying_again_gives_the_s
     assert!(std::fs::read_to_string(out.join("report.md"))
         .expect("report")
         .contains("Edits (splatseg apply)"));
+    // `objects` shows the name, `extract --query` takes it.
+    let ply = out.join("gaussians.ply");
+    let listed = splatseg(&["objects", s(&ply)]);
+    assert!(String::from_utf8_lossy(&listed.stdout).contains("| the two largest |"), "{listed:?}");
+    let one = out.join("named.ply");
+    let extracted = splatseg(&["extract", s(&ply), "--query", "the two largest", "--out", s(&one)]);
+    assert!(extracted.status.success(), "extract: {}", String::from_utf8_lossy(&extracted.stderr));
+    let count = splatseg_scene::ply::read_ply(&one).expect("extracted").len();
+    assert_eq!(count, after_ids.iter().filter(|&&id| id == into).count());
+    std::fs::remove_file(&one).expect("remove");
     // Applied again, from the run's own result: the same bytes.
     let first = outputs(&out);
     let again = apply(&out, &e);

@@ -30,7 +30,7 @@ pub use args::{ExtractArgs, ObjectsArgs, RecolorArgs, RemoveArgs};
 pub use edit_ops::{apply_operations, EditBase, Edited};
 pub use edits::{read_edits, EditInputs, Edits, Operation, EDITS_FILE, EDITS_VERSION};
 pub use error::EditError;
-pub use objects::{ids_in_label_map, objects, ObjectInfo, ObjectTable};
+pub use objects::{ids_in_label_map, names_beside, objects, ObjectInfo, ObjectTable, OBJECTS_FILE};
 pub use recolor::{palette_colour, recolor, UnlabelledStyle};
 pub use select::{extract, ids_present, remove};
 pub use viewer::{for_output, ExtraFields};
