@@ -245,3 +245,36 @@ fn bad_edits_exit_non_zero_naming_the_file_and_change_nothing() {
     let missing = splatseg(&["apply", s(&out)]);
     assert!(!missing.status.success() && String::from_utf8_lossy(&missing.stderr).contains("edits.json"));
 }
+
+#[test]
+fn a_lasso_split_moves_the_gaussians_whose_centres_project_inside_it() {
+    let (tmp, out) = run_scene();
+    let before_ids = ids(&out);
+    let (object, _) = two_largest(&before_ids);
+    let scene = splatseg_scene::load_scene(&tmp.path().join("scene"), &Default::default()).expect("scene");
+    let (view, camera) = (&scene.views[1], scene.camera(&scene.views[1]));
+    // The left half of view 1.
+    let (w, h) = (camera.width as f64, camera.height as f64);
+    let polygon_px = vec![[0.0, 0.0], [w / 2.0, 0.0], [w / 2.0, h], [0.0, h]];
+    let means = splatseg_scene::ply::read_ply_rows(&out.join("gaussians.ply")).expect("PLY").gaussians.means;
+    let cam_from_world = view.world_from_cam.inverse();
+    let inside = |m: &[f32; 3]| {
+        let p = cam_from_world.transform_point(glam::DVec3::new(m[0] as f64, m[1] as f64, m[2] as f64));
+        camera.project(p).is_some_and(|uv| uv.x >= 0.0 && uv.x < w / 2.0 && uv.y >= 0.0 && uv.y < h)
+    };
+    let selected = before_ids.iter().zip(&means).filter(|(&id, m)| id == object && inside(m)).count();
+    assert!(selected > 0, "the lasso holds some of object {object}");
+    let lasso = Operation::SplitLasso {
+        object,
+        camera: splatseg_edit::edits::LassoCamera::View { view: 1 },
+        polygon_px,
+        new_id: Some(900),
+    };
+    let done = apply(&out, &edits(&out, vec![lasso]));
+    assert!(done.status.success(), "apply: {}", String::from_utf8_lossy(&done.stderr));
+    for (i, ((&was, &now), m)) in before_ids.iter().zip(&ids(&out)).zip(&means).enumerate() {
+        let want = if was == object && inside(m) { 900 } else { was };
+        assert_eq!(now, want, "Gaussian {i}");
+    }
+    assert!(maps(&out).values().any(|m| m.data.contains(&900)), "the new object shows in the label maps");
+}
