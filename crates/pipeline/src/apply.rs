@@ -129,8 +129,7 @@ pub fn apply_edits(out: &Path, options: RunOptions) -> crate::Result<ApplySummar
         run: run.key.clone(),
     };
     check_inputs(&edits, &current, &edits_path)?;
-    let run_maps: Vec<_> = stems.iter().map(|s| base.label_map(s)).collect::<crate::Result<_>>()?;
-    let map_only_ids = map_only_ids(&run_maps, &base.ids);
+    let map_only_ids = map_only_ids(&base, &stems)?;
     let cams: Vec<_> = scene.views.iter().map(|v| (scene.camera(v), &v.world_from_cam)).collect();
     let edit_base =
         EditBase { ids: &base.ids, means: &rows.gaussians.means, map_only_ids: &map_only_ids, views: &cams };
@@ -149,7 +148,8 @@ pub fn apply_edits(out: &Path, options: RunOptions) -> crate::Result<ApplySummar
         .into_par_iter()
         .map(|v| -> crate::Result<Vec<u32>> {
             let (camera, world_from_cam) = cams[v];
-            let map = render.view_map(PosedCamera { camera, world_from_cam }, &run_maps[v])?;
+            let run_map = base.label_map(stems[v])?;
+            let map = render.view_map(PosedCamera { camera, world_from_cam }, &run_map)?;
             outputs::write_view_maps(staging.dir(), &scene, &load, v, &map, None)?;
             Ok(splatseg_edit::ids_in_label_map(&map))
         })
@@ -190,14 +190,14 @@ fn run_scene(out: &Path, run_key: &str) -> crate::Result<Scene> {
         .with_context(|| format!("cannot load the run's scene {}", recorded.scene.display()))
 }
 
-/// Ids the run's maps show that no Gaussian carries.
-fn map_only_ids(maps: &[splatseg_scene::Plane<u32>], ids: &[i32]) -> BTreeSet<i32> {
-    let carried: BTreeSet<i32> = ids.iter().copied().collect();
-    maps.iter()
-        .flat_map(splatseg_edit::ids_in_label_map)
-        .map(|id| id as i32)
-        .filter(|id| !carried.contains(id))
-        .collect()
+/// Ids the run's maps show that no Gaussian carries (one view's map read at a time).
+fn map_only_ids(base: &Base, stems: &[&str]) -> crate::Result<BTreeSet<i32>> {
+    let carried: BTreeSet<i32> = base.ids.iter().copied().collect();
+    let mut shown = BTreeSet::new();
+    for stem in stems {
+        shown.extend(splatseg_edit::ids_in_label_map(&base.label_map(stem)?).into_iter().map(|id| id as i32));
+    }
+    Ok(shown.difference(&carried).copied().collect())
 }
 
 /// Writes `objects.json` (the object table with names and views); the number of objects.
