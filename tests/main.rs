@@ -3,6 +3,7 @@
 //! must be declared below (`autotests = false` in Cargo.toml; the root `tests/test_layout.rs`
 //! checks that none is left out).
 
+mod apply_edits;
 mod architecture_doc;
 mod bad_inputs;
 mod bench_scale;

@@ -32,6 +32,7 @@ pub fn objects(args: ObjectsArgs) -> anyhow::Result<()> {
             .collect::<Result<_, _>>()?;
         table.set_views_seen(&ids);
     }
+    table.set_names(&splatseg_edit::names_beside(&args.ply)?);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&table).context("cannot serialise the object table")?);
     } else {
@@ -40,9 +41,16 @@ pub fn objects(args: ObjectsArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `--ids`, or the object a query matches best (the embeddings of `run --clip` beside the PLY).
+/// `--ids`, or the object `apply` named so, or the object a query matches best (the embeddings
+/// of `run --clip` beside the PLY).
 fn chosen_ids(ply: &Path, ids: &[i32], query: Option<&str>) -> anyhow::Result<Vec<i32>> {
     let Some(query) = query else { return Ok(ids.to_vec()) };
+    let named: Vec<i32> =
+        splatseg_edit::names_beside(ply)?.into_iter().filter(|(_, n)| n == query).map(|(id, _)| id).collect();
+    if !named.is_empty() {
+        println!("{query:?}: object {}", named.iter().map(i32::to_string).collect::<Vec<_>>().join(", "));
+        return Ok(named);
+    }
     let found = splatseg_model_cues::clip_objects::best_match_beside(ply, query)?;
     println!("{query:?}: object {} (relevancy {:.4})", found.id, found.relevancy);
     Ok(vec![i32::try_from(found.id)?])

@@ -4,6 +4,7 @@
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use splatseg_pipeline::args as pipeline;
 
+pub mod apply;
 pub mod bench;
 pub mod config;
 pub mod cues;
@@ -76,6 +77,8 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Apply a run's edits (OUT/edits.json: merge, split, reassign, name objects) to its outputs.
+    Apply(pipeline::ApplyArgs),
     /// Print the merge stage's ablation and sensitivity tables on a synthetic scene.
     Ablate(splatseg_bench::AblateArgs),
     /// Measure quality over many synthetic scenes of the stress suite (`bench quality`).
@@ -119,6 +122,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Ablate(args) => bench::ablate(args),
+        Command::Apply(args) => apply::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Config(args) => config::run(args),
         Command::Cues(args) => cues::run(args),

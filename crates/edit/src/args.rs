@@ -5,7 +5,7 @@ use crate::ExtraFields;
 use std::path::PathBuf;
 
 /// List the objects of a labelled PLY: id, Gaussian count, bounding box of the centres, palette
-/// colour and the number of views showing it.
+/// colour, the number of views showing it and the name `splatseg apply` gave it.
 ///
 /// The views are counted in the per-view label maps `masks/<stem>.png` beside the PLY, where
 /// `splatseg run` (and `train`) write them with the PLY; without that folder the column is empty.
@@ -36,8 +36,9 @@ pub struct ExtractArgs {
     /// Object ids to keep, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_hyphen_values = true))]
     pub ids: Vec<i32>,
-    /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
-    /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
+    /// Instead of --ids: an object's name given by `splatseg apply` (`objects.json` beside the
+    /// PLY), or a text query, e.g. "a red mug": the object it matches best (CLIP relevancy, as
+    /// `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
     /// (`objects/objects.json` beside `gaussians.ply`).
     #[cfg_attr(feature = "cli", arg(long, value_name = "TEXT"))]
     pub query: Option<String>,
@@ -67,8 +68,9 @@ pub struct RemoveArgs {
     /// Object ids to remove, comma-separated (e.g. `3,7`; `-1` = the unlabelled Gaussians).
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ',', allow_hyphen_values = true))]
     pub ids: Vec<i32>,
-    /// Instead of --ids: a text query, e.g. "a red mug"; the object it matches best (CLIP
-    /// relevancy, as `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
+    /// Instead of --ids: an object's name given by `splatseg apply` (`objects.json` beside the
+    /// PLY), or a text query, e.g. "a red mug": the object it matches best (CLIP relevancy, as
+    /// `splatseg find` ranks) among those `run --clip` embedded in PLY's folder
     /// (`objects/objects.json` beside `gaussians.ply`).
     #[cfg_attr(feature = "cli", arg(long, value_name = "TEXT"))]
     pub query: Option<String>,

@@ -51,6 +51,27 @@ pub enum EditError {
         /// The output file.
         path: PathBuf,
     },
+    /// An edits file that cannot be used as a whole: unreadable, malformed, of a later
+    /// version, or made on another run.
+    #[error("{message}: {}", .path.display())]
+    EditsFile {
+        /// What is wrong.
+        message: String,
+        /// The edits file.
+        path: PathBuf,
+    },
+    /// An operation of an edits file that selects something absent.
+    #[error("operation {index} ({kind}): {message}: {}", .path.display())]
+    EditOperation {
+        /// Its index in `operations` (from 0).
+        index: usize,
+        /// Its `op`.
+        kind: &'static str,
+        /// What is wrong.
+        message: String,
+        /// The edits file.
+        path: PathBuf,
+    },
     /// Reading or writing a file failed.
     #[error(transparent)]
     Scene(#[from] splatseg_scene::SceneError),

@@ -4,11 +4,17 @@
 //! - [`select`]: [`extract`] and [`remove`] objects by id.
 //! - [`recolor`](mod@recolor): flat palette colours per object, for viewing a segmentation.
 //! - [`objects`](mod@objects): the object table (id, Gaussian count, bounding box, colour, views).
+//! - [`edits`]: `OUT/edits.json`, a run's corrections as versioned data; [`edit_ops`]: applying
+//!   its operations (merge, split by a box or a lasso, assign, rename) to a run's object ids.
 //! - [`viewer`]: stripping splatseg's extra properties so standard viewers open the output.
 //! - [`args`]: the commands' arguments (clap's `Args` with the `cli` feature).
 //! - [`io`]: reading a labelled PLY with a helpful error, writing an edited one atomically.
 
 pub mod args;
+pub mod edit_ops;
+pub mod edits;
+#[cfg(test)]
+mod edits_tests;
 pub mod error;
 pub mod io;
 pub mod objects;
@@ -21,8 +27,10 @@ mod testing;
 pub mod viewer;
 
 pub use args::{ExtractArgs, ObjectsArgs, RecolorArgs, RemoveArgs};
+pub use edit_ops::{apply_operations, EditBase, Edited};
+pub use edits::{read_edits, EditInputs, Edits, Operation, EDITS_FILE, EDITS_VERSION};
 pub use error::EditError;
-pub use objects::{ids_in_label_map, objects, ObjectInfo, ObjectTable};
+pub use objects::{ids_in_label_map, names_beside, objects, ObjectInfo, ObjectTable, OBJECTS_FILE};
 pub use recolor::{palette_colour, recolor, UnlabelledStyle};
 pub use select::{extract, ids_present, remove};
 pub use viewer::{for_output, ExtraFields};

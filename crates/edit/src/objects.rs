@@ -21,6 +21,9 @@ pub struct ObjectInfo {
     pub colour: [u8; 3],
     /// Number of label maps showing it (None when no label maps were given).
     pub views_seen: Option<usize>,
+    /// The name `splatseg apply` gave it from the edits' `rename` (none: left out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
 }
 
 /// All objects of a labelled PLY.
@@ -55,6 +58,7 @@ pub fn objects(g: &Gaussians) -> Result<ObjectTable, EditError> {
                 bbox_max: p,
                 colour: splatseg_scene::labels::colour_of_id(id.max(0) as u32),
                 views_seen: None,
+                name: None,
             }),
         }
     }
@@ -81,7 +85,30 @@ pub fn ids_in_label_map(labels: &Plane<u32>) -> Vec<u32> {
     ids
 }
 
+/// The file `splatseg apply` writes beside `gaussians.ply`: the [`ObjectTable`] of the edited
+/// objects, with their names.
+pub const OBJECTS_FILE: &str = "objects.json";
+
+/// The names given by `splatseg apply` to the objects of the PLY at `ply`, read from
+/// [`OBJECTS_FILE`] beside it (id → name; empty when there is no such file).
+pub fn names_beside(ply: &std::path::Path) -> Result<std::collections::BTreeMap<i32, String>, EditError> {
+    let path = ply.parent().unwrap_or(std::path::Path::new(".")).join(OBJECTS_FILE);
+    let Ok(text) = std::fs::read_to_string(&path) else { return Ok(Default::default()) };
+    let table: ObjectTable = serde_json::from_str(&text).map_err(|e| EditError::EditsFile {
+        message: format!("not the object table `splatseg apply` writes ({e})"),
+        path: path.clone(),
+    })?;
+    Ok(table.objects.into_iter().filter_map(|o| o.name.map(|n| (o.id, n))).collect())
+}
+
 impl ObjectTable {
+    /// Sets each object's name from `names` (id → name).
+    pub fn set_names(&mut self, names: &std::collections::BTreeMap<i32, String>) {
+        for o in &mut self.objects {
+            o.name = names.get(&o.id).cloned();
+        }
+    }
+
     /// Sets `views_seen` of every object from the ids present in each view (as returned by
     /// [`ids_in_label_map`], one list per view).
     pub fn set_views_seen(&mut self, ids_per_view: &[Vec<u32>]) {
@@ -94,14 +121,21 @@ impl ObjectTable {
     /// A Markdown table of the objects.
     pub fn to_markdown(&self) -> String {
         use std::fmt::Write;
-        let mut out = String::from("| id | Gaussians | bbox min | bbox max | colour | views |\n| ---: | ---: | --- | --- | --- | ---: |\n");
+        let named = self.objects.iter().any(|o| o.name.is_some());
+        let mut out = String::from("| id | Gaussians | bbox min | bbox max | colour | views |");
+        out += if named {
+            " name |\n| ---: | ---: | --- | --- | --- | ---: | --- |\n"
+        } else {
+            "\n| ---: | ---: | --- | --- | --- | ---: |\n"
+        };
         let v3 = |v: [f32; 3]| format!("{:.3}, {:.3}, {:.3}", v[0], v[1], v[2]);
         for o in &self.objects {
             let [r, g, b] = o.colour;
             let views = o.views_seen.map_or_else(|| "–".to_string(), |v| v.to_string());
+            let name = if named { format!(" {} |", o.name.as_deref().unwrap_or("")) } else { String::new() };
             let _ = writeln!(
                 out,
-                "| {} | {} | {} | {} | #{r:02x}{g:02x}{b:02x} | {views} |",
+                "| {} | {} | {} | {} | #{r:02x}{g:02x}{b:02x} | {views} |{name}",
                 o.id,
                 o.gaussian_count,
                 v3(o.bbox_min),
@@ -144,5 +178,12 @@ mod tests {
         assert_eq!(t.objects[0].views_seen, Some(1));
         assert_eq!(t.objects[1].views_seen, Some(2));
         assert!(t.to_markdown().contains("| 4 | 3 | -1.000, -2.000, 0.500 | 0.500, 3.000, 2.000 |"));
+        assert!(!t.to_markdown().contains("name"), "no name column without names");
+        t.set_names(&[(4, "lamp".to_string())].into());
+        let md = t.to_markdown();
+        assert!(
+            md.contains("| views | name |") && md.contains("| 2 | lamp |") && md.contains("| 1 |  |"),
+            "{md}"
+        );
     }
 }

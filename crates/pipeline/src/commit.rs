@@ -14,8 +14,10 @@ use std::path::{Path, PathBuf};
 /// Name of the staging folder inside `OUT`.
 pub const STAGING: &str = ".staging";
 
-/// Everything `run` writes besides its cache, in the order it is moved in.
-pub const OUTPUTS: [&str; 5] = ["masks", "overlays", "gaussians.ply", "metrics.json", "report.md"];
+/// Everything `run` and `apply` write besides their cache, in the order it is moved in
+/// (`objects.json`, the edited objects' table, is `apply`'s alone: a new run removes it).
+pub const OUTPUTS: [&str; 6] =
+    ["masks", "overlays", "gaussians.ply", "objects.json", "metrics.json", "report.md"];
 
 /// What later steps make from the outputs (`run --clip`'s object embeddings, `objects/`): they
 /// describe the outputs they were made from, so a commit of new outputs removes them first (a
@@ -47,6 +49,25 @@ impl Staging {
     /// replaces each of [`OUTPUTS`] in `OUT` by the staged one (or removes it when this run did not
     /// write it), then removes the staging folder. The caller writes the new manifest afterwards.
     pub fn commit(self, manifest: &Path) -> crate::Result<()> {
+        self.move_in(manifest)?;
+        remove_path(&self.dir)
+    }
+
+    /// [`Staging::commit`] for outputs whose manifest stays as it was (`apply`'s: the same run):
+    /// `manifest_bytes` are written back before the staging folder, which holds them as
+    /// [`PENDING_MANIFEST`] during the renames, is removed; so a process killed on the way leaves
+    /// them there for the next `apply` ([`pending_manifest`]), and `run` (which removes the
+    /// staging folder) recomputes.
+    pub fn commit_same_manifest(self, manifest: &Path, manifest_bytes: &[u8]) -> crate::Result<()> {
+        let pending = self.dir.join(PENDING_MANIFEST);
+        splatseg_scene::atomic::write_bytes_atomic(&pending, manifest_bytes)?;
+        self.move_in(manifest)?;
+        splatseg_scene::atomic::write_bytes_atomic(manifest, manifest_bytes)?;
+        remove_path(&self.dir)
+    }
+
+    /// Removes `manifest`, then moves each staged output in (or removes it when not staged).
+    fn move_in(&self, manifest: &Path) -> crate::Result<()> {
         remove_path(manifest)?;
         for name in MADE_FROM_OUTPUTS {
             remove_path(&self.out.join(name))?;
@@ -59,8 +80,19 @@ impl Staging {
                     .with_context(|| format!("moving {} to {}", staged.display(), target.display()))?;
             }
         }
-        remove_path(&self.dir)
+        Ok(())
     }
+}
+
+/// The manifest [`Staging::commit_same_manifest`] keeps in the staging folder while it commits.
+pub const PENDING_MANIFEST: &str = "manifest.pending";
+
+/// The manifest an `apply` killed while committing left in `OUT/.staging/`, when `OUT` has none.
+pub fn pending_manifest(out: &Path, manifest: &Path) -> Option<Vec<u8>> {
+    if manifest.exists() {
+        return None;
+    }
+    std::fs::read(out.join(STAGING).join(PENDING_MANIFEST)).ok()
 }
 
 /// Removes the staging folder an interrupted run left (its temporary files included; the
@@ -122,6 +154,27 @@ mod tests {
         assert_eq!(read("notes.txt").as_deref(), Some("the user's"), "other files are kept");
         assert!(!out.join("objects").exists(), "the earlier run's object index is gone");
         assert!(!out.join(STAGING).exists());
+    }
+
+    /// `apply`'s commit writes the same manifest back; killed between removing it and writing it
+    /// back, the staging folder still holds it for the next apply.
+    #[test]
+    fn a_commit_keeping_the_manifest_leaves_it_pending_until_it_is_written_back() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let (out, manifest) = (tmp.path(), tmp.path().join("cache/run.json"));
+        std::fs::create_dir_all(out.join("cache")).expect("mkdir");
+        std::fs::write(&manifest, "the run's manifest").expect("write");
+        let staging = Staging::begin(out).expect("begin");
+        std::fs::write(staging.dir().join("report.md"), "edited report").expect("write");
+        assert_eq!(pending_manifest(out, &manifest), None, "the manifest is there");
+        // As if killed after the manifest was removed: the pending copy is found.
+        std::fs::write(staging.dir().join(PENDING_MANIFEST), "the run's manifest").expect("write");
+        std::fs::remove_file(&manifest).expect("remove");
+        assert_eq!(pending_manifest(out, &manifest).as_deref(), Some(&b"the run's manifest"[..]));
+        staging.commit_same_manifest(&manifest, b"the run's manifest").expect("commit");
+        assert_eq!(std::fs::read_to_string(&manifest).expect("manifest"), "the run's manifest");
+        assert_eq!(std::fs::read_to_string(out.join("report.md")).expect("report"), "edited report");
+        assert!(!out.join(STAGING).exists() && pending_manifest(out, &manifest).is_none());
     }
 
     #[test]

@@ -40,6 +40,9 @@ pub enum PipelineError {
     /// Metrics.
     #[error(transparent)]
     Eval(#[from] splatseg_eval::EvalError),
+    /// Edits (`edits.json`) and labelled-PLY tables.
+    #[error(transparent)]
+    Edit(#[from] splatseg_edit::EditError),
     /// Training.
     #[error(transparent)]
     Train(#[from] splatseg_train::TrainError),

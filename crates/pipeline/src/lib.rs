@@ -9,6 +9,7 @@
 //! - [`merge_view_arrays`] merges one view from cues held in memory (the step both of the
 //!   above take per view; a binding's entry point);
 //! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids);
+//! - [`apply::apply_edits`] applies a run's `edits.json` to its outputs (`splatseg apply`);
 //! - [`scene_info`] (what a scene folder holds), [`demo`], [`render_views`], [`train_stage`]: the
 //!   other commands' work;
 //! - [`args`]: the arguments of the commands above (clap's `Args` with the `cli` feature) and
@@ -30,6 +31,9 @@
 //! killed at any moment leaves the earlier outputs or none that count as up to date, and the
 //! next run leaves no file of an earlier run it would not write (`commit.rs`).
 
+pub mod apply;
+mod apply_base;
+mod apply_maps;
 pub mod args;
 mod cache;
 mod commit;
@@ -209,6 +213,7 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         let here = same_folder(&hit.summary.out, &config.out);
         if hit.key == run_key && inputs.outputs_present(&config.out) && here {
             tracing::info!("outputs are up to date with the inputs and settings: nothing to do");
+            apply::record_run_scene(&config.out, &run_key, &config.scene)?;
             return Ok(RunSummary { resumed: true, out: config.out.clone(), ..hit.summary });
         }
         if hit.key == run_key && !here {
@@ -316,7 +321,8 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
     outputs::write_report(staging.dir(), &inputs.scene, &summary)?;
     let manifest = cache_dir.join("run.json");
     staging.commit(&manifest)?;
-    write_json(&manifest, &RunCache { key: run_key, summary: summary.clone() })?;
+    write_json(&manifest, &RunCache { key: run_key.clone(), summary: summary.clone() })?;
+    apply::record_run_scene(&config.out, &run_key, &config.scene)?;
     Ok(RunSummary { stages: profiler.finish(), ..summary })
 }
 

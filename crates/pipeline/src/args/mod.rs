@@ -1,13 +1,15 @@
-//! The arguments of the commands this crate runs — `demo`, `train`, `info`, `render`, `merge` —
+//! The arguments of the commands this crate runs — `apply`, `demo`, `train`, `info`, `render`, `merge` —
 //! as clap's `Args` (with the `cli` feature), the requests they make, and what `run`
 //! prints.
 
+mod apply;
 mod demo;
 mod info;
 mod merge;
 mod render;
 mod train;
 
+pub use apply::ApplyArgs;
 pub use demo::{identity_study_request, DemoArgs};
 pub use info::{InfoArgs, INFO_LONG_ABOUT};
 pub use merge::{DepthMeaning, MergeArgs};

@@ -1,0 +1,246 @@
+//! `OUT/edits.json`: a run's corrections as data (issue 60). A small, versioned, human-readable
+//! file: the identity of the run it was made on, then the operations in order, each naming what
+//! it selects (object ids, Gaussian index ranges, a box or a lasso with its camera), never a
+//! rewritten input.
+//!
+//! ```json
+//! {
+//!   "version": 1,
+//!   "inputs": { "gaussians": 52311, "ply_digest": "9f0c…", "run": "4be1…" },
+//!   "operations": [
+//!     { "op": "merge", "ids": [3, 7] },
+//!     { "op": "split_box", "object": 5, "box": { "centre": [0, 0.2, 1], "half_size": [0.3, 0.3, 0.5] } },
+//!     { "op": "split_lasso", "object": 2, "camera": { "view": 0 }, "polygon_px": [[10, 10], [80, 12], [40, 70]] },
+//!     { "op": "assign", "ranges": [[100, 200]], "id": 9 },
+//!     { "op": "rename", "id": 3, "name": "chair" }
+//!   ]
+//! }
+//! ```
+//!
+//! Reading checks the syntax and the version ([`read_edits`]); what the operations select is
+//! checked when they are applied to the run's ids ([`crate::edit_ops::apply_operations`]), in
+//! order, so an id a split made may be used by a later operation.
+
+use crate::error::EditError;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The file's name in a run's output folder.
+pub const EDITS_FILE: &str = "edits.json";
+
+/// The version this build writes and reads; a file of a later version is refused.
+pub const EDITS_VERSION: u32 = 1;
+
+/// A run's edits.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Edits {
+    /// Version of the format ([`EDITS_VERSION`]).
+    pub version: u32,
+    /// The run the edits were made on.
+    pub inputs: EditInputs,
+    /// The operations, applied in order to the run's own ids (never to already edited ones).
+    pub operations: Vec<Operation>,
+}
+
+/// Which run the edits were made on: ids only mean something in the run that numbered them,
+/// index ranges only in the PLY whose rows they count.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EditInputs {
+    /// Rows of the run's `gaussians.ply` (every row, skipped ones included).
+    pub gaussians: u64,
+    /// [`centres_digest`] of those rows.
+    pub ply_digest: String,
+    /// The key of the run's inputs and settings (`OUT/cache/run.json`).
+    pub run: String,
+}
+
+/// One correction.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Operation {
+    /// The objects `ids` become one, `into` (default: the smallest of `ids`).
+    Merge {
+        /// At least two existing object ids.
+        ids: Vec<i32>,
+        /// The id they all take, one of `ids`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        into: Option<i32>,
+    },
+    /// The Gaussians of `object` whose centres lie inside `box` become a new object.
+    SplitBox {
+        /// An existing object id.
+        object: i32,
+        /// The box, in world units.
+        #[serde(rename = "box")]
+        region: Box3,
+        /// The new object's id (default: one more than the largest id in use); must be unused.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        new_id: Option<i32>,
+    },
+    /// The Gaussians of `object` whose centres project inside `polygon_px` in `camera` become a
+    /// new object.
+    SplitLasso {
+        /// An existing object id.
+        object: i32,
+        /// The camera the lasso was drawn in.
+        camera: LassoCamera,
+        /// At least three vertices, in pixels (x right, y down; pixel `i` covers `[i, i + 1)`).
+        polygon_px: Vec<[f64; 2]>,
+        /// As for `split_box`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        new_id: Option<i32>,
+    },
+    /// The Gaussians in `ranges` take `id` (an existing or a new object, or −1: none).
+    Assign {
+        /// `[start, end)` row ranges of `gaussians.ply`.
+        ranges: Vec<[u64; 2]>,
+        /// The id they take: ≥ 1, or −1.
+        id: i32,
+    },
+    /// Object `id` is called `name`.
+    Rename {
+        /// An existing object id.
+        id: i32,
+        /// Any non-empty text.
+        name: String,
+    },
+}
+
+impl Operation {
+    /// The operation's name as written in the file (`"merge"`, …).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Operation::Merge { .. } => "merge",
+            Operation::SplitBox { .. } => "split_box",
+            Operation::SplitLasso { .. } => "split_lasso",
+            Operation::Assign { .. } => "assign",
+            Operation::Rename { .. } => "rename",
+        }
+    }
+}
+
+/// An oriented box: a point `p` is inside when `rotation⁻¹ · (p − centre)` lies within
+/// `±half_size` on every axis (axis-aligned without `rotation`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Box3 {
+    /// Centre, world units.
+    pub centre: [f64; 3],
+    /// Half the side along each of the box's axes, world units.
+    pub half_size: [f64; 3],
+    /// The box's axes in the world, as a quaternion `w, x, y, z` (normalised when read).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f64; 4]>,
+}
+
+/// The camera a lasso was drawn in: a view of the run's scene, or one of its own.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum LassoCamera {
+    /// The capture's view with this index (in the scene's view order).
+    View {
+        /// View index.
+        view: usize,
+    },
+    /// A pinhole camera (no distortion) at a pose: the viewer's free camera.
+    Pinhole {
+        /// Focal lengths and principal point, pixels.
+        fx: f64,
+        /// Vertical focal length, pixels.
+        fy: f64,
+        /// Principal point x, pixels.
+        cx: f64,
+        /// Principal point y, pixels.
+        cy: f64,
+        /// Camera-to-world, 4×4 row-major (OpenCV axes: x right, y down, z forward).
+        world_from_cam: [[f64; 4]; 4],
+    },
+}
+
+/// The digest of the Gaussians' centres (`[N, 3]`, every row in file order): which PLY edits
+/// were made on, unchanged by the ids and features `apply` rewrites. 16 hex digits of a 64-bit
+/// FNV-1a over the centres' little-endian bits and the row count.
+pub fn centres_digest(means: &[[f32; 3]]) -> String {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut add = |bytes: &[u8]| {
+        for &b in bytes {
+            hash = (hash ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    add(&(means.len() as u64).to_le_bytes());
+    for m in means {
+        for v in m {
+            add(&v.to_bits().to_le_bytes());
+        }
+    }
+    format!("{hash:016x}")
+}
+
+/// Reads and parses `path`; a malformed file or a later version is an error naming the file.
+pub fn read_edits(path: &Path) -> Result<Edits, EditError> {
+    let text = std::fs::read_to_string(path).map_err(|e| EditError::EditsFile {
+        message: format!("cannot read the edits ({e})"),
+        path: path.to_path_buf(),
+    })?;
+    parse_edits(&text, path)
+}
+
+/// Parses the text of `path` (see [`read_edits`]).
+pub fn parse_edits(text: &str, path: &Path) -> Result<Edits, EditError> {
+    let invalid = |message: String| EditError::EditsFile { message, path: path.to_path_buf() };
+    // The version first, so a later format is named as such rather than as unknown fields.
+    #[derive(Deserialize)]
+    struct VersionOnly {
+        version: Option<u32>,
+    }
+    let version = serde_json::from_str::<VersionOnly>(text)
+        .map_err(|e| invalid(format!("not a valid edits file ({e})")))?
+        .version
+        .ok_or_else(|| invalid(format!("no \"version\" (this splatseg writes version {EDITS_VERSION})")))?;
+    if version > EDITS_VERSION {
+        return Err(invalid(format!(
+            "edits of version {version} were written by a later splatseg; this one reads version \
+             {EDITS_VERSION}: update splatseg"
+        )));
+    }
+    serde_json::from_str(text).map_err(|e| invalid(format!("not a valid edits file ({e})")))
+}
+
+/// Writes `edits` as indented JSON to `path` (atomically).
+pub fn write_edits(path: &Path, edits: &Edits) -> Result<(), EditError> {
+    let mut text = serde_json::to_string_pretty(edits)
+        .map_err(|e| EditError::EditsFile { message: e.to_string(), path: path.to_path_buf() })?;
+    text.push('\n');
+    splatseg_scene::atomic::write_bytes_atomic(path, text.as_bytes())?;
+    Ok(())
+}
+
+/// Refuses edits made on another run than `current`, naming what changed.
+pub fn check_inputs(edits: &Edits, current: &EditInputs, path: &Path) -> Result<(), EditError> {
+    let made = &edits.inputs;
+    let changed = if made.ply_digest != current.ply_digest {
+        Some(format!(
+            "the edits were made on a PLY with digest {}, this run's is {}",
+            made.ply_digest, current.ply_digest
+        ))
+    } else if made.gaussians != current.gaussians {
+        Some(format!(
+            "the edits were made on {} Gaussians, this run has {}",
+            made.gaussians, current.gaussians
+        ))
+    } else if made.run != current.run {
+        Some(format!(
+            "the edits were made on run {}, this run is {} (its inputs or settings changed, so its \
+             object ids may mean other objects)",
+            made.run, current.run
+        ))
+    } else {
+        None
+    };
+    match changed {
+        Some(message) => Err(EditError::EditsFile { message, path: path.to_path_buf() }),
+        None => Ok(()),
+    }
+}
