@@ -37,7 +37,9 @@ pub const EDITS_VERSION: u32 = 1;
 pub struct Edits {
     /// Version of the format ([`EDITS_VERSION`]).
     pub version: u32,
-    /// The run the edits were made on.
+    /// The run the edits were made on. Left out of a file written by hand, it is empty, and
+    /// [`check_inputs`] refuses it naming this run's, to copy in.
+    #[serde(default)]
     pub inputs: EditInputs,
     /// The operations, applied in order to the run's own ids (never to already edited ones).
     pub operations: Vec<Operation>,
@@ -45,7 +47,7 @@ pub struct Edits {
 
 /// Which run the edits were made on: ids only mean something in the run that numbered them,
 /// index ranges only in the PLY whose rows they count.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EditInputs {
     /// Rows of the run's `gaussians.ply` (every row, skipped ones included).
@@ -217,10 +219,13 @@ pub fn write_edits(path: &Path, edits: &Edits) -> Result<(), EditError> {
     Ok(())
 }
 
-/// Refuses edits made on another run than `current`, naming what changed.
+/// Refuses edits made on another run than `current` (or naming none), naming what changed and
+/// `current`'s inputs as JSON, to copy into a file written by hand.
 pub fn check_inputs(edits: &Edits, current: &EditInputs, path: &Path) -> Result<(), EditError> {
     let made = &edits.inputs;
-    let changed = if made.ply_digest != current.ply_digest {
+    let changed = if *made == EditInputs::default() {
+        Some("the edits do not name the run they were made on (no \"inputs\")".to_string())
+    } else if made.ply_digest != current.ply_digest {
         Some(format!(
             "the edits were made on a PLY with digest {}, this run's is {}",
             made.ply_digest, current.ply_digest
@@ -240,7 +245,11 @@ pub fn check_inputs(edits: &Edits, current: &EditInputs, path: &Path) -> Result<
         None
     };
     match changed {
-        Some(message) => Err(EditError::EditsFile { message, path: path.to_path_buf() }),
+        Some(message) => {
+            let this_run = serde_json::to_string(current).unwrap_or_default();
+            let message = format!("{message}; this run's inputs are \"inputs\": {this_run}");
+            Err(EditError::EditsFile { message, path: path.to_path_buf() })
+        }
         None => Ok(()),
     }
 }

@@ -108,6 +108,8 @@ fn edits_of_another_ply_or_run_are_refused_naming_what_changed() {
     let other_run = EditInputs { run: "xyz".into(), ..inputs() };
     let err = check_inputs(&edits, &other_run, path).expect_err("other run").to_string();
     assert!(err.contains("made on run abc, this run is xyz"), "{err}");
+    assert!(err.contains(r#"this run's inputs are "inputs": {"gaussians":"#), "{err}");
+    assert!(err.contains(r#""run":"xyz"}"#), "names this run's inputs to copy: {err}");
     assert_ne!(centres_digest(&[[0.0, 0.0, 1.0]]), centres_digest(&[[0.0, 0.0, -1.0]]));
 }
 
@@ -202,4 +204,19 @@ fn an_operation_selecting_something_absent_is_named_by_its_index() {
         let err = apply(ops).expect_err(expected).to_string();
         assert!(err.contains(expected) && err.ends_with("OUT/edits.json"), "{expected}: {err}");
     }
+}
+
+#[test]
+fn edits_written_by_hand_without_inputs_are_refused_naming_this_runs() {
+    let path = Path::new("OUT/edits.json");
+    let text = r#"{"version": 1, "operations": [{"op": "merge", "ids": [1, 2]}]}"#;
+    let edits = parse_edits(text, path).expect("inputs may be left out of the file");
+    let err = check_inputs(&edits, &inputs(), path).expect_err("no inputs").to_string();
+    assert!(err.contains(r#"do not name the run they were made on (no "inputs")"#), "{err}");
+    let this_run = serde_json::to_string(&inputs()).expect("json");
+    assert!(err.contains(&this_run), "the inputs to copy in: {err}");
+    // Copied in, they pass.
+    let fixed: Edits = serde_json::from_str(&text.replacen('{', &format!("{{\"inputs\": {this_run}, "), 1))
+        .expect("with the inputs");
+    assert!(check_inputs(&fixed, &inputs(), path).is_ok());
 }
