@@ -169,15 +169,7 @@ mod tests {
     #[test]
     fn export_writes_what_extract_selects() {
         let dir = tempfile::tempdir().unwrap();
-        let g = Gaussians {
-            means: vec![[0.0; 3], [1.0; 3], [2.0; 3]],
-            sh_dc: vec![[0.0; 3]; 3],
-            raw_opacities: vec![0.0; 3],
-            log_scales: vec![[0.0; 3]; 3],
-            rotations: vec![[1.0, 0.0, 0.0, 0.0]; 3],
-            object_ids: Some(vec![1, 2, 1]),
-            ..Gaussians::default()
-        };
+        let g = three_gaussians();
         let request = ExportRequest { ids: vec![1], mode: ExportMode::Extract, keep_extras: true };
         let out = export(&g, Path::new("in.ply"), dir.path(), &request).unwrap();
         assert_eq!(out.count, 2);
