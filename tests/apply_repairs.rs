@@ -217,4 +217,22 @@ fn a_fused_touching_pair_and_a_split_patterned_object_repaired_by_two_edits_rais
     // and the names
     let listed = ok(&["objects", s(&out.join("gaussians.ply"))]);
     assert!(listed.contains("| checkered box |") && listed.contains("| blue box |"), "{listed}");
+
+    // Idempotent with splits and fills too: applied again, every output has the same bytes.
+    let files = || -> BTreeMap<String, Vec<u8>> {
+        let mut files = BTreeMap::new();
+        for name in ["gaussians.ply", "objects.json", "report.md", "metrics.json"] {
+            files.insert(name.to_string(), std::fs::read(out.join(name)).expect("output"));
+        }
+        for dir in ["masks", "overlays"] {
+            for entry in std::fs::read_dir(out.join(dir)).expect("folder").flatten() {
+                let name = format!("{dir}/{}", entry.file_name().to_string_lossy());
+                files.insert(name, std::fs::read(entry.path()).expect("output"));
+            }
+        }
+        files
+    };
+    let first = files();
+    ok(&["apply", s(&out)]);
+    assert!(files() == first, "a second apply changed the outputs");
 }
