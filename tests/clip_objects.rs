@@ -380,3 +380,108 @@ fn a_missing_or_broken_checkpoint_is_an_error_naming_it() {
     let err = failed(&["find", s(&out), "a chair"]);
     assert!(err.contains("clip.npy") && err.contains("[1, 3]"), "{err}");
 }
+
+/// Issue 60: `apply` on a run made with `--clip` embeds the edited objects again (the merged-away id
+/// gone from the index, the merged object in it), `find` ranks them and shows the name the edits
+/// gave, and `extract`/`remove --query NAME` take it. With the checkpoint gone, `apply` still applies
+/// and warns; `find` then says to embed again, and `run --clip` on the applied folder embeds the
+/// edited objects without undoing the edits.
+#[test]
+fn apply_embeds_the_edited_objects_again_and_find_shows_their_names() {
+    use splatseg_edit::edits::{write_edits, Edits, Operation, EDITS_VERSION};
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let clip = random_clip(&tmp.path().join("clip"));
+    let scene = scene(tmp.path());
+    let out = tmp.path().join("out");
+    run_clip(&scene, &out, &clip);
+    let ply = out.join("gaussians.ply");
+    let ids = || splatseg_scene::ply::read_ply_rows(&ply).unwrap().gaussians.object_ids.unwrap();
+    let before = ids();
+    // the two objects with the most Gaussians (large enough to be embedded)
+    let mut counts = std::collections::BTreeMap::<i32, usize>::new();
+    for &id in before.iter().filter(|&&id| id > 0) {
+        *counts.entry(id).or_default() += 1;
+    }
+    let mut by_size: Vec<(usize, i32)> = counts.into_iter().map(|(id, n)| (n, id)).collect();
+    by_size.sort_unstable_by(|a, b| b.cmp(a));
+    assert!(by_size.len() >= 3, "{by_size:?}");
+    let (into, gone) = (by_size[0].1.min(by_size[1].1), by_size[0].1.max(by_size[1].1));
+    let inputs = splatseg_pipeline::apply::edit_inputs(&out).expect("the run's identity");
+    let operations = vec![
+        Operation::Merge { ids: vec![into, gone], into: None },
+        Operation::Rename { id: into, name: "the pair".into() },
+    ];
+    write_edits(&out.join("edits.json"), &Edits { version: EDITS_VERSION, inputs, operations }).unwrap();
+    let said = ok(&["apply", s(&out)]);
+    assert!(said.contains("object embeddings:") && said.contains("crops"), "{said}");
+    let edited = ids();
+    assert!(!edited.contains(&gone) && edited.contains(&into));
+
+    // the index names the edited objects: those of the edited label maps
+    let index = || -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("objects/objects.json")).unwrap()).unwrap()
+    };
+    let indexed = || -> Vec<u32> {
+        index()["objects"].as_array().unwrap().iter().map(|o| o["id"].as_u64().unwrap() as u32).collect()
+    };
+    let mut shown: Vec<u32> = Vec::new();
+    for entry in std::fs::read_dir(out.join("masks")).unwrap().flatten() {
+        let map = splatseg_scene::labels::read_label_png(&entry.path()).unwrap();
+        shown.extend(splatseg_edit::ids_in_label_map(&map));
+    }
+    shown.sort_unstable();
+    shown.dedup();
+    assert_eq!(indexed(), shown, "the index holds the edited maps' objects");
+    assert!(!shown.contains(&(gone as u32)) && shown.contains(&(into as u32)));
+
+    // find ranks them and names the named one, in the table and the JSON
+    let found: serde_json::Value =
+        serde_json::from_str(&ok(&["find", s(&out), "a chair", "--json"])).unwrap();
+    let rows = found.as_array().unwrap();
+    let mut ranked: Vec<u64> = rows.iter().map(|r| r["id"].as_u64().unwrap()).collect();
+    ranked.sort_unstable();
+    let embedded: Vec<u64> = index()["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|o| !o["row"].is_null())
+        .map(|o| o["id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ranked, embedded, "find ranks every embedded edited object");
+    assert!(ranked.contains(&(into as u64)) && !ranked.contains(&(gone as u64)), "{found}");
+    for r in rows {
+        let named = r["id"].as_u64() == Some(into as u64);
+        assert_eq!(r.get("name").and_then(|n| n.as_str()), named.then_some("the pair"), "{r}");
+    }
+    let table = ok(&["find", s(&out), "a chair"]);
+    assert!(table.lines().nth(1).unwrap().ends_with("name"), "{table}");
+    let line = table.lines().find(|l| l.split_whitespace().nth(1) == Some(&into.to_string())).unwrap();
+    assert!(line.ends_with("\"the pair\""), "{table}");
+
+    // extract / remove by the name; objects shows it
+    let one = tmp.path().join("pair.ply");
+    ok(&["extract", s(&ply), "--query", "the pair", "--out", s(&one)]);
+    let count = edited.iter().filter(|&&id| id == into).count();
+    assert_eq!(splatseg_scene::ply::read_ply(&one).unwrap().len(), count);
+    let rest = tmp.path().join("rest.ply");
+    ok(&["remove", s(&ply), "--query", "the pair", "--out", s(&rest)]);
+    assert_eq!(splatseg_scene::ply::read_ply(&rest).unwrap().len(), edited.len() - count);
+    assert!(ok(&["objects", s(&ply)]).contains("| the pair |"));
+
+    // the checkpoint gone: apply applies and warns; find says to embed again
+    let moved = tmp.path().join("clip_moved");
+    std::fs::rename(&clip, &moved).unwrap();
+    let again = splatseg(&["apply", s(&out)]);
+    let warned = String::from_utf8_lossy(&again.stderr);
+    assert!(again.status.success(), "{warned}");
+    assert!(warned.contains("could not be embedded again") && warned.contains("--clip"), "{warned}");
+    assert_eq!(ids(), edited, "the edits are applied");
+    let err = failed(&["find", s(&out), "a chair"]);
+    assert!(err.contains("run --clip"), "{err}");
+    // run --clip on the applied folder: up to date, the edited objects embedded, the edits kept
+    std::fs::rename(&moved, &clip).unwrap();
+    run_clip(&scene, &out, &clip);
+    assert_eq!(ids(), edited, "run --clip kept the edits");
+    assert_eq!(indexed(), shown);
+    assert!(ok(&["find", s(&out), "a chair"]).contains("\"the pair\""));
+}

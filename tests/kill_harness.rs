@@ -1,4 +1,4 @@
-//! Crash safety: `run`, `cues` and `train` are killed with SIGKILL at random (seeded) moments.
+//! Crash safety: `run`, `cues`, `train` and `apply` are killed with SIGKILL at random (seeded) moments.
 //! After every kill, no file where a complete output is expected is truncated or half-written
 //! (every PNG, PLY, JSON and .npy in the output folder reads whole; temporary files may remain);
 //! a rerun then resumes and gives byte-identical outputs to an uninterrupted run.
@@ -207,4 +207,116 @@ fn run_cues_and_train_survive_sigkill_and_resume_to_identical_outputs() {
         );
         assert_eq!(r.mid_run, kills_per_command(), "{}", r.command);
     }
+}
+
+/// A copy of the folder `from` at `to` (files and folders; `to` must not exist).
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for entry in std::fs::read_dir(from).expect("list").flatten() {
+        let (source, target) = (entry.path(), to.join(entry.file_name()));
+        if source.is_dir() {
+            copy_dir(&source, &target);
+        } else {
+            std::fs::copy(&source, &target).expect("copy");
+        }
+    }
+}
+
+/// Issue 60: `apply` killed with SIGKILL at seeded moments, half of the time on the run's own
+/// outputs and half on outputs an earlier (killed, then finished) apply left. After every kill each
+/// file reads whole, and while the run's manifest is there the outputs are all the previous ones or
+/// all the edited ones (a kill between removing and writing it back leaves it pending in the
+/// staging folder); a rerun of apply then gives the bytes of an uninterrupted apply.
+#[test]
+fn apply_survives_sigkill_and_a_rerun_gives_the_uninterrupted_bytes() {
+    use splatseg_edit::edits::{write_edits, Box3, Edits, Operation, EDITS_VERSION};
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    let status = binary()
+        .args(["synth", "--out", scene.to_str().expect("utf-8"), "--views", "6", "--size", "192x144"])
+        .status()
+        .expect("synth");
+    assert!(status.success());
+    let s = |p: &Path| p.to_str().expect("utf-8").to_string();
+    let pristine = tmp.path().join("pristine");
+    let run = ["run", &s(&scene), "--masks", &s(&scene.join("sam")), "--out", &s(&pristine)];
+    assert!(binary().args(run).status().expect("spawn").success(), "run");
+    // A merge of the two largest objects, a box split of the next and a name.
+    let g = splatseg_scene::ply::read_ply_rows(&pristine.join("gaussians.ply")).expect("PLY").gaussians;
+    let ids = g.object_ids.clone().expect("ids");
+    let mut counts = std::collections::BTreeMap::<i32, usize>::new();
+    for &id in ids.iter().filter(|&&id| id > 0) {
+        *counts.entry(id).or_default() += 1;
+    }
+    let mut by_size: Vec<(usize, i32)> = counts.into_iter().map(|(id, n)| (n, id)).collect();
+    by_size.sort_unstable_by(|a, b| b.cmp(a));
+    let (a, b, c) = (by_size[0].1, by_size[1].1, by_size[2].1);
+    let first = ids.iter().position(|&id| id == c).expect("a Gaussian of c");
+    let region = Box3 { centre: g.means[first].map(f64::from), half_size: [0.3; 3], rotation: None };
+    let operations = vec![
+        Operation::Merge { ids: vec![a, b], into: None },
+        Operation::SplitBox { object: c, region, new_id: None },
+        Operation::Rename { id: a.min(b), name: "the pair".into() },
+    ];
+    let inputs = splatseg_pipeline::apply::edit_inputs(&pristine).expect("the run's identity");
+    write_edits(&pristine.join("edits.json"), &Edits { version: EDITS_VERSION, inputs, operations })
+        .expect("edits");
+    let previous = outputs(&pristine);
+
+    let out = tmp.path().join("out");
+    let apply = |what: &str| {
+        assert!(binary().args(["apply", &s(&out)]).status().expect("spawn").success(), "apply: {what}");
+    };
+    copy_dir(&pristine, &out);
+    let start = Instant::now();
+    apply("the uninterrupted apply");
+    let reference_secs = start.elapsed().as_secs_f64();
+    let reference = outputs(&out);
+    assert!(reference != previous, "the edits changed the outputs");
+    let whole = |o: &[(PathBuf, Vec<u8>)]| -> Vec<(PathBuf, Vec<u8>)> {
+        o.iter().filter(|(p, _)| !p.starts_with(".staging")).cloned().collect()
+    };
+
+    let mut uniform = Uniform(0x5eed_0060);
+    let (wanted, mut landed, mut attempts) = (kills_per_command(), 0, 0);
+    while landed < wanted {
+        assert!(
+            attempts < 10 * wanted + 10,
+            "apply: too few kills landed while it ran ({landed} of {attempts})"
+        );
+        if attempts % 2 == 0 {
+            std::fs::remove_dir_all(&out).expect("clear");
+            copy_dir(&pristine, &out);
+        }
+        attempts += 1;
+        let before = whole(&outputs(&out));
+        let delay = Duration::from_secs_f64(uniform.next() * 0.9 * reference_secs);
+        let mut child = binary().args(["apply", &s(&out)]).spawn().expect("spawn");
+        std::thread::sleep(delay);
+        landed += usize::from(child.try_wait().expect("status").is_none());
+        child.kill().ok(); // SIGKILL
+        child.wait().expect("reap");
+        check_complete(&out);
+        let now = whole(&outputs(&out));
+        if out.join("cache/run.json").exists() {
+            assert!(
+                now == before || now == whole(&reference),
+                "apply: after kill {attempts} the outputs are neither the previous ones nor the edited ones"
+            );
+        } else {
+            assert!(out.join(".staging/manifest.pending").is_file(), "kill {attempts}: the manifest is lost");
+        }
+        apply("the rerun after a kill");
+        let again = outputs(&out);
+        let names = |o: &[(PathBuf, Vec<u8>)]| o.iter().map(|(p, _)| p.clone()).collect::<Vec<_>>();
+        assert_eq!(
+            names(&again),
+            names(&reference),
+            "apply: the rerun after kill {attempts} wrote other files"
+        );
+        for ((path, bytes), (_, expected)) in again.iter().zip(&reference) {
+            assert!(bytes == expected, "apply: {} differs after kill {attempts} and a rerun", path.display());
+        }
+    }
+    println!("apply: {attempts} SIGKILLs sent, {landed} mid-run; uninterrupted apply {reference_secs:.2} s");
 }

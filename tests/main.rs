@@ -4,6 +4,7 @@
 //! checks that none is left out).
 
 mod apply_edits;
+mod apply_repairs;
 mod architecture_doc;
 mod bad_inputs;
 mod bench_scale;

@@ -485,6 +485,9 @@ pub struct FoundObject {
     pub colour: [u8; 3],
     /// The views its embedding came from.
     pub views: Vec<String>,
+    /// The name `splatseg apply` gave it (`OUT/objects.json`); left out of the JSON when none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
 }
 
 /// A run's object embeddings with the text tower that queries them, loaded once.
@@ -497,6 +500,8 @@ pub struct ObjectSearch {
     tokenizer: ClipTokenizer,
     /// The canonical phrases' embeddings, `[4, dim]`.
     negatives: Vec<f32>,
+    /// The names `splatseg apply` gave the objects (id → name).
+    names: BTreeMap<i32, String>,
 }
 
 impl ObjectSearch {
@@ -555,7 +560,8 @@ impl ObjectSearch {
             )));
         }
         let negatives = texts(&clip, &tokenizer, &CANONICAL_NEGATIVES)?;
-        Ok(ObjectSearch { index, embeddings: npy.data, clip, tokenizer, negatives })
+        let names = splatseg_pipeline::apply::object_names(out)?;
+        Ok(ObjectSearch { index, embeddings: npy.data, clip, tokenizer, negatives, names })
     }
 
     /// The index.
@@ -606,6 +612,7 @@ impl ObjectSearch {
                     cosine: r.cosine,
                     colour: object.map_or([0; 3], |o| o.colour),
                     views: object.map_or_else(Vec::new, |o| o.views.iter().map(|v| v.stem.clone()).collect()),
+                    name: i32::try_from(r.id).ok().and_then(|id| self.names.get(&id).cloned()),
                 }
             })
             .collect())
@@ -637,8 +644,8 @@ fn texts(clip: &Clip, tokenizer: &ClipTokenizer, texts: &[&str]) -> crate::Resul
 }
 
 /// The ranked objects as `find --json` prints them: a JSON array, best first, each object
-/// `{"rank", "id", "relevancy", "cosine", "colour": [r, g, b], "views": [stems]}` (the fields of
-/// [`FoundObject`], in that order), one object per line.
+/// `{"rank", "id", "relevancy", "cosine", "colour": [r, g, b], "views": [stems]}` and `"name"` for an
+/// object `splatseg apply` named (the fields of [`FoundObject`], in that order), one object per line.
 pub fn found_json(found: &[FoundObject]) -> crate::Result<String> {
     let rows = found
         .iter()
@@ -651,14 +658,22 @@ pub fn found_json(found: &[FoundObject]) -> crate::Result<String> {
     })
 }
 
-/// The ranked objects as a table: rank, id, relevancy, cosine, colour, views.
+/// The ranked objects as a table: rank, id, relevancy, cosine, colour, views, and the name
+/// `splatseg apply` gave (quoted, after the views) when any object has one.
 pub fn found_table(query: &str, found: &[FoundObject]) -> String {
+    let named = found.iter().any(|f| f.name.is_some());
     let mut text = format!("{query:?}: {} objects ranked by relevancy\n", found.len());
-    text.push_str("rank     id  relevancy   cosine  colour   views\n");
+    text.push_str("rank     id  relevancy   cosine  colour   views");
+    text.push_str(if named { "  name\n" } else { "\n" });
     for f in found {
         let [r, g, b] = f.colour;
+        let name = match (&f.name, named) {
+            (Some(name), _) => format!("  {name:?}"),
+            (None, true) => "  -".to_string(),
+            (None, false) => String::new(),
+        };
         text.push_str(&format!(
-            "{:>4} {:>6}  {:>9.4}  {:>7.4}  #{r:02x}{g:02x}{b:02x}  {}\n",
+            "{:>4} {:>6}  {:>9.4}  {:>7.4}  #{r:02x}{g:02x}{b:02x}  {}{name}\n",
             f.rank,
             f.id,
             f.relevancy,

@@ -9,6 +9,7 @@
 //! from `splatseg-pipeline` so that the pipeline does not depend on candle. [`args`]: the arguments of
 //! `splatseg cues` and `splatseg run` (clap's `Args` with the `cli` feature).
 
+pub mod apply_edits;
 pub mod args;
 pub mod clip_objects;
 mod error;

@@ -11,7 +11,7 @@
 //! `metrics.json` stays the run's.
 
 use crate::apply_base::{Base, EDITS_HEADING};
-use crate::apply_maps::{votes_of, EditedRender};
+use crate::apply_maps::{moved_to, votes_of, EditedRender};
 use crate::error::{bail, Context};
 use crate::inputs::finite_gaussians;
 use crate::{commit, lock, outputs, RunCache, RunOptions};
@@ -141,8 +141,14 @@ pub fn apply_edits(out: &Path, options: RunOptions) -> crate::Result<ApplySummar
     let prepared = PreparedGaussians::new(&finite_gaussians(&rows))?;
     let before = votes_of(usable.iter().map(|&r| base.ids[r]));
     let after = (edited.changed_rows > 0).then(|| votes_of(usable.iter().map(|&r| edited.ids[r])));
-    let render =
-        EditedRender { gaussians: &prepared, before: &before, after: after.as_ref(), edited: &edited };
+    let moved = moved_to(&usable, &base.ids, &edited);
+    let render = EditedRender {
+        gaussians: &prepared,
+        before: &before,
+        after: after.as_ref(),
+        edited: &edited,
+        moved: &moved,
+    };
     let load = LoadOptions::default();
     let view_ids: Vec<Vec<u32>> = (0..scene.views.len())
         .into_par_iter()
@@ -176,6 +182,13 @@ pub fn apply_edits(out: &Path, options: RunOptions) -> crate::Result<ApplySummar
 
 /// The scene the run read, loaded as `run` loads it.
 fn run_scene(out: &Path, run_key: &str) -> crate::Result<Scene> {
+    let folder = recorded_scene(out, run_key)?;
+    load_scene(&folder, &LoadOptions::default())
+        .with_context(|| format!("cannot load the run's scene {}", folder.display()))
+}
+
+/// The scene folder the run with key `run_key` in `out` read (as `run` recorded it).
+fn recorded_scene(out: &Path, run_key: &str) -> crate::Result<PathBuf> {
     let path = out.join("cache").join(RUN_SCENE_FILE);
     let recorded: Option<RunScene> = crate::read_json(&path);
     let Some(recorded) = recorded.filter(|r| r.run_key == run_key) else {
@@ -186,8 +199,19 @@ fn run_scene(out: &Path, run_key: &str) -> crate::Result<Scene> {
             path.display()
         );
     };
-    load_scene(&recorded.scene, &LoadOptions::default())
-        .with_context(|| format!("cannot load the run's scene {}", recorded.scene.display()))
+    Ok(recorded.scene)
+}
+
+/// The scene folder the finished run in `out` read (what `run --clip` crops the objects' views
+/// from, to embed the edited objects again after `apply`).
+pub fn run_scene_folder(out: &Path) -> crate::Result<PathBuf> {
+    recorded_scene(out, &read_manifest(out)?.1.key)
+}
+
+/// The names `apply` gave the objects of the run in `out` (`OUT/objects.json`; id → name, empty
+/// when nothing was named or applied).
+pub fn object_names(out: &Path) -> crate::Result<std::collections::BTreeMap<i32, String>> {
+    Ok(splatseg_edit::names_beside(&out.join("gaussians.ply"))?)
 }
 
 /// Ids the run's maps show that no Gaussian carries (one view's map read at a time).

@@ -1,6 +1,7 @@
 //! `splatseg._native`, the extension module of the Python package `splatseg` (see
 //! `python/splatseg/__init__.py` for the documented API and `__init__.pyi` for its types):
-//! the pipeline (`run`), one view's merge (`merge_view`), and PLY reading, writing and editing,
+//! the pipeline (`run`), one view's merge (`merge_view`), a run's edits applied (`apply_edits`,
+//! `edit_inputs`), and PLY reading, writing and editing,
 //! on NumPy arrays, calling the workspace's libraries, never the binary.
 //!
 //! Every call releases the GIL while it works and sends the pipeline's log events to Python's
@@ -8,12 +9,14 @@
 //! `ValueError` with the command line's messages ([`errors`]). Arrays in C order with the
 //! expected dtype are read in place; every returned array owns the Rust buffer it was made from.
 
+mod apply;
 mod arrays;
 mod config;
 mod errors;
 mod gaussians;
 mod log_bridge;
 mod merge;
+mod outputs;
 mod run;
 
 use pyo3::prelude::*;
@@ -71,5 +74,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_ply, m)?)?;
     m.add_function(wrap_pyfunction!(write_ply, m)?)?;
     m.add_function(wrap_pyfunction!(select, m)?)?;
+    m.add_function(wrap_pyfunction!(apply::apply_edits, m)?)?;
+    m.add_function(wrap_pyfunction!(apply::edit_inputs, m)?)?;
     Ok(())
 }

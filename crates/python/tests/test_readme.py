@@ -69,3 +69,23 @@ def test_readme_run_example_runs(scene, tmp_path, monkeypatch):
     chair = (tmp_path / "chair.ply").read_bytes()
     count = max(o["gaussian_count"] for o in result.objects)
     assert f"element vertex {count}\n".encode() in chair[:2000]
+
+
+def test_readme_apply_edits_example_runs(scene, tmp_path, monkeypatch, capsys):
+    """The edits example, on the run example's folder, with two of its ids in place of 3 and 7."""
+    test_readme_run_example_runs(scene, tmp_path, monkeypatch)
+    ids = [int(i) for i in np.unique(splatseg_ids(tmp_path / "garden_objects")) if i > 0]
+    a, b = ids[0], ids[1]
+    block = block_calling("apply_edits").replace("[3, 7]", f"[{a}, {b}]").replace('"id": 3', f'"id": {a}')
+    namespace: dict = {}
+    exec(compile(block, "README.md (apply_edits example)", "exec"), namespace)
+    edited = namespace["edited"]
+    assert [o["id"] for o in edited.objects if o.get("name") == "chair"] == [a]
+    assert b not in edited.object_ids and edited.applied["operations"] == 2
+    assert "'name': 'chair'" in capsys.readouterr().out
+
+
+def splatseg_ids(out):
+    import splatseg
+
+    return splatseg.read_ply(out / "gaussians.ply")["object_ids"]

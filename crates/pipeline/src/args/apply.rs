@@ -13,7 +13,8 @@ use std::path::PathBuf;
 /// together as `run` writes them. The edits always start from the run's own result (kept in
 /// OUT/cache/edits/): applying the same edits again gives the same bytes. Edits made on another
 /// PLY or run, an unknown id or rows out of range are refused, naming the operation, and nothing
-/// is changed.
+/// is changed. A run made with --clip has its objects embedded again (OUT/objects/, with the
+/// checkpoint it names), so `find` and `--query` rank the edited objects and show their names.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ApplyArgs {

@@ -8,6 +8,9 @@ The functions call the same Rust libraries as the ``splatseg`` command line (no 
   from arrays: SAM's ``generate()`` output, the image, DINOv2 features, a depth map.
 - :func:`read_ply` / :func:`write_ply` — 3DGS PLYs as dicts of arrays in the INRIA layout.
 - :func:`extract` / :func:`remove` — the Gaussians of some objects, or all but them.
+- :func:`apply_edits` — a run's corrections (``OUT/edits.json``: merge, split, reassign, rename)
+  applied to its outputs, as ``splatseg apply OUT``; :func:`edit_inputs` gives the run's identity
+  that the file must carry.
 
 Arrays: inputs in C order with the expected dtype are read in place (others are converted
 once, never modified); every returned array owns its buffer. Calls release the GIL while they
@@ -28,7 +31,17 @@ import numpy as np
 
 from . import _native
 
-__all__ = ["RunResult", "run", "merge_view", "read_ply", "write_ply", "extract", "remove"]
+__all__ = [
+    "RunResult",
+    "run",
+    "merge_view",
+    "read_ply",
+    "write_ply",
+    "extract",
+    "remove",
+    "apply_edits",
+    "edit_inputs",
+]
 
 PathLike = Union[str, "os.PathLike[str]"]
 Config = Union[PathLike, Mapping[str, Any], None]
@@ -46,11 +59,14 @@ class RunResult:
         objects: one dict per object, as ``splatseg objects OUT/gaussians.ply
             --json`` lists them: ``id``, ``gaussian_count``, ``bbox_min`` and ``bbox_max``
             (``[x, y, z]`` of the centres), ``colour`` (``[r, g, b]``, the overlays' colour),
-            ``views_seen`` (label maps showing it).
+            ``views_seen`` (label maps showing it), and ``name`` for an object named by the
+            edits (``OUT/objects.json``, which :func:`apply_edits` writes; absent otherwise).
         report: ``OUT/report.md``.
         summary: ``OUT/metrics.json`` (counts per stage, what matching and lifting decided).
         out: the output folder when one was given, else ``None`` (a temporary folder was used
             and removed).
+        applied: what :func:`apply_edits` did: ``operations``, ``changed_gaussians``,
+            ``objects``, ``names``, ``views`` (counts); ``None`` from :func:`run`.
     """
 
     label_maps: Dict[str, np.ndarray]
@@ -59,6 +75,7 @@ class RunResult:
     report: str
     summary: Dict[str, Any] = field(default_factory=dict)
     out: Optional[str] = None
+    applied: Optional[Dict[str, int]] = None
 
 
 def _config(config: Config):
@@ -115,7 +132,9 @@ def run(
             tables, e.g. ``{"merge": {"tau_merge": 0.8}}``.
 
     Returns:
-        A :class:`RunResult`.
+        A :class:`RunResult`. When ``out`` holds outputs of this run already (its inputs and
+        settings unchanged), nothing is recomputed and they are read as they are: after
+        :func:`apply_edits`, the edited ids, maps and names.
 
     Raises:
         FileNotFoundError: a missing input (the message names it).
@@ -133,14 +152,7 @@ def run(
         config_path,
         config_json,
     )
-    return RunResult(
-        label_maps=native["label_maps"],
-        object_ids=native["object_ids"],
-        objects=json.loads(native["objects_json"]),
-        report=native["report"],
-        summary=json.loads(native["summary_json"]),
-        out=_path(out, "out"),
-    )
+    return _native_result(native, _path(out, "out"))
 
 
 def _float32(value: Any, name: str) -> Optional[np.ndarray]:
@@ -265,3 +277,73 @@ def extract(gaussians: Mapping[str, Any], ids: Union[int, Sequence[int], np.ndar
 def remove(gaussians: Mapping[str, Any], ids: Union[int, Sequence[int], np.ndarray]) -> Dict[str, Any]:
     """Every Gaussian but those of objects ``ids``, in their order (see :func:`extract`)."""
     return _native.select(_gaussians(gaussians), _ids(ids), False)
+
+
+def _native_result(native: Mapping[str, Any], out: Optional[str]) -> RunResult:
+    return RunResult(
+        label_maps=native["label_maps"],
+        object_ids=native["object_ids"],
+        objects=json.loads(native["objects_json"]),
+        report=native["report"],
+        summary=json.loads(native["summary_json"]),
+        out=out,
+        applied=json.loads(native["applied_json"]) if "applied_json" in native else None,
+    )
+
+
+def apply_edits(out: PathLike, *, strict: bool = False) -> RunResult:
+    """Apply a run's corrections, ``OUT/edits.json``, to its outputs (``splatseg apply OUT``).
+
+    The operations (``merge``, ``split_box``, ``split_lasso``, ``assign``, ``rename``; the format
+    is in the README, "Fixing the result") start from the run's own result, so the same edits
+    give the same bytes however often they are applied. Rewritten: ``gaussians.ply``'s
+    ``object_id``, every view's label map and overlay (rendered again through the edited
+    Gaussians), ``objects.json`` (the objects with their names) and ``report.md``; written as
+    ``splatseg run`` writes, staged then moved in. ``run --clip``'s object embeddings
+    (``OUT/objects/``) describe the run's objects and are removed: ``splatseg apply`` embeds
+    the edited objects again, this function does not (it has no CLIP model).
+
+    Args:
+        out: a finished run's output folder (``splatseg run --out`` or :func:`run`'s ``out``),
+            holding ``edits.json``.
+        strict: refuse a ``gaussians.ply`` with non-finite values instead of skipping them.
+
+    Returns:
+        A :class:`RunResult` read from the edited folder: ``object_ids`` ``int32[N]``, the
+        label maps ``uint16[H, W]``, ``objects`` with a ``name`` for each named object, and
+        ``applied`` (how many operations, changed Gaussians, objects, names and views).
+
+    Raises:
+        FileNotFoundError: no ``edits.json`` in ``out`` (the message names the path).
+        ValueError: edits that cannot be applied, with the command line's message naming
+            ``edits.json`` (and the operation's index when one selects something absent): a
+            malformed or later-version file, edits made on another run or PLY, an unknown id,
+            Gaussian rows out of range; or ``out`` holds no finished run. Nothing is changed
+            then.
+
+    Examples:
+        >>> inputs = splatseg.edit_inputs("result/")
+        >>> edits = {"version": 1, "inputs": inputs, "operations": [
+        ...     {"op": "merge", "ids": [3, 7]}, {"op": "rename", "id": 3, "name": "chair"}]}
+        >>> Path("result/edits.json").write_text(json.dumps(edits))
+        >>> result = splatseg.apply_edits("result/")
+        >>> [o["id"] for o in result.objects if o.get("name") == "chair"]
+        [3]
+    """
+    path = _path(out, "out")
+    return _native_result(_native.apply_edits(path, bool(strict)), path)
+
+
+def edit_inputs(out: PathLike) -> Dict[str, Any]:
+    """The identity of the run in ``out`` that its ``edits.json`` must name as ``"inputs"``.
+
+    Returns:
+        ``{"gaussians": int, "ply_digest": str, "run": str}``: the rows of the run's
+        ``gaussians.ply``, the digest of their centres and the run's key
+        (``OUT/cache/run.json``). Edits naming other inputs are refused by :func:`apply_edits`.
+
+    Raises:
+        ValueError: ``out`` holds no finished run.
+        FileNotFoundError: its ``gaussians.ply`` is missing.
+    """
+    return json.loads(_native.edit_inputs(_path(out, "out")))

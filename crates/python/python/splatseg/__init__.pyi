@@ -17,8 +17,8 @@ class SamMask(TypedDict, total=False):
     predicted_iou: float
     stability_score: float
 
-class ObjectRow(TypedDict):
-    """One row of RunResult.objects (as `splatseg objects --json`)."""
+class _ObjectRowRequired(TypedDict):
+    """The keys every row of RunResult.objects has."""
 
     id: int
     gaussian_count: int
@@ -26,6 +26,11 @@ class ObjectRow(TypedDict):
     bbox_max: List[float]  # [3] x, y, z
     colour: List[int]  # [3] r, g, b
     views_seen: Optional[int]
+
+class ObjectRow(_ObjectRowRequired, total=False):
+    """One row of RunResult.objects (as `splatseg objects --json`)."""
+
+    name: str  # only for an object named by the edits (apply_edits)
 
 class Gaussians(TypedDict, total=False):
     """A 3DGS PLY in the INRIA layout (read_ply / write_ply)."""
@@ -48,6 +53,14 @@ class RunResult:
     report: str
     summary: Dict[str, Any] = ...
     out: Optional[str] = ...
+    applied: Optional[Dict[str, int]] = ...  # apply_edits: operations, changed_gaussians, objects, names, views
+
+class EditInputs(TypedDict):
+    """edits.json's "inputs": the run the edits were made on."""
+
+    gaussians: int
+    ply_digest: str
+    run: str
 
 def run(
     scene: PathLike,
@@ -74,3 +87,5 @@ def read_ply(path: PathLike, *, strict: bool = False) -> Gaussians: ...
 def write_ply(path: PathLike, gaussians: Gaussians, *, keep_extras: bool = True) -> None: ...
 def extract(gaussians: Gaussians, ids: Union[int, Sequence[int], npt.NDArray[np.integer[Any]]]) -> Gaussians: ...
 def remove(gaussians: Gaussians, ids: Union[int, Sequence[int], npt.NDArray[np.integer[Any]]]) -> Gaussians: ...
+def apply_edits(out: PathLike, *, strict: bool = False) -> RunResult: ...
+def edit_inputs(out: PathLike) -> EditInputs: ...
