@@ -5,7 +5,9 @@
 //! again, save; the page opened again starts from the saved edits; then `splatseg apply` and the outputs checked against the edits: the merged ids
 //! are one id in every view's label map and in the PLY, each split's new object holds exactly
 //! the Gaussians its box or lasso selects (projected in the test with the scene's camera), the
-//! new objects show in the maps, and `splatseg objects` lists the name.
+//! new objects show in the maps, and `splatseg objects` lists the name. The exports of the
+//! selection's box (a crop of every Gaussian in it) and of a PLY coloured by object are checked
+//! on the way.
 //!
 //! `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test integration view_edit_browser`
 //! also writes `docs/viewer-edit.png` (the page after the edits) for the README.
@@ -155,6 +157,26 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
     assert_eq!(ready["edits"]["operations"], steps["saved"]["operations"], "the page starts from edits.json");
     assert_eq!(ready["names"], json!({ a.to_string(): "room" }));
     assert!(!ready["objects"].as_array().expect("ids").contains(&json!(b)), "{ready}");
+    // exports: the selection's box as a crop (every object's Gaussians in it), and everything coloured by object
+    let crop = browser
+        .await_promise(&format!(
+            "(async () => {{ viewer.select([{c}]); const box = viewer.boxAround([{c}]); \
+             const done = await viewer.exportSelection('crop'); \
+             const coloured = await viewer.exportSelection('coloured'); const count = viewer.manifest.objects[viewer.slotOfId.get({c})].count; \
+             return {{ box, done, coloured, count }}; }})()"
+        ))
+        .expect("the exports");
+    let centre: Vec<f64> = serde_json::from_value(crop["box"]["centre"].clone()).expect("centre");
+    let half: Vec<f64> = serde_json::from_value(crop["box"]["half_size"].clone()).expect("half size");
+    let in_crop =
+        before.means.iter().filter(|p| (0..3).all(|k| (p[k] as f64 - centre[k]).abs() <= half[k])).count();
+    assert_eq!(crop["done"]["count"], json!(in_crop), "{crop}");
+    let cropped = splatseg_scene::ply::read_ply(Path::new(crop["done"]["path"].as_str().expect("path")))
+        .expect("crop PLY");
+    assert_eq!(cropped.len(), in_crop);
+    let c_now = crop["count"].as_u64().expect("count") as usize;
+    assert!(in_crop >= c_now && c_now > 0, "the crop holds at least the selected object's {c_now}: {crop}");
+    assert_eq!(crop["coloured"]["count"], json!(before.len()), "{crop}");
     if std::env::var_os("SPLATSEG_UPDATE_SCREENSHOT").is_some() {
         browser
             .execute("viewer.setPalette(true); viewer.select([arguments[0]]);", json!([c]))

@@ -58,6 +58,10 @@ export class Panel {
         button('export-extract', 'Export selection', () => this.export('extract')),
         button('export-remove', 'Export all but selection', () => this.export('remove')),
       ]),
+      el('div', { class: 'row' }, [
+        button('export-crop', 'Export box crop', () => this.export('crop')),
+        button('export-coloured', 'Export coloured by object', () => this.export('coloured')),
+      ]),
       el('div', { id: 'export-result', class: 'note' }),
     );
     if (v.editor) this.buildEditing(box);
@@ -95,7 +99,7 @@ export class Panel {
         button('edit-rename', 'Rename', act(() => ed.rename(one(), name.value.trim()))),
       ]),
       el('div', { class: 'row' }, [
-        button('edit-box', 'Box', act(() => { v.setBox(v.boxAround(one())); this.fillBoxFields(); })),
+        button('edit-box', 'Box', act(() => { v.setBox(v.boxAround([one()])); this.fillBoxFields(); })),
         el('span', { class: 'note', text: 'centre' }), ...this.boxFields.slice(0, 3),
       ]),
       el('div', { class: 'row' }, [
@@ -240,7 +244,8 @@ export class Panel {
 
   async export(mode) {
     const v = this.viewer;
-    if (v.selected.size === 0) return this.note('Select objects first (click them; shift-click adds).');
+    const needsSelection = mode === 'extract' || mode === 'remove' || (mode === 'crop' && !v.box);
+    if (needsSelection && v.selected.size === 0) return this.note('Select objects first (click them; shift-click adds).');
     try {
       const done = await v.exportSelection(mode);
       this.note(`wrote ${done.count.toLocaleString()} Gaussians to ${done.path}`);

@@ -397,12 +397,14 @@ class Viewer {
     this.panel?.refresh();
   }
 
-  // The box around object `id`'s centres (its bounding box, a little larger).
-  boxAround(id) {
-    const o = this.manifest.objects[this.slotOfId.get(id)];
-    if (!o) return null;
-    const centre = [0, 1, 2].map((k) => 0.5 * (o.bbox_min[k] + o.bbox_max[k]));
-    const half = [0, 1, 2].map((k) => 0.5 * (o.bbox_max[k] - o.bbox_min[k]) * 1.02 + 1e-4);
+  // The box around the centres of objects `ids` (their bounding boxes', a little larger), or null.
+  boxAround(ids) {
+    const objects = ids.map((id) => this.manifest.objects[this.slotOfId.get(id)]).filter((o) => o);
+    if (!objects.length) return null;
+    const lo = [0, 1, 2].map((k) => Math.min(...objects.map((o) => o.bbox_min[k])));
+    const hi = [0, 1, 2].map((k) => Math.max(...objects.map((o) => o.bbox_max[k])));
+    const centre = [0, 1, 2].map((k) => 0.5 * (lo[k] + hi[k]));
+    const half = [0, 1, 2].map((k) => 0.5 * (hi[k] - lo[k]) * 1.02 + 1e-4);
     return { centre, half_size: half };
   }
 
@@ -475,15 +477,21 @@ class Viewer {
     return body.matches;
   }
 
-  // Asks the server to write the selection (`extract`) or everything else (`remove`), with the
-  // token the page was served with (the server refuses changes without it).
+  // Asks the server to write the selection (`extract`), everything else (`remove`), the Gaussians
+  // in the edit box or else the selection's box (`crop`), or every Gaussian coloured by its object
+  // (`coloured`), with the token the page was served with (the server refuses changes without it).
   async exportSelection(mode = 'extract') {
     const ids = this.ids(this.selected);
+    const request = { ids, mode };
+    if (mode === 'crop') {
+      request.box = this.box || this.boxAround(ids);
+      if (!request.box) throw new Error('place a box (Box) or select objects first');
+    }
     const token = document.querySelector('meta[name="splatseg-token"]')?.content ?? '';
     const r = await fetch('/api/export', {
       method: 'POST',
       headers: { 'Content-Type': 'application/json', 'X-Splatseg-Token': token },
-      body: JSON.stringify({ ids, mode }),
+      body: JSON.stringify(request),
     });
     const answer = await r.json();
     if (!r.ok) throw new Error(answer.error || `export failed (${r.status})`);
