@@ -48,13 +48,13 @@ const EDIT_SCRIPT: &str = r#"
     for (const p of polygon.slice(1)) svg.dispatchEvent(new PointerEvent('pointermove', at(p)));
     svg.dispatchEvent(new PointerEvent('pointerup', at(polygon[polygon.length - 1])));
   };
-  // front-most only, around all of d in this view, then undone
+  // front-most only, around all of d in this view, then undone with Ctrl+Z
   viewer.select([d]);
   document.getElementById('lasso-front').checked = true;
   draw(around);
   steps.front = await settle();
   document.getElementById('lasso-front').checked = false;
-  click('edit-undo');
+  window.dispatchEvent(new KeyboardEvent('keydown', { key: 'z', ctrlKey: true }));
   await settle();
   viewer.select([d]);
   draw(lasso);

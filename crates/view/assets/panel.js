@@ -120,7 +120,15 @@ export class Panel {
       el('div', { id: 'edit-status', class: 'note' }),
     );
     this.frontMost = frontMost;
+    this.nameField = name;
     this.buildLassoOverlay(act);
+    // Ctrl+Z undoes, Ctrl+Shift+Z or Ctrl+Y redoes (not while typing in a field)
+    window.addEventListener('keydown', (e) => {
+      if (!(e.ctrlKey || e.metaKey) || e.target.tagName === 'INPUT') return;
+      const key = e.key.toLowerCase();
+      if (key === 'z' && !e.shiftKey) { e.preventDefault(); act(() => ed.undo())(); }
+      else if (key === 'y' || (key === 'z' && e.shiftKey)) { e.preventDefault(); act(() => ed.redo())(); }
+    });
     this.editStatus(ed.note ? `edits.json: ${ed.note}` : undefined);
   }
 
@@ -330,6 +338,11 @@ export class Panel {
     document.getElementById('edit-lasso')?.classList.toggle('on', !!this.lasso);
     if (v.editor) this.editStatus();
     const sel = v.ids(v.selected);
+    // the rename field suggests the selected object's name: given by an edit, or from `view --names`
+    if (this.nameField) {
+      const o = sel.length === 1 ? v.manifest.objects[v.slotOfId.get(sel[0])] : null;
+      this.nameField.placeholder = o?.name ?? 'name';
+    }
     document.getElementById('selection').textContent = sel.length ? `selected: ${sel.join(', ')}` : 'nothing selected';
   }
 }

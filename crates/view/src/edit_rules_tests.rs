@@ -105,7 +105,13 @@ fn oversized_malformed_invalid_or_foreign_edits_are_refused_and_nothing_is_writt
     let edits = tmp.path().join("edits.json");
     let send =
         |json: &str| request_bytes(&site, &access, &post("/api/edits", json, Some(&page()), Some(TOKEN)));
-    let huge = save_json(&inputs, &format!(r#"[{{"op":"rename","id":1,"name":"{}"}}]"#, "x".repeat(70_000)));
+    // a long list is taken (a long name here), one over the edits' limit is not
+    let long = save_json(&inputs, &format!(r#"[{{"op":"rename","id":1,"name":"{}"}}]"#, "x".repeat(70_000)));
+    let reply = send(&long);
+    assert_eq!(status(&reply), 200, "{}", text(&reply));
+    std::fs::remove_file(&edits).expect("remove");
+    let limit = crate::routes::MAX_EDITS_BODY_BYTES;
+    let huge = save_json(&inputs, &format!(r#"[{{"op":"rename","id":1,"name":"{}"}}]"#, "x".repeat(limit)));
     let reply = send(&huge);
     assert_eq!(status(&reply), 413, "{}", text(&reply));
     let reply = send("{\"inputs\": ");

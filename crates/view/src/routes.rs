@@ -16,8 +16,21 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
-/// Largest request body accepted, bytes (an export request is a list of ids).
+/// Largest request body accepted, bytes (an export request is a list of ids), but for edits.
 pub const MAX_BODY_BYTES: usize = 64 * 1024;
+
+/// Largest body of `POST /api/edits` and `/api/edits/preview`, bytes: a page's whole list of
+/// operations (a lasso of 128 vertices is ≈ 3 KB; an `assign` of scattered rows can be long).
+pub const MAX_EDITS_BODY_BYTES: usize = 4 << 20;
+
+/// The largest body accepted at `path`.
+pub fn body_limit(path: &str) -> usize {
+    if path == "/api/edits" || path == "/api/edits/preview" {
+        MAX_EDITS_BODY_BYTES
+    } else {
+        MAX_BODY_BYTES
+    }
+}
 
 /// An HTTP reply.
 #[derive(Debug)]
@@ -57,9 +70,9 @@ impl<'a> Reply<'a> {
         Self::error(404, "not found")
     }
 
-    /// 413: the body is over [`MAX_BODY_BYTES`].
-    pub fn too_large() -> Self {
-        Self::error(413, &format!("request body over {MAX_BODY_BYTES} bytes"))
+    /// 413: the body is over `limit` bytes.
+    pub fn too_large(limit: usize) -> Self {
+        Self::error(413, &format!("request body over {limit} bytes"))
     }
 }
 
@@ -221,7 +234,7 @@ impl Site {
 
     fn export(&self, body: &[u8]) -> Reply<'_> {
         if body.len() > MAX_BODY_BYTES {
-            return Reply::too_large();
+            return Reply::too_large(MAX_BODY_BYTES);
         }
         let request: ExportRequest = match serde_json::from_slice(body) {
             Ok(r) => r,
