@@ -24,7 +24,7 @@ const EDIT_SCRIPT: &str = r#"
 (async () => {
   const click = (id) => document.getElementById(id).click();
   const settle = async () => { await viewer.editor.busy; return viewer.editor.state(); };
-  const [a, b, c, d, lasso, around] = arguments_;
+  const [a, b, c, d, lasso, around, threshold] = arguments_;
   const steps = {};
   viewer.select([a, b]);
   click('edit-merge');
@@ -55,6 +55,16 @@ const EDIT_SCRIPT: &str = r#"
   steps.front = await settle();
   document.getElementById('lasso-front').checked = false;
   window.dispatchEvent(new KeyboardEvent('keydown', { key: 'z', ctrlKey: true }));
+  await settle();
+  // the merged object's Gaussians less opaque than a threshold, to none, then undone
+  viewer.select([a]);
+  document.getElementById('filter-opacity').value = String(threshold);
+  click('edit-filter-none');
+  await new Promise((res) => setTimeout(res, 50));
+  for (let k = 0; k < 200 && viewer.editor.ops.length < 3; k++) await new Promise((res) => setTimeout(res, 25));
+  steps.filtered = await settle();
+  steps.filterStatus = document.getElementById('edit-status').textContent;
+  click('edit-undo');
   await settle();
   viewer.select([d]);
   draw(lasso);
@@ -119,12 +129,22 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
     let lasso = [[x0, y0], [xm, y0], [xm, y1], [x0, y1]];
     let around = bounding_rectangle(map0, d);
 
+    // an opacity threshold just above the least opaque of a's and b's Gaussians (synth's opacities
+    // take few values)
+    let opacity = |i: usize| 1.0 / (1.0 + (-before.raw_opacities[i]).exp());
+    let least = (0..ids_before.len())
+        .filter(|&i| ids_before[i] == a || ids_before[i] == b)
+        .map(opacity)
+        .fold(f32::INFINITY, f32::min);
+    let threshold = least + 1e-4;
+
     let server = serve(&run, &exports);
     let browser = Browser::launch(&paths, 1024, 640).expect("headless chromium starts");
     browser.goto(&format!("{}?canvas=native", server.url)).expect("page opens");
     let ready = browser.await_promise("viewer.whenReady(120000)").expect("ready");
     assert!(ready["error"].is_null(), "the page failed: {ready}");
-    let script = EDIT_SCRIPT.replace("arguments_", &json!([a, b, c, d, lasso, around]).to_string());
+    let script =
+        EDIT_SCRIPT.replace("arguments_", &json!([a, b, c, d, lasso, around, threshold]).to_string());
     let steps = browser.await_promise(&script).expect("the edit script runs");
     println!("edits in the page: {steps}");
     for step in ["merge", "box", "lasso", "final", "saved"] {
@@ -221,6 +241,19 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
     println!("front-most lasso: {front_rows} of object {d}'s {d_count} Gaussians");
     assert!(front_rows > 0 && front_rows < d_count, "{front_rows} front-most of {d_count}");
     assert_eq!(steps["lasso"]["undone"], 0, "a new edit clears what was undone");
+    // by opacity: exactly the merged object's Gaussians under the threshold, to none (undone)
+    assert_eq!(kinds("filtered"), ["merge", "split_box", "assign"], "{steps}");
+    let filtered = &steps["filtered"]["operations"][2];
+    assert_eq!(filtered["id"], -1);
+    let mut rows = BTreeSet::new();
+    for range in filtered["ranges"].as_array().expect("ranges") {
+        rows.extend(range[0].as_u64().expect("start") as usize..range[1].as_u64().expect("end") as usize);
+    }
+    let expected: BTreeSet<usize> = (0..ids_before.len())
+        .filter(|&i| (ids_before[i] == a || ids_before[i] == b) && opacity(i) < threshold)
+        .collect();
+    assert!(!expected.is_empty());
+    assert_eq!(rows, expected, "the rows the opacity filter moved");
 
     splatseg(&["apply", utf8(&run)]);
     let after = splatseg_scene::ply::read_ply(&run.join("gaussians.ply")).expect("the applied PLY");

@@ -1,5 +1,6 @@
 // Editing a run's objects: the list of operations of `edits.json` (merge, split_box, split_lasso,
-// assign, rename), undo and redo, and Save. Every change asks the server for its effect
+// assign, rename), undo and redo, and Save. Gaussians picked by opacity or size (`/api/edits/select`)
+// or in front inside a lasso are moved by an `assign` of their rows. Every change asks the server for its effect
 // (`POST /api/edits/preview`: the operations applied to the run's own ids by `splatseg apply`'s
 // code), which comes back as the objects by slot and each Gaussian's slot; the page then draws
 // and lists them. Save writes the list as the run's `edits.json` (`POST /api/edits`).
@@ -43,6 +44,7 @@ export class Editor {
     this.path = entry.path;
     this.note = entry.note ?? null;
     this.ops = entry.operations.slice();
+    this.nextId = entry.next_id;
     this.undone = [];
     this.saved = JSON.stringify(this.ops);
     this.busy = Promise.resolve();
@@ -78,6 +80,7 @@ export class Editor {
     const preview = parsePreview(await r.arrayBuffer());
     this.viewer.setObjects(preview.objects, preview.slots);
     this.changed = preview.changed;
+    this.nextId = preview.next_id;
     return preview;
   }
 
@@ -128,10 +131,21 @@ export class Editor {
     if (frontMost) {
       const rows = this.viewer.frontRows(object, vertices);
       if (!rows.length) return Promise.reject(new Error(`no Gaussian of object ${object} is in front inside the lasso`));
-      const newId = this.viewer.manifest.objects.reduce((m, o) => Math.max(m, o.id), 0) + 1;
-      return this.push({ op: 'assign', ranges: rowRanges(rows), id: newId });
+      return this.push({ op: 'assign', ranges: rowRanges(rows), id: this.nextId });
     }
     return this.push({ op: 'split_lasso', object, camera: this.lassoCamera(), polygon_px: vertices });
+  }
+
+  // Moves the Gaussians of `objects` whose opacity is below `filter.opacity_below` and / or whose
+  // largest scale is above `filter.size_above` to a new object, or to none (`toNone`): the server
+  // finds their rows (after the operations so far), an `assign` moves them.
+  async moveFiltered(objects, filter, toNone = false) {
+    await this.busy;
+    const r = await post('/api/edits/select', { operations: this.ops, objects, ...filter });
+    const answer = await r.json().catch(() => ({}));
+    if (!r.ok) throw new Error(answer.error || `selection failed (HTTP ${r.status})`);
+    if (!answer.count) throw new Error('no Gaussian of the selected objects passes the filter');
+    return this.push({ op: 'assign', ranges: answer.ranges, id: toNone ? -1 : this.nextId });
   }
 
   rename(id, name) {

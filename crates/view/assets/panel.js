@@ -88,6 +88,17 @@ export class Panel {
       oninput: () => v.setBox(this.boxFromFields()) });
     this.boxFields = ['box-cx', 'box-cy', 'box-cz', 'box-hx', 'box-hy', 'box-hz'].map(number);
     const frontMost = el('input', { id: 'lasso-front', type: 'checkbox', title: 'only the Gaussians seen in front' });
+    const opacityBelow = el('input', { id: 'filter-opacity', type: 'number', step: 'any', min: '0', max: '1', class: 'boxfield',
+      title: "the selected objects' Gaussians less opaque than this (0–1)" });
+    const sizeAbove = el('input', { id: 'filter-size', type: 'number', step: 'any', min: '0', class: 'boxfield',
+      title: "the selected objects' Gaussians whose largest scale (world units) is above this" });
+    this.filter = () => {
+      const f = {};
+      if (opacityBelow.value !== '') f.opacity_below = Number(opacityBelow.value);
+      if (sizeAbove.value !== '') f.size_above = Number(sizeAbove.value);
+      if (!Object.keys(f).length) throw new Error('give an opacity or a size to select Gaussians by');
+      return f;
+    };
     box.append(
       el('h2', { text: 'Edit' }),
       el('div', { class: 'row' }, [
@@ -116,6 +127,12 @@ export class Panel {
         button('edit-undo', 'Undo', act(() => ed.undo())),
         button('edit-redo', 'Redo', act(() => ed.redo())),
         button('edit-save', 'Save', act(() => ed.save())),
+      ]),
+      el('div', { class: 'row' }, [
+        el('span', { class: 'note', text: 'opacity <' }), opacityBelow,
+        el('span', { class: 'note', text: 'size >' }), sizeAbove,
+        button('edit-filter-new', '→ new object', act(() => ed.moveFiltered(selected(), this.filter(), false))),
+        button('edit-filter-none', '→ none', act(() => ed.moveFiltered(selected(), this.filter(), true))),
       ]),
       el('div', { id: 'edit-status', class: 'note' }),
     );

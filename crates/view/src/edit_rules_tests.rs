@@ -222,6 +222,7 @@ fn the_preview_applies_the_operations_to_the_runs_ids() {
     assert_eq!(slots, [0, 1, 2], "the Gaussian at (2, 2, 2) is the new object 3");
     assert_eq!(head["objects"][2]["name"], "lamp");
     assert_eq!(head["changed"], 1);
+    assert_eq!(head["next_id"], 4, "a new object after 3");
     let bad = r#"{"operations":[{"op":"rename","id":7,"name":"x"}]}"#;
     let reply = request_bytes(&site, &access, &post("/api/edits/preview", bad, Some(&page()), Some(TOKEN)));
     assert_eq!(status(&reply), 400);
@@ -230,4 +231,30 @@ fn the_preview_applies_the_operations_to_the_runs_ids() {
     let (plain, access) = crate::fuzzing::site(tmp.path().to_path_buf());
     let reply = request_bytes(&plain, &access, &post("/api/edits/preview", ops, Some(&page()), Some(TOKEN)));
     assert_eq!(status(&reply), 404);
+}
+
+/// Selecting Gaussians by opacity or size among objects, after the page's operations: row ranges.
+#[test]
+fn gaussians_are_selected_by_opacity_and_size_among_the_objects() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let identity = Arc::new(Mutex::new(EditInputs::default()));
+    let (site, access, _) = editing_site(tmp.path(), identity);
+    // the three Gaussians: opacity sigmoid(0) = 0.5, scale e^0 = 1
+    let ask = |json: &str| {
+        request_bytes(&site, &access, &post("/api/edits/select", json, Some(&page()), Some(TOKEN)))
+    };
+    let reply = ask(r#"{"operations":[],"objects":[1],"opacity_below":0.6}"#);
+    assert_eq!(status(&reply), 200, "{}", text(&reply));
+    let got: serde_json::Value = serde_json::from_slice(&body(&reply)).expect("json");
+    assert_eq!(got, serde_json::json!({ "ranges": [[0, 1], [2, 3]], "count": 2 }), "object 1's rows 0 and 2");
+    let merged = r#"{"operations":[{"op":"merge","ids":[1,2]}],"objects":[1],"size_above":0.5}"#;
+    let got: serde_json::Value = serde_json::from_slice(&body(&ask(merged))).expect("json");
+    assert_eq!(got["ranges"], serde_json::json!([[0, 3]]), "after the merge, all three");
+    let got: serde_json::Value =
+        serde_json::from_slice(&body(&ask(r#"{"operations":[],"objects":[1],"opacity_below":0.4}"#)))
+            .expect("json");
+    assert_eq!(got["count"], 0);
+    assert_eq!(status(&ask(r#"{"operations":[],"objects":[1]}"#)), 400, "no bound given");
+    let unauthorised = request_bytes(&site, &access, &post("/api/edits/select", merged, Some(&page()), None));
+    assert_eq!(status(&unauthorised), 403);
 }

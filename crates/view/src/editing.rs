@@ -70,6 +70,8 @@ pub struct EditingEntry {
     pub operations: Vec<Operation>,
     /// Where a save writes.
     pub path: String,
+    /// The id a new object takes before any operation (the page's preview says it after).
+    pub next_id: i32,
     /// Something to tell the user (e.g. an `edits.json` the viewer cannot use).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
@@ -102,6 +104,26 @@ pub struct Preview {
     pub slots: Vec<u32>,
     /// Gaussians whose id differs from the run's.
     pub changed: usize,
+    /// The id a new object takes now (one more than every id in use, those only the maps show
+    /// included): what the page gives an `assign` to a new object.
+    pub next_id: i32,
+}
+
+/// A selection of Gaussians by their own properties (`POST /api/edits/select`): the rows of
+/// `objects` (after `operations`) whose opacity and size lie in the bounds given.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectRequest {
+    /// The page's operations so far.
+    pub operations: Vec<Operation>,
+    /// The objects whose Gaussians are looked at.
+    pub objects: Vec<i32>,
+    /// Opacity (after the sigmoid) below this.
+    #[serde(default)]
+    pub opacity_below: Option<f32>,
+    /// Largest of the three scales (world units) above this.
+    #[serde(default)]
+    pub size_above: Option<f32>,
 }
 
 /// Why a save or a preview was refused: the HTTP status and the words.
@@ -160,6 +182,7 @@ impl Editing {
             inputs: self.inputs.clone(),
             operations: self.start.lock().map(|s| s.clone()).unwrap_or_default(),
             path: self.edits_path.display().to_string(),
+            next_id: self.base_ids.iter().chain(&self.map_only_ids).copied().max().unwrap_or(0).max(0) + 1,
             note: self.foreign_file.as_ref().map(|(why, _)| why.clone()),
         }
     }
@@ -179,7 +202,39 @@ impl Editing {
         for o in &mut objects {
             o.name = edited.names.get(&o.id).cloned();
         }
-        Ok(Preview { objects, slots, changed: edited.changed_rows })
+        let largest = edited.ids.iter().chain(&self.map_only_ids).copied().max().unwrap_or(0);
+        Ok(Preview { objects, slots, changed: edited.changed_rows, next_id: largest.max(0) + 1 })
+    }
+
+    /// The rows `request` selects, as `[start, end)` ranges (for an `assign`).
+    pub fn select(
+        &self,
+        g: &Gaussians,
+        views: &[(&Camera, &Pose)],
+        request: &SelectRequest,
+    ) -> Result<Vec<[u64; 2]>, Refused> {
+        if request.opacity_below.is_none() && request.size_above.is_none() {
+            return Err(refused(400, "give opacity_below or size_above (or both)"));
+        }
+        let base = EditBase { ids: &self.base_ids, means: &g.means, map_only_ids: &self.map_only_ids, views };
+        let edited = apply_operations(&base, &request.operations, &self.edits_path)
+            .map_err(|e| refused(400, e.to_string()))?;
+        let objects: BTreeSet<i32> = request.objects.iter().copied().collect();
+        let picked = |i: usize| {
+            let opacity = 1.0 / (1.0 + (-g.raw_opacities[i]).exp());
+            let size = g.log_scales[i].iter().fold(f32::NEG_INFINITY, |m, &s| m.max(s.exp()));
+            objects.contains(&edited.ids[i])
+                && request.opacity_below.is_none_or(|t| opacity < t)
+                && request.size_above.is_none_or(|t| size > t)
+        };
+        let mut ranges: Vec<[u64; 2]> = Vec::new();
+        for i in (0..g.len()).filter(|&i| picked(i)) {
+            match ranges.last_mut() {
+                Some(last) if last[1] == i as u64 => last[1] += 1,
+                _ => ranges.push([i as u64, i as u64 + 1]),
+            }
+        }
+        Ok(ranges)
     }
 
     /// Writes `request` as `edits.json` (checked as the module doc says); the path written.
@@ -262,10 +317,14 @@ fn json<T: Serialize>(value: &T) -> String {
 }
 
 /// The preview's reply body: a 4-byte little-endian length `L`, `L` bytes of JSON
-/// (`{"objects": […], "changed": n}`), zero bytes up to a multiple of 4, then `[N]` u32
+/// (`{"objects": […], "changed": n, "next_id": id}`), zero bytes up to a multiple of 4, then `[N]` u32
 /// little-endian slots.
 pub fn preview_body(preview: &Preview) -> Vec<u8> {
-    let head = serde_json::json!({ "objects": preview.objects, "changed": preview.changed });
+    let head = serde_json::json!({
+        "objects": preview.objects,
+        "changed": preview.changed,
+        "next_id": preview.next_id,
+    });
     let head = serde_json::to_vec(&head).unwrap_or_default();
     let padded = (4 + head.len()).div_ceil(4) * 4;
     let mut body = Vec::with_capacity(padded + 4 * preview.slots.len());

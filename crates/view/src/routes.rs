@@ -5,7 +5,7 @@
 //! simply not found.
 
 use crate::assets::asset;
-use crate::editing::{preview_body, EditSetup, Editing, PreviewRequest, SaveRequest};
+use crate::editing::{preview_body, EditSetup, Editing, PreviewRequest, SaveRequest, SelectRequest};
 use crate::export::{export, ExportRequest};
 use crate::manifest::{self, Manifest};
 use crate::pack::{pack, BYTES_PER_GAUSSIAN, CHUNK_GAUSSIANS};
@@ -25,7 +25,7 @@ pub const MAX_EDITS_BODY_BYTES: usize = 4 << 20;
 
 /// The largest body accepted at `path`.
 pub fn body_limit(path: &str) -> usize {
-    if path == "/api/edits" || path == "/api/edits/preview" {
+    if path == "/api/edits" || path == "/api/edits/preview" || path == "/api/edits/select" {
         MAX_EDITS_BODY_BYTES
     } else {
         MAX_BODY_BYTES
@@ -156,6 +156,7 @@ impl Site {
             "POST" if path == "/api/export" => self.export(body),
             "POST" if path == "/api/edits/preview" => self.preview_edits(body),
             "POST" if path == "/api/edits" => self.save_edits(body),
+            "POST" if path == "/api/edits/select" => self.select_gaussians(body),
             _ => Reply::not_found(),
         }
     }
@@ -292,6 +293,31 @@ impl Site {
         };
         match editing.preview(&self.source.gaussians.means, &self.cameras(), &request.operations) {
             Ok(preview) => Reply::ok("application/octet-stream", Cow::Owned(preview_body(&preview))),
+            Err(refused) => Reply::error(refused.status, &refused.message),
+        }
+    }
+
+    fn select_gaussians(&self, body: &[u8]) -> Reply<'_> {
+        let editing = match self.editing() {
+            Ok(e) => e,
+            Err(reply) => return reply,
+        };
+        let request: SelectRequest = match serde_json::from_slice(body) {
+            Ok(r) => r,
+            Err(e) => {
+                return Reply::error(
+                    400,
+                    &format!(
+                        "bad selection (expected {{\"operations\": [...], \"objects\": [ids], \"opacity_below\": x, \"size_above\": y}}): {e}"
+                    ),
+                )
+            }
+        };
+        match editing.select(&self.source.gaussians, &self.cameras(), &request) {
+            Ok(ranges) => {
+                let count: u64 = ranges.iter().map(|r| r[1] - r[0]).sum();
+                Reply::json(200, &serde_json::json!({ "ranges": ranges, "count": count }))
+            }
             Err(refused) => Reply::error(refused.status, &refused.message),
         }
     }
