@@ -82,15 +82,13 @@ fn enable_editing(site: &mut Site, ply: &Path) {
             return;
         }
     };
-    let identity_out = out.clone();
+    let watch = run.watch;
     let setup = EditSetup {
         inputs: run.inputs,
         base_ids: run.base_ids,
         map_only_ids: run.map_only_ids,
         edits_path: out.join(splatseg_edit::EDITS_FILE),
-        identity_now: Box::new(move || {
-            splatseg_pipeline::apply::edit_inputs(&identity_out).map_err(|e| e.report())
-        }),
+        identity_now: Box::new(move || watch.identity().map_err(|e| e.report())),
     };
     if let Err(e) = site.enable_editing(setup) {
         tracing::warn!("no editing: {e}: {}", ply.display());
