@@ -326,6 +326,22 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
         shown.contains(&(box_id as u32)) && shown.contains(&(lasso_id as u32)),
         "the new objects show in the maps"
     );
+    // the applied outputs without their edits.json: the page shows the run's own objects (edits
+    // start from them), not the applied PLY's ids
+    std::fs::rename(run.join("edits.json"), tmp.path().join("edits.json")).expect("move edits.json away");
+    let server = serve(&run, &exports);
+    let browser = Browser::launch(&paths, 1024, 640).expect("headless chromium starts");
+    browser.goto(&server.url).expect("page opens");
+    let ready = browser.await_promise("viewer.whenReady(120000)").expect("ready");
+    assert!(ready["error"].is_null(), "the page failed: {ready}");
+    assert_eq!(ready["edits"]["operations"], json!([]));
+    let shown: BTreeSet<i64> =
+        ready["objects"].as_array().expect("ids").iter().filter_map(Value::as_i64).collect();
+    let run_own: BTreeSet<i64> = ids_before.iter().map(|&id| id as i64).collect();
+    assert_eq!(shown, run_own, "the run's own objects, {b} among them");
+    drop(browser);
+    drop(server);
+
     let objects =
         String::from_utf8(splatseg(&["objects", utf8(&run.join("gaussians.ply"))]).stdout).expect("utf-8");
     assert!(

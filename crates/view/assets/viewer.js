@@ -98,13 +98,15 @@ class Viewer {
     // names suggested by `view --names`, kept when an edit's preview replaces the objects
     this.suggested = new Map(manifest.objects.filter((o) => o.name !== undefined).map((o) => [o.id, [o.name, o.name_relevancy]]));
     this.editor = manifest.editing ? new Editor(this, manifest.editing) : null;
-    this.editsShown = !(this.editor && this.editor.ops.length);
+    // with editing, the page shows what the operations make of the run's own ids (the served PLY
+    // may hold ids an earlier apply wrote): asked once everything is loaded
+    this.editsShown = !this.editor;
     this.panel = new Panel(this);
     requestAnimationFrame(() => this.frame());
     this.phase = 'loading Gaussians';
     await this.load();
     if (!this.editsShown) {
-      this.phase = 'showing the edits of edits.json';
+      this.phase = 'showing the edits';
       await this.editor.preview(this.editor.ops);
       this.editsShown = true;
     }
