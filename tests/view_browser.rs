@@ -10,31 +10,32 @@
 //! - on a run with object embeddings, the search box ranks as `splatseg find` and Enter selects the best;
 //!   with `--names FILE`, the object list shows each object's best name as `find` scores the names.
 //!
-//! Skips (with a message) only when Chromium or chromedriver is not installed; `.ci/run` installs
-//! both. `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test integration view_browser` also writes the
+//! Skips (with a message) only when Chromium or chromedriver is not installed and `CI` is not set
+//! (`chromium.rs`); `.ci/run` installs both. `SPLATSEG_UPDATE_SCREENSHOT=1 cargo test --release --test integration view_browser` also writes the
 //! README's screenshot, `docs/viewer.png`.
 
+use crate::chromium::chromium_or_skip;
 use splatseg_scene::Plane;
-use splatseg_view::browser::{find_chromium, Browser};
+use splatseg_view::browser::Browser;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 
-fn splatseg(args: &[&str]) -> Output {
+pub(crate) fn splatseg(args: &[&str]) -> Output {
     let out =
         Command::new(env!("CARGO_BIN_EXE_splatseg")).args(args).output().expect("the splatseg binary runs");
     assert!(out.status.success(), "splatseg {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
     out
 }
 
-fn utf8(p: &Path) -> &str {
+pub(crate) fn utf8(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
 /// `splatseg view` running in the background, stopped on drop.
-struct Served {
+pub(crate) struct Served {
     child: Child,
-    url: String,
+    pub(crate) url: String,
 }
 
 impl Drop for Served {
@@ -44,7 +45,7 @@ impl Drop for Served {
     }
 }
 
-fn serve(run: &Path, exports: &Path) -> Served {
+pub(crate) fn serve(run: &Path, exports: &Path) -> Served {
     serve_with(run, exports, &[])
 }
 
@@ -91,7 +92,7 @@ fn read_png_rgb(path: &Path) -> Rgb {
 
 /// Per label, the pixel farthest (4-neighbour steps) from any other label or the image border,
 /// and how many pixels the label has: `(id, (x, y), distance, area)`.
-fn label_centres(map: &Plane<u32>) -> Vec<(u32, (usize, usize), u32, usize)> {
+pub(crate) fn label_centres(map: &Plane<u32>) -> Vec<(u32, (usize, usize), u32, usize)> {
     let (w, h) = (map.width, map.height);
     let mut dist = vec![u32::MAX; w * h];
     let mut queue = std::collections::VecDeque::new();
@@ -174,19 +175,13 @@ fn regions(map: &Plane<u32>, id: u32, margin: usize) -> (Vec<bool>, Vec<bool>) {
     (inside, outside)
 }
 
-fn state(browser: &Browser) -> serde_json::Value {
+pub(crate) fn state(browser: &Browser) -> serde_json::Value {
     browser.execute("return viewer.state();", serde_json::json!([])).expect("state")
 }
 
 #[test]
 fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
-    let Some(paths) = find_chromium() else {
-        eprintln!(
-            "SKIPPED the browser test: chromium and chromedriver are not installed \
-             (Debian: apt-get install chromium chromium-driver; .ci/run installs them)"
-        );
-        return;
-    };
+    let Some(paths) = chromium_or_skip("the browser test") else { return };
     let tmp = tempfile::tempdir().expect("temp dir");
     let [scene, run, renders, exports] = ["scene", "run", "renders", "exports"].map(|d| tmp.path().join(d));
     // Gaussians twice as far apart as the default (a quarter as many, ≈ 10k): every frame here is
@@ -351,10 +346,7 @@ fn the_viewer_renders_picks_hides_and_exports_in_headless_chromium() {
 /// has no search box and no name column.
 #[test]
 fn the_search_box_ranks_as_find_and_enter_selects_the_best() {
-    let Some(paths) = find_chromium() else {
-        eprintln!("SKIPPED the browser search test: chromium and chromedriver are not installed");
-        return;
-    };
+    let Some(paths) = chromium_or_skip("the browser search test") else { return };
     let tmp = tempfile::tempdir().expect("temp dir");
     let [scene, run, clip, exports] = ["scene", "run", "clip", "exports"].map(|d| tmp.path().join(d));
     let synth_config = tmp.path().join("synth.toml");

@@ -2,6 +2,8 @@
 
 use anyhow::Context;
 use splatseg_model_cues::clip_objects::ObjectSearch;
+use splatseg_pipeline::viewer_edits;
+use splatseg_view::editing::EditSetup;
 use splatseg_view::search::{ObjectName, SearchHit};
 use splatseg_view::{Listening, Site, ViewArgs, ViewServer, ViewSource};
 use std::io::Write;
@@ -36,6 +38,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     );
     let ply_path = source.ply_path.clone();
     let mut site = Site::new(source);
+    enable_editing(&mut site, &ply_path);
     let search = object_search(&ply_path, names.is_some())?;
     if let (Some(names), Some(search)) = (&names, &search) {
         let named = search.name_objects(names).map_err(|e| anyhow::anyhow!(e.report()))?;
@@ -62,6 +65,34 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     }
     server.wait();
     Ok(())
+}
+
+/// Editing (merge, split, rename; Save writes `OUT/edits.json`) when the served PLY is a run's
+/// `gaussians.ply`; otherwise, or when the run cannot be read, the viewer only views (a warning
+/// says why for a run folder).
+fn enable_editing(site: &mut Site, ply: &Path) {
+    let out = ply.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    if ply.file_name() != Some("gaussians.ply".as_ref()) || !viewer_edits::is_run_folder(&out) {
+        return;
+    }
+    let run = match viewer_edits::run_to_edit(&out) {
+        Ok(run) => run,
+        Err(e) => {
+            tracing::warn!("no editing: {}", e.report());
+            return;
+        }
+    };
+    let watch = run.watch;
+    let setup = EditSetup {
+        inputs: run.inputs,
+        base_ids: run.base_ids,
+        map_only_ids: run.map_only_ids,
+        edits_path: out.join(splatseg_edit::EDITS_FILE),
+        identity_now: Box::new(move || watch.identity().map_err(|e| e.report())),
+    };
+    if let Err(e) = site.enable_editing(setup) {
+        tracing::warn!("no editing: {e}: {}", ply.display());
+    }
 }
 
 /// The object embeddings and text tower of the run that wrote the served PLY (in its folder) when it

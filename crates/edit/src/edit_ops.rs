@@ -222,7 +222,7 @@ impl State {
 }
 
 /// The inside test of `b`, or why it cannot be used.
-fn box_test(b: &Box3) -> Result<impl Fn(DVec3) -> bool, String> {
+pub(crate) fn box_test(b: &Box3) -> Result<impl Fn(DVec3) -> bool, String> {
     let finite =
         b.centre.iter().chain(&b.half_size).chain(b.rotation.iter().flatten()).all(|v| v.is_finite());
     if !finite || b.half_size.iter().any(|&h| h <= 0.0) {

@@ -72,6 +72,9 @@ pub enum EditError {
         /// The edits file.
         path: PathBuf,
     },
+    /// A box that selects nothing or cannot be used (a crop).
+    #[error("cannot crop by the box: {0}")]
+    BadBox(String),
     /// Reading or writing a file failed.
     #[error(transparent)]
     Scene(#[from] splatseg_scene::SceneError),

@@ -1,7 +1,7 @@
 //! `edit` stage: acting on a labelled PLY (one whose Gaussians carry `object_id`, as
 //! `splatseg run` writes it).
 //!
-//! - [`select`]: [`extract`] and [`remove`] objects by id.
+//! - [`select`]: [`extract`] and [`remove`] objects by id; [`crop`](mod@crop): the Gaussians in a box.
 //! - [`recolor`](mod@recolor): flat palette colours per object, for viewing a segmentation.
 //! - [`objects`](mod@objects): the object table (id, Gaussian count, bounding box, colour, views).
 //! - [`edits`]: `OUT/edits.json`, a run's corrections as versioned data; [`edit_ops`]: applying
@@ -11,6 +11,7 @@
 //! - [`io`]: reading a labelled PLY with a helpful error, writing an edited one atomically.
 
 pub mod args;
+pub mod crop;
 pub mod edit_ops;
 pub mod edits;
 #[cfg(test)]
@@ -27,6 +28,7 @@ mod testing;
 pub mod viewer;
 
 pub use args::{ExtractArgs, ObjectsArgs, RecolorArgs, RemoveArgs};
+pub use crop::crop;
 pub use edit_ops::{apply_operations, EditBase, Edited};
 pub use edits::{read_edits, EditInputs, Edits, Operation, EDITS_FILE, EDITS_VERSION};
 pub use error::EditError;

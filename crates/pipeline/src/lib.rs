@@ -10,6 +10,7 @@
 //!   above take per view; a binding's entry point);
 //! - [`RunOutputs`] reads a finished run's results (summary, label maps, per-Gaussian ids);
 //! - [`apply::apply_edits`] applies a run's `edits.json` to its outputs (`splatseg apply`);
+//!   [`viewer_edits`] tells `splatseg view` the run it edits;
 //! - [`scene_info`] (what a scene folder holds), [`demo`], [`render_views`], [`train_stage`]: the
 //!   other commands' work;
 //! - [`args`]: the arguments of the commands above (clap's `Args` with the `cli` feature) and
@@ -66,6 +67,7 @@ mod tests;
 pub mod train_stage;
 mod view_data;
 mod view_merge;
+pub mod viewer_edits;
 mod visible;
 
 use cache::{read_json, write_json};

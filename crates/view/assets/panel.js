@@ -1,6 +1,7 @@
-// The side panel: view toggles, the object table (id, palette colour, the name of `view --names`,
-// Gaussian count, bounding box), selection actions, export, and the strip of the capture's overlays
-// (a click there selects the object under it in 3D).
+// The side panel: view toggles, the object table (id, palette colour, the name given by an edit or
+// suggested by `view --names`, Gaussian count, bounding box), selection actions, export, the edit
+// tools of a run (merge, split by a box or a lasso, rename, undo, redo, save), and the strip of
+// the capture's overlays (a click there selects the object under it in 3D).
 
 function el(tag, attrs = {}, children = []) {
   const e = document.createElement(tag);
@@ -57,10 +58,159 @@ export class Panel {
         button('export-extract', 'Export selection', () => this.export('extract')),
         button('export-remove', 'Export all but selection', () => this.export('remove')),
       ]),
+      el('div', { class: 'row' }, [
+        button('export-crop', 'Export box crop', () => this.export('crop')),
+        button('export-coloured', 'Export coloured by object', () => this.export('coloured')),
+      ]),
       el('div', { id: 'export-result', class: 'note' }),
     );
+    if (v.editor) this.buildEditing(box);
     if (v.manifest.search) this.buildSearch(box);
     if (!v.manifest.labelled) this.note('This PLY has no object_id: it is one object, and export needs `splatseg run` first.');
+  }
+
+  // The edit tools (a run's output folder): each acts on the selection and is previewed at once.
+  buildEditing(box) {
+    const v = this.viewer;
+    const ed = v.editor;
+    const button = (id, label, action) => el('button', { id, text: label, onclick: action });
+    const selected = () => v.ids(v.selected).filter((id) => id >= 1);
+    const one = () => {
+      const ids = selected();
+      if (ids.length !== 1) throw new Error('select one object first');
+      return ids[0];
+    };
+    const act = (f) => async () => {
+      try { await f(); } catch (e) { this.editStatus(String(e.message || e)); }
+    };
+    const name = el('input', { id: 'edit-name', type: 'text', placeholder: 'name', autocomplete: 'off' });
+    const number = (id) => el('input', { id, type: 'number', step: 'any', class: 'boxfield',
+      oninput: () => v.setBox(this.boxFromFields()) });
+    this.boxFields = ['box-cx', 'box-cy', 'box-cz', 'box-hx', 'box-hy', 'box-hz'].map(number);
+    const frontMost = el('input', { id: 'lasso-front', type: 'checkbox', title: 'only the Gaussians seen in front' });
+    const opacityBelow = el('input', { id: 'filter-opacity', type: 'number', step: 'any', min: '0', max: '1', class: 'boxfield',
+      title: "the selected objects' Gaussians less opaque than this (0–1)" });
+    const sizeAbove = el('input', { id: 'filter-size', type: 'number', step: 'any', min: '0', class: 'boxfield',
+      title: "the selected objects' Gaussians whose largest scale (world units) is above this" });
+    this.filter = () => {
+      const f = {};
+      if (opacityBelow.value !== '') f.opacity_below = Number(opacityBelow.value);
+      if (sizeAbove.value !== '') f.size_above = Number(sizeAbove.value);
+      if (!Object.keys(f).length) throw new Error('give an opacity or a size to select Gaussians by');
+      return f;
+    };
+    box.append(
+      el('h2', { text: 'Edit' }),
+      el('div', { class: 'row' }, [
+        button('edit-merge', 'Merge', act(() => {
+          if (selected().length < 2) throw new Error('select two or more objects to merge (shift-click adds)');
+          return ed.merge(selected());
+        })),
+        name,
+        button('edit-rename', 'Rename', act(() => ed.rename(one(), name.value.trim()))),
+      ]),
+      el('div', { class: 'row' }, [
+        button('edit-box', 'Box', act(() => { v.setBox(v.boxAround([one()])); this.fillBoxFields(); })),
+        el('span', { class: 'note', text: 'centre' }), ...this.boxFields.slice(0, 3),
+      ]),
+      el('div', { class: 'row' }, [
+        el('span', { class: 'note', text: 'half size' }), ...this.boxFields.slice(3),
+        button('edit-split-box', 'Split by box', act(async () => {
+          if (!v.box) throw new Error('place a box first (Box)');
+          await ed.splitBox(one(), v.box);
+          v.setBox(null);
+        })),
+      ]),
+      el('div', { class: 'row' }, [
+        button('edit-lasso', 'Lasso', () => this.setLasso(!this.lasso)),
+        el('label', {}, [frontMost, document.createTextNode(' front-most only')]),
+        button('edit-undo', 'Undo', act(() => ed.undo())),
+        button('edit-redo', 'Redo', act(() => ed.redo())),
+        button('edit-save', 'Save', act(() => ed.save())),
+      ]),
+      el('div', { class: 'row' }, [
+        el('span', { class: 'note', text: 'opacity <' }), opacityBelow,
+        el('span', { class: 'note', text: 'size >' }), sizeAbove,
+        button('edit-filter-new', '→ new object', act(() => ed.moveFiltered(selected(), this.filter(), false))),
+        button('edit-filter-none', '→ none', act(() => ed.moveFiltered(selected(), this.filter(), true))),
+      ]),
+      el('div', { id: 'edit-status', class: 'note' }),
+    );
+    this.frontMost = frontMost;
+    this.nameField = name;
+    this.buildLassoOverlay(act);
+    // Ctrl+Z undoes, Ctrl+Shift+Z or Ctrl+Y redoes (not while typing in a field)
+    window.addEventListener('keydown', (e) => {
+      if (!(e.ctrlKey || e.metaKey) || e.target.tagName === 'INPUT') return;
+      const key = e.key.toLowerCase();
+      if (key === 'z' && !e.shiftKey) { e.preventDefault(); act(() => ed.undo())(); }
+      else if (key === 'y' || (key === 'z' && e.shiftKey)) { e.preventDefault(); act(() => ed.redo())(); }
+    });
+    this.editStatus(ed.note ? `edits.json: ${ed.note}` : undefined);
+  }
+
+  boxFromFields() {
+    const n = this.boxFields.map((f) => Number(f.value));
+    if (n.some((x) => !Number.isFinite(x)) || n.slice(3).some((x) => x <= 0)) return this.viewer.box;
+    return { centre: n.slice(0, 3), half_size: n.slice(3) };
+  }
+
+  fillBoxFields() {
+    const b = this.viewer.box;
+    if (!b) return;
+    [...b.centre, ...b.half_size].forEach((x, i) => { this.boxFields[i].value = x.toFixed(4); });
+  }
+
+  // An SVG over the canvas: in lasso mode, a drag draws the polygon; on release the selected
+  // object is split by it.
+  buildLassoOverlay(act) {
+    const v = this.viewer;
+    const ns = 'http://www.w3.org/2000/svg';
+    const svg = document.createElementNS(ns, 'svg');
+    svg.id = 'lasso';
+    const path = document.createElementNS(ns, 'polyline');
+    svg.appendChild(path);
+    document.getElementById('stage').appendChild(svg);
+    let points = null;
+    const canvasPoint = (e) => {
+      const r = v.canvas.getBoundingClientRect();
+      return [(e.clientX - r.left) * v.canvas.width / r.width, (e.clientY - r.top) * v.canvas.height / r.height, e.clientX - r.left, e.clientY - r.top];
+    };
+    svg.addEventListener('pointerdown', (e) => {
+      points = [canvasPoint(e)];
+      try { svg.setPointerCapture(e.pointerId); } catch (_) { /* a synthetic pointer */ }
+    });
+    svg.addEventListener('pointermove', (e) => {
+      if (!points) return;
+      points.push(canvasPoint(e));
+      path.setAttribute('points', points.map((p) => `${p[2]},${p[3]}`).join(' '));
+    });
+    svg.addEventListener('pointerup', act(async () => {
+      const drawn = points;
+      points = null;
+      path.setAttribute('points', '');
+      if (!drawn || drawn.length < 3) return;
+      const ids = v.ids(v.selected).filter((id) => id >= 1);
+      if (ids.length !== 1) throw new Error('select the one object to split, then draw the lasso');
+      await v.editor.splitLasso(ids[0], drawn.map((p) => [p[0], p[1]]), this.frontMost.checked);
+      this.setLasso(false);
+    }));
+    this.lassoSvg = svg;
+  }
+
+  setLasso(on) {
+    this.lasso = !!on;
+    this.lassoSvg.classList.toggle('on', this.lasso);
+    this.refresh();
+  }
+
+  // The edit status line: `text`, or the operations and whether they are saved.
+  editStatus(text) {
+    const ed = this.viewer.editor;
+    const line = document.getElementById('edit-status');
+    if (!ed || !line) return;
+    const summary = `${ed.ops.length} operations${ed.dirty ? ' (not saved)' : ' (saved)'}`;
+    line.textContent = text ? `${text} · ${summary}` : summary;
   }
 
   // The search box (when the server has object embeddings): typing ranks the objects against the
@@ -119,7 +269,8 @@ export class Panel {
 
   async export(mode) {
     const v = this.viewer;
-    if (v.selected.size === 0) return this.note('Select objects first (click them; shift-click adds).');
+    const needsSelection = mode === 'extract' || mode === 'remove' || (mode === 'crop' && !v.box);
+    if (needsSelection && v.selected.size === 0) return this.note('Select objects first (click them; shift-click adds).');
     try {
       const done = await v.exportSelection(mode);
       this.note(`wrote ${done.count.toLocaleString()} Gaussians to ${done.path}`);
@@ -129,14 +280,23 @@ export class Panel {
     }
   }
 
+  // The object table again (an edit changed the objects).
+  rebuildTable() {
+    document.getElementById('objects').replaceChildren();
+    document.querySelector('#table thead th.name')?.remove();
+    this.buildTable();
+    if (this.matches) this.showMatches(this.matches);
+  }
+
   buildTable() {
     const v = this.viewer;
     const body = document.getElementById('objects');
-    // `view --names FILE`: a column with each object's best match among the names
+    // a column with each object's name: given by an edit, or its best match among the names of
+    // `view --names FILE`
     const named = v.manifest.objects.some((o) => o.name !== undefined);
     if (named) {
       const idHeader = document.querySelector('#table thead th:nth-child(3)');
-      idHeader.after(el('th', { text: 'name' }));
+      idHeader.after(el('th', { class: 'name', text: 'name' }));
     }
     this.rows = v.manifest.objects.map((o) => {
       const visible = el('input', { type: 'checkbox', title: 'visible',
@@ -150,8 +310,9 @@ export class Panel {
         el('td', {}, [visible]),
         el('td', {}, [el('span', { class: 'swatch', style: `background:${hex(o.colour)}` })]),
         el('td', { text: o.id < 0 ? 'none' : String(o.id) }),
-        ...(named ? [el('td', { class: 'name', text: o.name ?? '',
-          title: o.name === undefined ? '' : `relevancy ${o.name_relevancy.toFixed(3)}` })] : []),
+        ...(named ? [el('td', { class: o.edited_name ? 'name given' : 'name', text: o.name ?? '',
+          title: o.edited_name ? 'named by an edit'
+            : (o.name === undefined ? '' : `suggested: relevancy ${o.name_relevancy.toFixed(3)}`) })] : []),
         el('td', { class: 'num', text: o.count.toLocaleString() }),
         el('td', { class: 'bbox', text: `${fmt(o.bbox_min)} … ${fmt(o.bbox_max)}` }),
       ]);
@@ -191,7 +352,14 @@ export class Panel {
     document.getElementById('mode-fly').classList.toggle('on', v.controls?.mode === 'fly');
     document.getElementById('toggle-frusta').classList.toggle('on', v.frusta);
     document.getElementById('toggle-palette').classList.toggle('on', v.palette);
+    document.getElementById('edit-lasso')?.classList.toggle('on', !!this.lasso);
+    if (v.editor) this.editStatus();
     const sel = v.ids(v.selected);
+    // the rename field suggests the selected object's name: given by an edit, or from `view --names`
+    if (this.nameField) {
+      const o = sel.length === 1 ? v.manifest.objects[v.slotOfId.get(sel[0])] : null;
+      this.nameField.placeholder = o?.name ?? 'name';
+    }
     document.getElementById('selection').textContent = sel.length ? `selected: ${sel.join(', ')}` : 'nothing selected';
   }
 }

@@ -7,6 +7,7 @@ precision highp int;
 precision highp usampler2D;
 
 uniform usampler2D u_data;   // 3 RGBA32UI texels per Gaussian, 1024 Gaussians per row
+uniform usampler2D u_slots;  // per Gaussian: its object slot, 1024 Gaussians per row
 uniform sampler2D u_state;   // per object slot: rgb = colour override, a = flags
 uniform mat3 u_cam_from_world;
 uniform vec3 u_cam_t;
@@ -21,6 +22,7 @@ out vec2 v_offset;           // pixel minus centre, px
 flat out vec3 v_conic;
 flat out vec4 v_colour;      // rgb, opacity
 flat out uint v_slot;
+flat out uint v_index;
 flat out uint v_flags;
 
 const uint HIDDEN = 1u;
@@ -37,7 +39,7 @@ void main() {
     uvec4 t0 = texelFetch(u_data, base, 0);
     uvec4 t1 = texelFetch(u_data, base + ivec2(1, 0), 0);
     uvec4 t2 = texelFetch(u_data, base + ivec2(2, 0), 0);
-    uint slot = t0.w;
+    uint slot = texelFetch(u_slots, ivec2(int(a_index % 1024u), int(a_index / 1024u)), 0).r;
     vec4 state = texelFetch(u_state, ivec2(int(slot % 1024u), int(slot / 1024u)), 0);
     uint flags = uint(state.a * 255.0 + 0.5);
     if ((flags & HIDDEN) != 0u) { cull(); return; }
@@ -78,6 +80,7 @@ void main() {
     if (u_palette || (flags & RECOLOURED) != 0u) rgb = state.rgb;
     v_colour = vec4(rgb, opacity);
     v_slot = slot;
+    v_index = a_index;
     v_flags = flags;
     v_offset = a_corner * radius;
     vec2 pixel = centre + v_offset;

@@ -6,6 +6,7 @@
 import { Camera, Controls } from './camera.js';
 import { SplatRenderer } from './splats.js';
 import { Panel } from './panel.js';
+import { Editor } from './edit.js';
 
 const HIDDEN = 1, SELECTED = 2, RECOLOURED = 4, HIGHLIGHT = 8;
 // Re-sort when the viewing direction turns by more than ~0.6° or the camera moves more than
@@ -51,6 +52,7 @@ class Viewer {
     this.selected = new Set();   // object slots
     this.hidden = new Set();
     this.recoloured = new Map(); // slot → [r, g, b]
+    this.box = null;             // the edit box {centre, half_size}, drawn as lines
     this.highlight = -1;
     this.dirty = true;
     this.sortBusy = false;
@@ -87,16 +89,27 @@ class Viewer {
     const along = Math.max(0.1 * this.radius, [0, 1, 2].reduce((s, k) => s + (centre[k] - this.camera.c[k]) * forward[k], 0));
     const target = [0, 1, 2].map((k) => this.camera.c[k] + along * forward[k]);
     this.controls = new Controls(this.canvas, this.camera, this.radius, target, () => this.changed(), (x, y, add) => this.click(x, y, add));
-    this.renderer.setFrusta(this.frustumSegments());
+    this.updateLines();
     window.addEventListener('resize', () => { this.resize(); this.changed(); });
 
     this.worker = new Worker('/assets/sort-worker.js');
     this.worker.onmessage = (e) => this.sorted(e.data);
     this.worker.postMessage({ type: 'init', count: manifest.gaussians });
+    // names suggested by `view --names`, kept when an edit's preview replaces the objects
+    this.suggested = new Map(manifest.objects.filter((o) => o.name !== undefined).map((o) => [o.id, [o.name, o.name_relevancy]]));
+    this.editor = manifest.editing ? new Editor(this, manifest.editing) : null;
+    // with editing, the page shows what the operations make of the run's own ids (the served PLY
+    // may hold ids an earlier apply wrote): asked once everything is loaded
+    this.editsShown = !this.editor;
     this.panel = new Panel(this);
     requestAnimationFrame(() => this.frame());
     this.phase = 'loading Gaussians';
     await this.load();
+    if (!this.editsShown) {
+      this.phase = 'showing the edits';
+      await this.editor.preview(this.editor.ops);
+      this.editsShown = true;
+    }
     this.phase = 'loaded';
   }
 
@@ -121,11 +134,13 @@ class Viewer {
   // Streams the chunks: each is uploaded to the texture, its centres go to the worker.
   async load() {
     const m = this.manifest;
+    this.slotsOfRows = new Uint32Array(m.gaussians);
     for (let k = 0; k < m.chunks; k++) {
       const words = new Uint32Array(await get(`/api/gaussians/${k}.bin`, 60000));
       const offset = k * m.chunk_gaussians;
       const n = words.length / 12;
       this.renderer.uploadChunk(offset, words);
+      for (let i = 0; i < n; i++) this.slotsOfRows[offset + i] = words[12 * i + 3];
       this.worker.postMessage({ type: 'positions', offset, words }, [words.buffer]);
       this.loaded = offset + n;
       this.panel.status(`loaded ${this.loaded.toLocaleString()} / ${m.gaussians.toLocaleString()} Gaussians`);
@@ -184,8 +199,8 @@ class Viewer {
   frame() {
     if (this.dirty) {
       this.dirty = false;
-      this.renderer.draw(this.camera, this.palette, this.frusta);
-      const complete = this.sortedLoaded === this.manifest.gaussians && !this.sortBusy;
+      this.renderer.draw(this.camera, this.palette);
+      const complete = this.sortedLoaded === this.manifest.gaussians && !this.sortBusy && this.editsShown;
       if (complete && !this.ready) {
         this.ready = true;
         this.firstFrameMs = performance.now() - this.t0;
@@ -230,6 +245,17 @@ class Viewer {
     }
   }
 
+  // The lines drawn over the splats: the capture's frusta when shown, and the edit box.
+  updateLines() {
+    const frusta = this.frusta ? this.frustumSegments() : new Float32Array(0);
+    const box = this.box ? boxSegments(this.box) : new Float32Array(0);
+    const lines = new Float32Array(frusta.length + box.length);
+    lines.set(frusta);
+    lines.set(box, frusta.length);
+    this.renderer.setLines(lines);
+    this.dirty = true;
+  }
+
   frustumSegments() {
     const m = this.manifest;
     if (!m.capture_cameras) return new Float32Array(0);
@@ -268,6 +294,9 @@ class Viewer {
       hidden: this.ids(this.hidden),
       palette: this.palette,
       frusta: this.frusta,
+      objects: this.manifest?.objects.map((o) => o.id),
+      names: Object.fromEntries((this.manifest?.objects ?? []).filter((o) => o.edited_name).map((o) => [o.id, o.edited_name])),
+      edits: this.editor?.state() ?? null,
       mode: this.controls?.mode,
       sorts: this.sorts,
       lastSortMs: this.lastSortMs,
@@ -354,13 +383,80 @@ class Viewer {
 
   setFrusta(on) {
     this.frusta = !!on;
-    this.dirty = true;
+    this.updateLines();
     this.panel?.refresh();
   }
 
   setMode(mode) {
     this.controls.mode = mode;
     this.panel?.refresh();
+  }
+
+  // The edit box ({centre: [x, y, z], half_size: [x, y, z]}, world units) shown as lines, or null.
+  setBox(box) {
+    this.box = box ? { centre: box.centre.map(Number), half_size: box.half_size.map(Number) } : null;
+    this.updateLines();
+    this.panel?.refresh();
+  }
+
+  // The box around the centres of objects `ids` (their bounding boxes', a little larger), or null.
+  boxAround(ids) {
+    const objects = ids.map((id) => this.manifest.objects[this.slotOfId.get(id)]).filter((o) => o);
+    if (!objects.length) return null;
+    const lo = [0, 1, 2].map((k) => Math.min(...objects.map((o) => o.bbox_min[k])));
+    const hi = [0, 1, 2].map((k) => Math.max(...objects.map((o) => o.bbox_max[k])));
+    const centre = [0, 1, 2].map((k) => 0.5 * (lo[k] + hi[k]));
+    const half = [0, 1, 2].map((k) => 0.5 * (hi[k] - lo[k]) * 1.02 + 1e-4);
+    return { centre, half_size: half };
+  }
+
+  // Replaces the objects (by slot) and every Gaussian's slot (an edit's preview); the selection,
+  // hidden objects and colours follow their ids.
+  setObjects(objects, slots) {
+    const idsOf = (set) => new Set([...set].map((s) => this.manifest.objects[s]?.id));
+    const [selected, hidden] = [idsOf(this.selected), idsOf(this.hidden)];
+    const recoloured = new Map([...this.recoloured].map(([s, rgb]) => [this.manifest.objects[s]?.id, rgb]));
+    for (const o of objects) {
+      o.edited_name = o.name ?? null;
+      const suggestion = this.suggested.get(o.id);
+      if (!o.name && suggestion) [o.name, o.name_relevancy] = suggestion;
+      if (!o.name) delete o.name;
+    }
+    this.manifest.objects = objects;
+    this.slotOfId = new Map(objects.map((o, slot) => [o.id, slot]));
+    const slotsOf = (ids) => new Set([...ids].map((id) => this.slotOfId.get(id)).filter((s) => s !== undefined));
+    this.selected = slotsOf(selected);
+    this.hidden = slotsOf(hidden);
+    this.recoloured = new Map([...recoloured].filter(([id]) => this.slotOfId.has(id)).map(([id, rgb]) => [this.slotOfId.get(id), rgb]));
+    this.highlight = -1;
+    this.renderer.setObjectCount(objects.length);
+    this.stateBytes = new Uint8Array(4 * objects.length);
+    this.renderer.uploadSlots(0, slots);
+    this.slotsOfRows = slots;
+    this.uploadStates();
+    this.panel?.rebuildTable();
+    this.panel?.refresh();
+  }
+
+  // Rows of the Gaussians of object `id` drawn in front at the pixels inside `polygon` (canvas
+  // pixels, the current view), by the id pass's rule.
+  frontRows(id, polygon) {
+    const slot = this.slotOfId.get(id);
+    const xs = polygon.map((p) => p[0]), ys = polygon.map((p) => p[1]);
+    const x0 = Math.max(0, Math.floor(Math.min(...xs))), y0 = Math.max(0, Math.floor(Math.min(...ys)));
+    const x1 = Math.min(this.canvas.width, Math.ceil(Math.max(...xs))), y1 = Math.min(this.canvas.height, Math.ceil(Math.max(...ys)));
+    if (slot === undefined || x1 <= x0 || y1 <= y0) return [];
+    const [w, h] = [x1 - x0, y1 - y0];
+    const indices = this.renderer.frontIndices(this.camera, x0, y0, w, h);
+    const slots = this.slotsOfRows;
+    const rows = new Set();
+    for (let y = 0; y < h; y++) {
+      for (let x = 0; x < w; x++) {
+        const i = indices[y * w + x];
+        if (i && insidePolygon(x0 + x + 0.5, y0 + y + 0.5, polygon) && slots[i - 1] === slot) rows.add(i - 1);
+      }
+    }
+    return [...rows];
   }
 
   // Moves to capture camera `index` (its intrinsics, scaled to the canvas).
@@ -383,15 +479,21 @@ class Viewer {
     return body.matches;
   }
 
-  // Asks the server to write the selection (`extract`) or everything else (`remove`), with the
-  // token the page was served with (the server refuses changes without it).
+  // Asks the server to write the selection (`extract`), everything else (`remove`), the Gaussians
+  // in the edit box or else the selection's box (`crop`), or every Gaussian coloured by its object
+  // (`coloured`), with the token the page was served with (the server refuses changes without it).
   async exportSelection(mode = 'extract') {
     const ids = this.ids(this.selected);
+    const request = { ids, mode };
+    if (mode === 'crop') {
+      request.box = this.box || this.boxAround(ids);
+      if (!request.box) throw new Error('place a box (Box) or select objects first');
+    }
     const token = document.querySelector('meta[name="splatseg-token"]')?.content ?? '';
     const r = await fetch('/api/export', {
       method: 'POST',
       headers: { 'Content-Type': 'application/json', 'X-Splatseg-Token': token },
-      body: JSON.stringify({ ids, mode }),
+      body: JSON.stringify(request),
     });
     const answer = await r.json();
     if (!r.ok) throw new Error(answer.error || `export failed (${r.status})`);
@@ -431,6 +533,29 @@ class Viewer {
       worker.postMessage({ type: 'bench', count, repeats });
     });
   }
+}
+
+// The 12 edges of an axis-aligned box as xyz pairs.
+function boxSegments(box) {
+  const c = box.centre, h = box.half_size;
+  const corner = (i) => [0, 1, 2].map((k) => c[k] + ((i >> k) & 1 ? h[k] : -h[k]));
+  const out = [];
+  for (let i = 0; i < 8; i++) {
+    for (let k = 0; k < 3; k++) {
+      if (!((i >> k) & 1)) out.push(...corner(i), ...corner(i | (1 << k)));
+    }
+  }
+  return new Float32Array(out);
+}
+
+// Even-odd rule, as `splatseg apply` tests a lasso.
+function insidePolygon(x, y, polygon) {
+  let inside = false;
+  for (let i = 0, j = polygon.length - 1; i < polygon.length; j = i++) {
+    const [xi, yi] = polygon[i], [xj, yj] = polygon[j];
+    if ((yi > y) !== (yj > y) && x < (xj - xi) * (y - yi) / (yj - yi) + xi) inside = !inside;
+  }
+  return inside;
 }
 
 const viewer = new Viewer();

@@ -3,8 +3,9 @@
 use crate::SourceOptions;
 use std::path::PathBuf;
 
-/// Open a labelled scene in the browser: see it, click objects, hide / isolate / recolour them
-/// and export a selection as a PLY.
+/// Open a labelled scene in the browser: see it, click objects, hide / isolate / recolour them,
+/// export a selection, a box crop or the scene coloured by object as a PLY, and fix a run's objects: merge, split by a box or a lasso, rename,
+/// undo, redo, and Save them as the run's edits.json for `splatseg apply`.
 ///
 /// PATH is `splatseg run`'s or `train`'s output folder (e.g. `out/demo/run`), an INRIA 3DGS output
 /// folder, or a file of Gaussians: any 3DGS or compressed PLY, an SPZ, a .splat or a .ksplat, chosen by content (without
@@ -17,6 +18,11 @@ use std::path::PathBuf;
 /// nothing but this scene's files, and writes exports (the same bytes as `splatseg extract` /
 /// `remove`), asked for by its own page only, into --out, or PATH's folder; an export never
 /// replaces a file there (`extract_3.ply` taken: `extract_3-2.ply`).
+///
+/// Editing is on when PATH is a run's output folder (or its gaussians.ply): every edit is shown at
+/// once as `splatseg apply` will make it, and Save writes PATH/edits.json (only from the viewer's
+/// own page; never over an edits.json of another run or one changed on disk meanwhile); the page
+/// starts from the run's edits.json when there is one. Then run `splatseg apply PATH`.
 /// Stop it with Ctrl-C.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]

@@ -11,6 +11,7 @@ pub const ASSETS: &[(&str, &str, &[u8])] = &[
     ("/assets/camera.js", "text/javascript; charset=utf-8", include_bytes!("../assets/camera.js")),
     ("/assets/splats.js", "text/javascript; charset=utf-8", include_bytes!("../assets/splats.js")),
     ("/assets/panel.js", "text/javascript; charset=utf-8", include_bytes!("../assets/panel.js")),
+    ("/assets/edit.js", "text/javascript; charset=utf-8", include_bytes!("../assets/edit.js")),
     ("/assets/sort-worker.js", "text/javascript; charset=utf-8", include_bytes!("../assets/sort-worker.js")),
     ("/assets/splat.vert", "text/plain; charset=utf-8", include_bytes!("../assets/splat.vert")),
     ("/assets/splat.frag", "text/plain; charset=utf-8", include_bytes!("../assets/splat.frag")),

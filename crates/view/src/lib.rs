@@ -15,6 +15,8 @@
 //! - [`access`], [`request`], [`wire`]: who may drive the server (`Host`, the page's token and
 //!   `Origin`), one request → one reply as a pure function, and HTTP/1.1 within fixed limits
 //!   ([`fuzzing`] runs the whole exchange on bytes).
+//! - [`editing`]: merge, split, rename in the page, previewed with `splatseg apply`'s code and
+//!   saved as the run's `edits.json` (`POST /api/edits/preview`, `POST /api/edits`).
 //! - [`search`]: the search box's endpoint (`/api/find?q=`), ranked by a function the caller gives.
 //! - [`browser`]: a minimal WebDriver client for headless Chromium (tests, benchmarks, the
 //!   README's screenshot).
@@ -24,6 +26,9 @@ pub mod args;
 pub mod assets;
 pub mod browser;
 pub mod connections;
+#[cfg(test)]
+mod edit_rules_tests;
+pub mod editing;
 pub mod error;
 pub mod export;
 pub mod fuzzing;

@@ -91,15 +91,23 @@ pub struct Manifest {
     /// True when `/api/find` ranks objects against a text query (left out when false).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub search: bool,
+    /// Editing (a run's output folder, `crate::editing`): the run's identity and the operations
+    /// of its `edits.json` (left out when the served PLY is not a run's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub editing: Option<crate::editing::EditingEntry>,
 }
 
 /// Object slots: `[N]` slot per Gaussian and the object entries by slot (ids ascending).
 pub fn object_slots(g: &Gaussians) -> (Vec<u32>, Vec<ObjectEntry>) {
-    let ids: Vec<i32> = match &g.object_ids {
-        Some(ids) if ids.len() == g.len() => ids.clone(),
-        _ => vec![-1; g.len()],
-    };
-    let mut distinct = ids.clone();
+    match &g.object_ids {
+        Some(ids) if ids.len() == g.len() => slots_of_ids(ids, &g.means),
+        _ => slots_of_ids(&vec![-1; g.len()], &g.means),
+    }
+}
+
+/// [`object_slots`] of `[N]` ids and centres (an edit's preview).
+pub fn slots_of_ids(ids: &[i32], means: &[[f32; 3]]) -> (Vec<u32>, Vec<ObjectEntry>) {
+    let mut distinct = ids.to_vec();
     distinct.sort_unstable();
     distinct.dedup();
     let mut objects: Vec<ObjectEntry> = distinct
@@ -116,7 +124,7 @@ pub fn object_slots(g: &Gaussians) -> (Vec<u32>, Vec<ObjectEntry>) {
         .collect();
     let slots: Vec<u32> = ids
         .iter()
-        .zip(&g.means)
+        .zip(means)
         .map(|(id, p)| {
             let slot = distinct.binary_search(id).unwrap_or(0);
             let o = &mut objects[slot];
@@ -205,6 +213,7 @@ pub fn build(source: &ViewSource, objects: Vec<ObjectEntry>) -> Manifest {
         views,
         export_dir: source.export_dir.display().to_string(),
         search: false,
+        editing: None,
     }
 }
 

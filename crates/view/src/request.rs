@@ -2,7 +2,8 @@
 //! a body reader (the server and the fuzz target call it through [`crate::wire::exchange`]).
 //!
 //! In order: `Host` must name this server ([`Access::host_allowed`], else 403); the body is framed
-//! by one `Content-Length` of at most [`MAX_BODY_BYTES`] (413 without reading a byte, whatever
+//! by one `Content-Length` of at most [`MAX_BODY_BYTES`] ([`MAX_EDITS_BODY_BYTES`] for the
+//! edit endpoints; 413 without reading a byte, whatever
 //! the header claims; `Transfer-Encoding` gets 411); a request that is not `GET` / `HEAD` changes
 //! something and needs the page's token and `Origin` (403 before the body is read), a search
 //! (`/api/find`) the token; then the body
@@ -10,7 +11,9 @@
 //! page with this server's token.
 
 use crate::access::{Access, Refusal, TOKEN_HEADER};
-use crate::routes::{Reply, Site, MAX_BODY_BYTES};
+use crate::routes::{body_limit, Reply, Site};
+#[cfg(doc)]
+use crate::routes::{MAX_BODY_BYTES, MAX_EDITS_BODY_BYTES};
 use crate::search::FIND_PATH;
 use crate::wire::{unreadable, Head};
 use std::borrow::Cow;
@@ -24,11 +27,11 @@ pub fn answer<'a>(site: &'a Site, access: &'a Access, head: &Head, body: &mut dy
     let Some(host) = head.value("host").filter(|h| access.host_allowed(Some(h))) else {
         return refused(Refusal::Host);
     };
-    let length = match body_length(head) {
+    let path = head.target.split(['?', '#']).next().unwrap_or("");
+    let length = match body_length(head, body_limit(path)) {
         Ok(n) => n,
         Err(reply) => return reply,
     };
-    let path = head.target.split(['?', '#']).next().unwrap_or("");
     let reading = matches!(head.method.as_str(), "GET" | "HEAD");
     if !reading {
         if let Err(why) = access.may_change(host, head.value("origin"), head.value(TOKEN_HEADER)) {
@@ -50,8 +53,8 @@ pub fn answer<'a>(site: &'a Site, access: &'a Access, head: &Head, body: &mut dy
     site.respond(&head.method, &head.target, &bytes)
 }
 
-/// The body's length from `Content-Length` (none: 0), or the reply refusing it.
-fn body_length(head: &Head) -> Result<usize, Reply<'static>> {
+/// The body's length from `Content-Length` (none: 0), or the reply refusing it (over `limit`: 413).
+fn body_length(head: &Head, limit: usize) -> Result<usize, Reply<'static>> {
     if head.values("transfer-encoding").next().is_some() {
         return Err(Reply::error(411, "send the body with a Content-Length, not Transfer-Encoding"));
     }
@@ -68,7 +71,7 @@ fn body_length(head: &Head) -> Result<usize, Reply<'static>> {
         length = Some(n);
     }
     match length {
-        Some(n) if n > MAX_BODY_BYTES as u64 => Err(Reply::too_large()),
+        Some(n) if n > limit as u64 => Err(Reply::too_large(limit)),
         Some(n) => Ok(n as usize),
         None => Ok(0),
     }

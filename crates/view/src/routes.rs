@@ -5,6 +5,7 @@
 //! simply not found.
 
 use crate::assets::asset;
+use crate::editing::{preview_body, EditSetup, Editing, PreviewRequest, SaveRequest, SelectRequest};
 use crate::export::{export, ExportRequest};
 use crate::manifest::{self, Manifest};
 use crate::pack::{pack, BYTES_PER_GAUSSIAN, CHUNK_GAUSSIANS};
@@ -15,8 +16,21 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
-/// Largest request body accepted, bytes (an export request is a list of ids).
+/// Largest request body accepted, bytes (an export request is a list of ids), but for edits.
 pub const MAX_BODY_BYTES: usize = 64 * 1024;
+
+/// Largest body of `POST /api/edits` and `/api/edits/preview`, bytes: a page's whole list of
+/// operations (a lasso of 128 vertices is ≈ 3 KB; an `assign` of scattered rows can be long).
+pub const MAX_EDITS_BODY_BYTES: usize = 4 << 20;
+
+/// The largest body accepted at `path`.
+pub fn body_limit(path: &str) -> usize {
+    if path == "/api/edits" || path == "/api/edits/preview" || path == "/api/edits/select" {
+        MAX_EDITS_BODY_BYTES
+    } else {
+        MAX_BODY_BYTES
+    }
+}
 
 /// An HTTP reply.
 #[derive(Debug)]
@@ -56,9 +70,9 @@ impl<'a> Reply<'a> {
         Self::error(404, "not found")
     }
 
-    /// 413: the body is over [`MAX_BODY_BYTES`].
-    pub fn too_large() -> Self {
-        Self::error(413, &format!("request body over {MAX_BODY_BYTES} bytes"))
+    /// 413: the body is over `limit` bytes.
+    pub fn too_large(limit: usize) -> Self {
+        Self::error(413, &format!("request body over {limit} bytes"))
     }
 }
 
@@ -70,6 +84,7 @@ pub struct Site {
     packed: Vec<u8>,
     exports: Mutex<BTreeMap<String, PathBuf>>,
     search: Option<Search>,
+    editing: Option<Editing>,
 }
 
 impl Site {
@@ -79,7 +94,15 @@ impl Site {
         let packed = pack(&source.gaussians, &slots);
         let manifest = manifest::build(&source, objects);
         let manifest_json = serde_json::to_vec(&manifest).unwrap_or_default();
-        Site { source, manifest, manifest_json, packed, exports: Mutex::new(BTreeMap::new()), search: None }
+        Site {
+            source,
+            manifest,
+            manifest_json,
+            packed,
+            exports: Mutex::new(BTreeMap::new()),
+            search: None,
+            editing: None,
+        }
     }
 
     /// The site with a search box: `/api/find?q=` answered by `search` (and `search: true` in the
@@ -104,6 +127,16 @@ impl Site {
         self
     }
 
+    /// Turns editing on (`crate::editing`: `POST /api/edits/preview` and `POST /api/edits`, and
+    /// `editing` in the manifest); `Err` says why it stays off (the served PLY is not the run's).
+    pub fn enable_editing(&mut self, setup: EditSetup) -> Result<(), String> {
+        let editing = Editing::new(&self.source.gaussians, setup)?;
+        self.manifest.editing = Some(editing.entry());
+        self.manifest_json = serde_json::to_vec(&self.manifest).unwrap_or_default();
+        self.editing = Some(editing);
+        Ok(())
+    }
+
     /// The manifest served at `/api/scene.json`.
     pub fn manifest(&self) -> &Manifest {
         &self.manifest
@@ -121,6 +154,9 @@ impl Site {
             "GET" | "HEAD" if path == FIND_PATH => self.find(url),
             "GET" | "HEAD" => self.get(path),
             "POST" if path == "/api/export" => self.export(body),
+            "POST" if path == "/api/edits/preview" => self.preview_edits(body),
+            "POST" if path == "/api/edits" => self.save_edits(body),
+            "POST" if path == "/api/edits/select" => self.select_gaussians(body),
             _ => Reply::not_found(),
         }
     }
@@ -131,12 +167,24 @@ impl Site {
         }
         let parts: Vec<&str> = path.trim_start_matches('/').split('/').collect();
         match parts[..] {
-            ["api", "scene.json"] => Reply::ok("application/json", Cow::Borrowed(&self.manifest_json)),
+            ["api", "scene.json"] => self.scene_json(),
             ["api", "gaussians", chunk] => self.chunk(chunk),
             ["views", view, "overlay.png"] => self.overlay(view),
             ["api", "label", view, x, y] => self.label(view, x, y),
             ["exports", name] => self.exported(name),
             _ => Reply::not_found(),
+        }
+    }
+
+    /// The manifest; with editing, its operations as last saved (a page opened again starts from them).
+    fn scene_json(&self) -> Reply<'_> {
+        match &self.editing {
+            Some(editing) => {
+                let mut manifest = self.manifest.clone();
+                manifest.editing = Some(editing.entry());
+                Reply::ok("application/json", Cow::Owned(serde_json::to_vec(&manifest).unwrap_or_default()))
+            }
+            None => Reply::ok("application/json", Cow::Borrowed(&self.manifest_json)),
         }
     }
 
@@ -187,7 +235,7 @@ impl Site {
 
     fn export(&self, body: &[u8]) -> Reply<'_> {
         if body.len() > MAX_BODY_BYTES {
-            return Reply::too_large();
+            return Reply::too_large(MAX_BODY_BYTES);
         }
         let request: ExportRequest = match serde_json::from_slice(body) {
             Ok(r) => r,
@@ -209,6 +257,92 @@ impl Site {
                 )
             }
             Err(e) => Reply::error(400, &e.to_string()),
+        }
+    }
+
+    fn editing(&self) -> Result<&Editing, Reply<'static>> {
+        self.editing.as_ref().ok_or_else(|| {
+            Reply::error(
+                404,
+                "no editing here: open the output folder of `splatseg run` (its gaussians.ply and cache/run.json)",
+            )
+        })
+    }
+
+    /// The scene's cameras, for lassos drawn in a view.
+    fn cameras(&self) -> Vec<(&splatseg_scene::Camera, &splatseg_scene::Pose)> {
+        self.source
+            .scene
+            .as_ref()
+            .map_or_else(Vec::new, |s| s.views.iter().map(|v| (s.camera(v), &v.world_from_cam)).collect())
+    }
+
+    fn preview_edits(&self, body: &[u8]) -> Reply<'_> {
+        let editing = match self.editing() {
+            Ok(e) => e,
+            Err(reply) => return reply,
+        };
+        let request: PreviewRequest = match serde_json::from_slice(body) {
+            Ok(r) => r,
+            Err(e) => {
+                return Reply::error(
+                    400,
+                    &format!("bad edits preview request (expected {{\"operations\": [...]}}): {e}"),
+                )
+            }
+        };
+        match editing.preview(&self.source.gaussians.means, &self.cameras(), &request.operations) {
+            Ok(preview) => Reply::ok("application/octet-stream", Cow::Owned(preview_body(&preview))),
+            Err(refused) => Reply::error(refused.status, &refused.message),
+        }
+    }
+
+    fn select_gaussians(&self, body: &[u8]) -> Reply<'_> {
+        let editing = match self.editing() {
+            Ok(e) => e,
+            Err(reply) => return reply,
+        };
+        let request: SelectRequest = match serde_json::from_slice(body) {
+            Ok(r) => r,
+            Err(e) => {
+                return Reply::error(
+                    400,
+                    &format!(
+                        "bad selection (expected {{\"operations\": [...], \"objects\": [ids], \"opacity_below\": x, \"size_above\": y}}): {e}"
+                    ),
+                )
+            }
+        };
+        match editing.select(&self.source.gaussians, &self.cameras(), &request) {
+            Ok(ranges) => {
+                let count: u64 = ranges.iter().map(|r| r[1] - r[0]).sum();
+                Reply::json(200, &serde_json::json!({ "ranges": ranges, "count": count }))
+            }
+            Err(refused) => Reply::error(refused.status, &refused.message),
+        }
+    }
+
+    fn save_edits(&self, body: &[u8]) -> Reply<'_> {
+        let editing = match self.editing() {
+            Ok(e) => e,
+            Err(reply) => return reply,
+        };
+        let request: SaveRequest = match serde_json::from_slice(body) {
+            Ok(r) => r,
+            Err(e) => {
+                return Reply::error(
+                    400,
+                    &format!("bad edits (expected {{\"inputs\": {{...}}, \"operations\": [...]}}): {e}"),
+                )
+            }
+        };
+        let operations = request.operations.len();
+        match editing.save(&self.source.gaussians.means, &self.cameras(), request) {
+            Ok(path) => Reply::json(
+                200,
+                &serde_json::json!({ "path": path.display().to_string(), "operations": operations }),
+            ),
+            Err(refused) => Reply::error(refused.status, &refused.message),
         }
     }
 

@@ -6,7 +6,7 @@
 //!
 //! Every read is bounded: a head within [`crate::wire::MAX_HEAD_BYTES`] and [`HEAD_SECS`] of the
 //! connection's start (a connection that has sent nothing by then is closed without a word, one
-//! that sent part of its head gets 408), a body within [`crate::routes::MAX_BODY_BYTES`] whatever
+//! that sent part of its head gets 408), a body within [`crate::routes::body_limit`] (64 KiB, 4 MiB for edits) whatever
 //! its `Content-Length` claims, and a connection gets [`CONNECTION_SECS`] in all. At most
 //! [`MAX_CONNECTIONS`] are open at once: beyond, the connections waiting for their client are
 //! closed for room, oldest first among the peer holding the most ([`crate::connections`]), so
