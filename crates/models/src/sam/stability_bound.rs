@@ -28,7 +28,12 @@ struct Window {
 #[derive(Debug, Clone)]
 pub struct StabilityBound {
     rows: Vec<Window>,
+    /// The column runs that read something.
     cols: Vec<Window>,
+    /// Output columns that read nothing (their logits are 0).
+    empty_col_outputs: u64,
+    /// Output columns in all.
+    col_outputs: u64,
     low_size: (usize, usize),
 }
 
@@ -54,7 +59,16 @@ impl StabilityBound {
     /// makes them) from `low_size` = (height, width); `None` when an axis is not a weighted mean of
     /// its inputs (the generator then upscales every mask).
     pub fn new(rows: &AxisTaps, cols: &AxisTaps, low_size: (usize, usize)) -> Option<StabilityBound> {
-        Some(StabilityBound { rows: runs(rows, low_size.0)?, cols: runs(cols, low_size.1)?, low_size })
+        let all_cols = runs(cols, low_size.1)?;
+        let col_outputs = all_cols.iter().map(|w| w.outputs).sum();
+        let (cols, empty): (Vec<Window>, Vec<Window>) = all_cols.into_iter().partition(|w| w.first <= w.last);
+        Some(StabilityBound {
+            rows: runs(rows, low_size.0)?,
+            cols,
+            empty_col_outputs: empty.iter().map(|w| w.outputs).sum(),
+            col_outputs,
+            low_size,
+        })
     }
 
     /// Whether the stability score (threshold 0, `offset`) of `low` `[lh·lw]` upscaled is surely
@@ -79,37 +93,41 @@ impl StabilityBound {
         }
         let (above_high, above_low) = (offset - margin, -offset + margin);
         let (mut col_max, mut col_min) = (vec![0f32; lw], vec![0f32; lw]);
+        // per low-resolution column, prefix counts of the columns whose maximum may pass +offset
+        // and of those whose minimum may not pass −offset
+        let (mut may_pass_high, mut may_fail_low) = (vec![0u32; lw + 1], vec![0u32; lw + 1]);
         let (mut intersection_at_most, mut union_at_least) = (0u64, 0u64);
         for rows in &self.rows {
-            // per low-resolution column, the extremes over the run's rows (0 when it reads none)
-            let reads_none = rows.first > rows.last;
-            col_max.fill(if reads_none { 0.0 } else { f32::MIN });
-            col_min.fill(if reads_none { 0.0 } else { f32::MAX });
-            for r in rows.first..=rows.last {
+            if rows.first > rows.last {
+                // these outputs read nothing: logits 0, in the union only
+                union_at_least += rows.outputs * self.col_outputs;
+                continue;
+            }
+            col_max.copy_from_slice(&low[rows.first * lw..(rows.first + 1) * lw]);
+            col_min.copy_from_slice(&col_max);
+            for r in rows.first + 1..=rows.last {
                 let row = &low[r * lw..(r + 1) * lw];
                 for ((hi, lo), &v) in col_max.iter_mut().zip(col_min.iter_mut()).zip(row) {
                     *hi = hi.max(v);
                     *lo = lo.min(v);
                 }
             }
+            for c in 0..lw {
+                may_pass_high[c + 1] = may_pass_high[c] + u32::from(col_max[c] > above_high);
+                may_fail_low[c + 1] = may_fail_low[c] + u32::from(col_min[c] <= above_low);
+            }
+            let (mut high_cols, mut low_cols) = (0u64, self.empty_col_outputs);
             for cols in &self.cols {
-                let (hi, lo) = if cols.first > cols.last {
-                    (0.0, 0.0)
-                } else {
-                    let span = cols.first..=cols.last;
-                    (
-                        col_max[span.clone()].iter().fold(f32::MIN, |m, &v| m.max(v)),
-                        col_min[span].iter().fold(f32::MAX, |m, &v| m.min(v)),
-                    )
-                };
-                let pixels = rows.outputs * cols.outputs;
-                if hi > above_high {
-                    intersection_at_most += pixels;
+                let (first, end) = (cols.first, cols.last + 1);
+                if may_pass_high[end] != may_pass_high[first] {
+                    high_cols += cols.outputs;
                 }
-                if lo > above_low {
-                    union_at_least += pixels;
+                if may_fail_low[end] == may_fail_low[first] {
+                    low_cols += cols.outputs;
                 }
             }
+            intersection_at_most += rows.outputs * high_cols;
+            union_at_least += rows.outputs * low_cols;
         }
         // No pixel can be above +offset: the score is 0 (or NaN), below any positive threshold.
         intersection_at_most == 0 || (intersection_at_most as f32 / union_at_least as f32) < thresh
