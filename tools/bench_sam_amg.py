@@ -12,7 +12,7 @@ What it does, in WORKDIR (default /tmp/bench_sam_amg):
    folder around it (`transforms.json` + `images/view_000.png`);
 3. runs, each in its own process with 2 threads: the reference's `SamAutomaticMaskGenerator(model)
    .generate(image)` with default settings (32×32 points, no crops), then
-   `splatseg cues SCENE --out OUT --sam CKPT --max-views 1 --no-log` (whole process, fresh OUT);
+   `splatseg cues SCENE --out OUT --sam CKPT` (whole process, fresh OUT; the scene has one view);
 4. prints both wall times, the ratio, each process's peak resident memory (from `wait4`), the mask
    counts, and splatseg's per-stage split (from its log).
 
@@ -179,7 +179,7 @@ def main():
     results = {}
     out_dir = os.path.join(args.workdir, f"cues_{args.model}")
     subprocess.run(["rm", "-rf", out_dir], check=True)
-    cmd = [args.splatseg, "cues", scene, "--out", out_dir, "--sam", checkpoint, "--max-views", "1", "--no-log"]
+    cmd = [args.splatseg, "cues", scene, "--out", out_dir, "--sam", checkpoint]
     stats, out, log = measured_child(cmd, env)
     with open(os.path.join(out_dir, "sam", "view_000.json")) as f:
         written = json.load(f)

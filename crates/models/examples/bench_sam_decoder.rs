@@ -9,9 +9,9 @@
 //! head, 64 by default) in chunks of CHUNK (the automatic mask generator's, by default) in parallel
 //! over the rayon pool, then upscales all three multimask outputs of
 //! the first UPSCALED prompts (8 by default) to the low-resolution logits, then runs the automatic mask
-//! generator's per-mask post-processing on those masks (upscale to a 1280×960 image, stability score,
-//! threshold, box, RLE). Prints the time of each step and a checksum of the outputs (to compare two
-//! builds; the inputs are deterministic).
+//! generator's per-mask post-processing on those masks (the low-resolution stability bound, upscale to
+//! a 1280×960 image, stability score, box, RLE), timing each part. Prints the time of each step and a
+//! checksum of the outputs (to compare two builds; the inputs are deterministic).
 
 use std::path::Path;
 use std::time::Instant;
@@ -21,6 +21,7 @@ use rayon::prelude::*;
 use splatseg_models::sam::amg::DECODER_CHUNK;
 use splatseg_models::sam::mask_output::{positive_box, positive_rle, MaskScratch};
 use splatseg_models::sam::masks::stability_score;
+use splatseg_models::sam::stability_bound::StabilityBound;
 use splatseg_models::sam::{ImageEmbedding, Sam};
 
 /// Deterministic values in (−1, 1) (the same in every build, so checksums compare).
@@ -91,27 +92,50 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         lows.len(),
         masks.as_secs_f64() * 1e3 / lows.len().max(1) as f64
     );
-    // the automatic mask generator's per-mask steps: upscale to the image, stability score,
-    // threshold, box, run-length encoding
+    // the automatic mask generator's per-mask steps: the low-resolution stability bound, upscale to the
+    // image, stability score, threshold and box, run-length encoding; each timed on its own
     let (rows, cols) = model.upscale_taps(&image, (256, 256));
+    let bound = StabilityBound::new(&rows, &cols, (256, 256));
+    let nanos = |t: Instant| t.elapsed().as_nanos() as u64;
     let t = Instant::now();
-    let areas: Vec<u64> = lows
+    let per_mask: Vec<[u64; 6]> = lows
         .par_iter()
         .flat_map(|low| low.par_chunks(256 * 256))
         .map_init(MaskScratch::default, |scratch, low| {
+            let s = Instant::now();
+            let surely_unstable = bound.as_ref().is_some_and(|b| b.surely_unstable(low, 1.0, 0.95));
+            let bound_ns = nanos(s);
+            let s = Instant::now();
             let logits = scratch.upscale(low, &rows, &cols, (256, 256));
+            let upscale_ns = nanos(s);
+            let s = Instant::now();
             let stability = stability_score(logits, 0.0, 1.0);
+            let stability_ns = nanos(s);
+            let s = Instant::now();
             let bbox = positive_box(logits, width);
+            let box_ns = nanos(s);
+            let s = Instant::now();
             let rle = positive_rle(logits, &[0, 0, width, height], (height, width));
-            rle.area() + (stability.is_nan() as u64) + bbox[0] as u64
+            let rle_ns = nanos(s);
+            let checksum = rle.area() + (stability.is_nan() as u64) + bbox[0] as u64 + surely_unstable as u64;
+            [bound_ns, upscale_ns, stability_ns, box_ns, rle_ns, checksum]
         })
         .collect();
     let post = t.elapsed();
+    let n = per_mask.len().max(1) as f64;
+    let mean_ms = |i: usize| per_mask.iter().map(|p| p[i]).sum::<u64>() as f64 / n / 1e6;
     println!(
-        "post-processing of {} masks at {width}x{height}: {post:.3?}, {:.2} ms per mask",
-        areas.len(),
-        post.as_secs_f64() * 1e3 / areas.len().max(1) as f64
+        "post-processing of {} masks at {width}x{height}: {post:.3?}, {:.2} ms per mask; per mask (thread time): \
+         low-resolution stability bound {:.3} ms, upscaling {:.3} ms, stability {:.3} ms, box {:.3} ms, RLE {:.3} ms",
+        per_mask.len(),
+        post.as_secs_f64() * 1e3 / n,
+        mean_ms(0),
+        mean_ms(1),
+        mean_ms(2),
+        mean_ms(3),
+        mean_ms(4)
     );
+    let areas: Vec<u64> = per_mask.iter().map(|p| p[5]).collect();
     let iou_sum: f64 = ious.iter().flatten().map(|&v| v as f64).sum();
     let logit_sum: f64 = lows.iter().flatten().map(|&v| v as f64).sum();
     println!("checksum: IoU sum {iou_sum:.6}, logit sum {logit_sum:.4}, areas {}", areas.iter().sum::<u64>());

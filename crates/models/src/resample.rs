@@ -97,6 +97,29 @@ impl AxisTaps {
     pub fn out_len(&self) -> usize {
         self.starts.len()
     }
+
+    /// Per output sample, the first and last input index it reads with a non-zero weight (`None`
+    /// for an output that reads nothing), or `None` when some output's weights are negative or sum
+    /// to more than one: then an output may lie outside the range of the inputs it reads (bicubic),
+    /// which is what callers of this rely on.
+    pub fn convex_windows(&self) -> Option<Vec<Option<(usize, usize)>>> {
+        let taps = self.taps_per_output;
+        let convex = |w: &[f32]| w.iter().all(|&v| v >= 0.0) && w.iter().sum::<f32>() <= 1.0 + 1e-5;
+        if !self.weights.chunks_exact(taps).all(convex) {
+            return None;
+        }
+        Some(
+            self.starts
+                .iter()
+                .zip(self.weights.chunks_exact(taps))
+                .map(|(&start, w)| {
+                    let first = w.iter().position(|&v| v > 0.0)?;
+                    let last = w.iter().rposition(|&v| v > 0.0)?;
+                    Some((start + first, start + last))
+                })
+                .collect(),
+        )
+    }
 }
 
 fn taps_of(axis: AxisResize, mode: Resample, o: usize) -> Vec<(usize, f64)> {

@@ -13,6 +13,9 @@ mod ksplat;
 mod quantise;
 mod splat;
 mod spz;
+mod spz_decode;
+#[cfg(test)]
+mod spz_tests;
 
 use crate::error::{SceneError, SceneResult};
 use crate::gaussians::Gaussians;
@@ -130,14 +133,30 @@ pub fn read_gaussian_rows_with_format(path: &Path) -> SceneResult<(SplatFormat, 
     std::fs::File::open(path).and_then(|f| f.take(DETECT_BYTES as u64).read_to_end(&mut head)).map_err(io)?;
     let format =
         SplatFormat::detect(&head, path).map_err(|reason| SceneError::invalid(ANY_FORMAT, path, reason))?;
-    if format == SplatFormat::Ply {
-        return Ok((format, crate::ply::read_ply_rows(path)?));
+    match format {
+        SplatFormat::Ply => return Ok((format, crate::ply::read_ply_rows(path)?)),
+        SplatFormat::Spz => return Ok((format, PlyRows::new(read_spz_file(path)?).in_format(spz::FORMAT))),
+        _ => {}
     }
     let bytes = std::fs::read(path).map_err(io)?;
     let g =
         parse_compact(format, &bytes).map_err(|reason| SceneError::invalid(format.name(), path, reason))?;
-    Ok((format, PlyRows::new(g)))
+    Ok((format, PlyRows::new(g).in_format(format.name())))
 }
+
+/// An SPZ file's Gaussians, read through a buffer as it inflates (never held whole in memory).
+fn read_spz_file(path: &Path) -> SceneResult<Gaussians> {
+    let io = |e| SceneError::io("cannot read", path, e);
+    let file = std::fs::File::open(path).map_err(io)?;
+    let file_len = file.metadata().map_err(io)?.len();
+    let g = spz::read_spz(std::io::BufReader::with_capacity(READ_BUFFER_BYTES, file), file_len)
+        .and_then(|g| g.validate_structure().map(|()| g))
+        .map_err(|reason| SceneError::invalid(spz::FORMAT, path, reason))?;
+    Ok(g)
+}
+
+/// Bytes of a compressed file read at a time.
+const READ_BUFFER_BYTES: usize = 256 * 1024;
 
 /// Decodes the bytes of a file in `format` and checks their structure.
 fn parse_compact(format: SplatFormat, bytes: &[u8]) -> Result<Gaussians, String> {
@@ -157,7 +176,7 @@ fn parse_compact(format: SplatFormat, bytes: &[u8]) -> Result<Gaussians, String>
 pub fn parse_gaussian_bytes_rows(format: SplatFormat, bytes: &[u8]) -> Result<PlyRows, String> {
     match format {
         SplatFormat::Ply => crate::ply::parse_ply_bytes_rows(bytes),
-        _ => Ok(PlyRows::new(parse_compact(format, bytes)?)),
+        _ => Ok(PlyRows::new(parse_compact(format, bytes)?).in_format(format.name())),
     }
 }
 

@@ -5,7 +5,8 @@
 
 use splatseg_scene::gaussians::SH_C0;
 use splatseg_scene::splats::{
-    read_gaussian_rows_with_format, read_gaussians, to_gaussian_bytes, write_gaussians, SplatFormat,
+    read_gaussian_rows, read_gaussian_rows_with_format, read_gaussians, to_gaussian_bytes, write_gaussians,
+    SplatFormat,
 };
 use splatseg_scene::Gaussians;
 use std::path::{Path, PathBuf};
@@ -223,6 +224,29 @@ fn bad_spz_files_are_clear_errors_naming_the_file() {
     // Version 4 keeps its header outside the compression.
     read_error("v4.spz", &spz_header(4, 1, 0, 0), &["version 4", "--spz-version 3"]);
     read_error("what.bin", b"hello, world", &["not a Gaussian splat file"]);
+}
+
+#[test]
+fn strict_refusals_of_a_compact_file_name_its_format_not_the_ply() {
+    // Two .splat rows: the first with a NaN x, the second with a zero rotation (bytes 128).
+    let mut bytes = Vec::new();
+    for (x, rotation) in [(f32::NAN, [255, 128, 128, 128]), (1.0, [128; 4])] {
+        for v in [x, 0.0, 0.0, 0.1, 0.1, 0.1] {
+            bytes.extend_from_slice(&f32::to_le_bytes(v));
+        }
+        bytes.extend_from_slice(&[128, 128, 128, 200]);
+        bytes.extend_from_slice(&rotation);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("odd.splat");
+    std::fs::write(&path, &bytes).unwrap();
+    let mut rows = read_gaussian_rows(&path).unwrap();
+    let err = rows.refuse_skipped(&path).unwrap_err().to_string();
+    assert!(err.contains(".splat") && err.contains("non-finite") && !err.contains("PLY"), "{err}");
+    rows.gaussians.means[0][0] = 0.0;
+    rows.non_finite.clear();
+    let err = rows.refuse_skipped(&path).unwrap_err().to_string();
+    assert!(err.contains(".splat") && err.contains("Gaussian 1 has") && !err.contains("PLY"), "{err}");
 }
 
 #[test]

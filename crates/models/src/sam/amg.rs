@@ -5,6 +5,7 @@
 //! Memory stays bounded: points go through the decoder in small chunks, and each mask is upscaled,
 //! scored and run-length encoded on its own (no batch of full-resolution logits is materialised).
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -16,6 +17,7 @@ use splatseg_scene::Plane;
 use super::mask_output::{positive_box, positive_rle, MaskScratch};
 use super::masks::{mask_box, near_crop_edge, nms, remove_small_regions, stability_score, RegionKind};
 use super::shared_decoder::DecoderImage;
+use super::stability_bound::StabilityBound;
 use super::{ImageEmbedding, Sam};
 use crate::error::{ModelsError, ModelsResult};
 
@@ -222,17 +224,36 @@ fn process_crop(
         )?);
         on_batch(1);
     }
+    let started = Instant::now();
+    let boxes: Vec<[f32; 4]> = found.iter().map(|c| c.box_xyxy).collect();
+    let scores: Vec<f32> = found.iter().map(|c| c.iou).collect();
+    let found_count = found.len();
+    let mut kept = take(found, &nms(&boxes, &scores, config.box_nms_thresh));
+    timing.nms = started.elapsed().as_secs_f64();
+    let parts = &timing.parts;
     tracing::debug!(
-        "SAM crop {crop:?}: encoder {:.2} s, decoder {:.2} s ({} points, {} masks upscaled), post-processing {:.2} s",
+        "SAM crop {crop:?}: encoder {:.2} s, decoder {:.2} s ({} points in {} batches, {:.3} s per batch; {} \
+         masks past the IoU filter), post-processing {:.2} s (thread-seconds: low-resolution stability bound {:.2}, \
+         upscaling {:.2}, stability {:.2}, box and crop edge {:.2}, RLE {:.2}; {} dropped by the bound, {} \
+         stable, {} away from crop edges), NMS {:.4} s ({} kept)",
         timing.encoder,
         timing.decoder,
         points.len(),
+        timing.batches,
+        timing.decoder / timing.batches.max(1) as f64,
         timing.upscaled,
-        timing.post
+        timing.post,
+        MaskPartTimes::seconds(&parts.low_res_bound),
+        MaskPartTimes::seconds(&parts.upscale),
+        MaskPartTimes::seconds(&parts.stability),
+        MaskPartTimes::seconds(&parts.boxes),
+        MaskPartTimes::seconds(&parts.rle),
+        timing.surely_unstable,
+        timing.stable,
+        found_count,
+        timing.nms,
+        kept.len()
     );
-    let boxes: Vec<[f32; 4]> = found.iter().map(|c| c.box_xyxy).collect();
-    let scores: Vec<f32> = found.iter().map(|c| c.iou).collect();
-    let mut kept = take(found, &nms(&boxes, &scores, config.box_nms_thresh));
     for c in &mut kept {
         let (dx, dy) = (crop[0] as f32, crop[1] as f32);
         c.box_xyxy = [c.box_xyxy[0] + dx, c.box_xyxy[1] + dy, c.box_xyxy[2] + dx, c.box_xyxy[3] + dy];
@@ -241,25 +262,66 @@ fn process_crop(
     Ok(kept)
 }
 
-/// Seconds spent per stage of one crop, for the log.
+/// Seconds spent per stage of one crop, for the log (`RUST_LOG=splatseg_models=debug`): the profile
+/// of issue 62. The per-mask parts run in parallel, so they are thread-seconds summed over the workers.
 #[derive(Debug, Default)]
 struct StageTimes {
     /// Image encoder and the decoder's per-image work.
     encoder: f64,
     /// Transformer, IoU head and the low-resolution masks that pass the predicted-IoU filter.
     decoder: f64,
-    /// Upscaling to the image, stability, boxes, run-length encoding.
+    /// Batches of points decoded.
+    batches: usize,
+    /// Wall time of the per-mask work (upscaling, thresholds, stability, boxes, RLE).
     post: f64,
+    /// The per-mask parts, in thread-seconds.
+    parts: MaskPartTimes,
+    /// Box NMS within the crop.
+    nms: f64,
     /// Masks that passed the predicted-IoU filter.
     upscaled: usize,
+    /// Masks the stability bound dropped before upscaling.
+    surely_unstable: usize,
+    /// Masks that also passed the stability filter.
+    stable: usize,
+}
+
+/// Thread-nanoseconds of each per-mask part, summed by the workers.
+#[derive(Debug, Default)]
+struct MaskPartTimes {
+    /// The stability bound read from the low-resolution logits.
+    low_res_bound: AtomicU64,
+    /// Upscaling the low-resolution logits to the image.
+    upscale: AtomicU64,
+    /// The stability score.
+    stability: AtomicU64,
+    /// The box of `logits > 0` and the crop-edge test.
+    boxes: AtomicU64,
+    /// The column-major RLE of `logits > 0`.
+    rle: AtomicU64,
+}
+
+impl MaskPartTimes {
+    /// Adds the time since `since` to `part` and restarts the clock.
+    fn lap(part: &AtomicU64, since: &mut Instant) {
+        let now = Instant::now();
+        part.fetch_add((now - *since).as_nanos() as u64, Ordering::Relaxed);
+        *since = now;
+    }
+
+    fn seconds(part: &AtomicU64) -> f64 {
+        part.load(Ordering::Relaxed) as f64 * 1e-9
+    }
 }
 
 /// One batch of points: decode, keep confident and stable masks away from inner crop edges.
 /// Boxes and points of the result are still in crop coordinates; masks are over the whole image.
 ///
 /// The predicted-IoU filter runs on the decoder's IoU head before any mask is formed (the reference
-/// drops those masks before looking at them, so the result is the same); only the masks that pass are
-/// upscaled, scored, and run-length encoded only if they are kept.
+/// drops those masks before looking at them, so the result is the same); of the masks that pass, those
+/// whose stability score is surely below the threshold, read from the low-resolution logits
+/// ([`StabilityBound`]), are dropped without being upscaled (the reference drops them after: same
+/// result); the rest are upscaled and scored, and run-length encoded only if they are kept.
 #[allow(clippy::too_many_arguments)]
 fn process_batch(
     sam: &Sam,
@@ -274,6 +336,7 @@ fn process_batch(
     let started = Instant::now();
     let (candidates, low_size) = decode_low_res(sam, image, prepared, points, config.pred_iou_thresh)?;
     timing.decoder += started.elapsed().as_secs_f64();
+    timing.batches += 1;
     timing.upscaled += candidates.len();
     if candidates.is_empty() {
         return Ok(Vec::new());
@@ -282,23 +345,41 @@ fn process_batch(
     let (rows, cols) = sam.upscale_taps(image, low_size);
     let (ch, cw) = image.original_size;
     let image_box = [0, 0, width, height];
+    let parts = &timing.parts;
+    let bound = StabilityBound::new(&rows, &cols, low_size);
+    let (stable, surely_unstable) = (AtomicU64::new(0), AtomicU64::new(0));
+    let (offset, thresh) = (config.stability_score_offset, config.stability_score_thresh);
     let kept: Vec<Option<Candidate>> = candidates
         .par_iter()
         .map_init(MaskScratch::default, |scratch, (point, _, low, iou)| {
-            let logits = scratch.upscale(low, &rows, &cols, low_size);
-            let stability = stability_score(logits, 0.0, config.stability_score_offset);
-            // NaN (empty union) fails too, as in the reference
-            let stable = stability >= config.stability_score_thresh;
-            if !stable {
+            let mut clock = Instant::now();
+            let dropped = bound.as_ref().is_some_and(|b| b.surely_unstable(low, offset, thresh));
+            MaskPartTimes::lap(&parts.low_res_bound, &mut clock);
+            if dropped {
+                surely_unstable.fetch_add(1, Ordering::Relaxed);
                 return None;
             }
+            let logits = scratch.upscale(low, &rows, &cols, low_size);
+            MaskPartTimes::lap(&parts.upscale, &mut clock);
+            let stability = stability_score(logits, 0.0, offset);
+            MaskPartTimes::lap(&parts.stability, &mut clock);
+            // NaN (empty union) fails too, as in the reference
+            let passes = stability >= thresh;
+            if !passes {
+                return None;
+            }
+            stable.fetch_add(1, Ordering::Relaxed);
             let box_in_crop = positive_box(logits, cw);
-            if near_crop_edge(&box_in_crop, crop, &image_box, 20.0) {
+            let near_edge = near_crop_edge(&box_in_crop, crop, &image_box, 20.0);
+            MaskPartTimes::lap(&parts.boxes, &mut clock);
+            if near_edge {
                 return None;
             }
             debug_assert_eq!(logits.len(), cw * ch);
+            let rle = positive_rle(logits, crop, (height, width));
+            MaskPartTimes::lap(&parts.rle, &mut clock);
             Some(Candidate {
-                rle: positive_rle(logits, crop, (height, width)),
+                rle,
                 box_xyxy: box_in_crop,
                 iou: *iou,
                 stability,
@@ -308,6 +389,8 @@ fn process_batch(
         })
         .collect();
     timing.post += started.elapsed().as_secs_f64();
+    timing.stable += stable.into_inner() as usize;
+    timing.surely_unstable += surely_unstable.into_inner() as usize;
     Ok(kept.into_iter().flatten().collect())
 }
 

@@ -17,6 +17,7 @@ pub mod prompt_encoder;
 pub mod rel_pos_attention;
 mod second_block;
 pub mod shared_decoder;
+pub mod stability_bound;
 pub mod tiny_vit;
 
 use std::path::Path;

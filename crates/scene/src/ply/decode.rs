@@ -39,6 +39,8 @@ pub struct PlyRows {
     /// `[j]` ascending indices of the finite Gaussians with a zero rotation quaternion or a scale
     /// too large to have a covariance ([`Gaussians::degenerate_rows`]).
     pub degenerate: Vec<usize>,
+    /// The name of the file's format, as errors say it (a 3DGS PLY unless [`PlyRows::in_format`]).
+    format: &'static str,
 }
 
 impl PlyRows {
@@ -46,7 +48,13 @@ impl PlyRows {
         let non_finite = gaussians.non_finite_rows();
         let mut degenerate = gaussians.degenerate_rows();
         degenerate.retain(|i| non_finite.binary_search(i).is_err());
-        PlyRows { gaussians, non_finite, degenerate }
+        PlyRows { gaussians, non_finite, degenerate, format: FORMAT }
+    }
+
+    /// The rows, read from a file in the format named `format` (what [`PlyRows::refuse_skipped`]
+    /// names).
+    pub(crate) fn in_format(self, format: &'static str) -> Self {
+        PlyRows { format, ..self }
     }
 
     /// How many rows are skipped (non-finite or degenerate).
@@ -99,16 +107,16 @@ impl PlyRows {
     }
 
     /// The error [`read_ply`] gives for a file with non-finite rows, or a degenerate one, or
-    /// `Ok` when every row is usable (what `--strict` asks for).
+    /// `Ok` when every row is usable (what `--strict` asks for); it names the file's format.
     pub fn refuse_skipped(&self, path: &Path) -> SceneResult<()> {
         if let Some(reason) = self.gaussians.first_non_finite() {
-            return Err(SceneError::invalid(FORMAT, path, reason));
+            return Err(SceneError::invalid(self.format, path, reason));
         }
         match self.degenerate.first() {
             Some(&i) => {
                 let g = &self.gaussians;
                 let why = degenerate_shape(g.log_scales[i], g.rotations[i]).unwrap_or("a degenerate shape");
-                Err(SceneError::invalid(FORMAT, path, format!("Gaussian {i} has {why}")))
+                Err(SceneError::invalid(self.format, path, format!("Gaussian {i} has {why}")))
             }
             None => Ok(()),
         }

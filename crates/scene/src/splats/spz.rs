@@ -13,12 +13,14 @@
 //! y·z change sign. Writing makes version 3 with 12 fractional bits (positions within ±2048) and
 //! SH bands 1 at 5 bits and 2–3 at 4 bits, as the reference library does by default.
 
-use super::quantise::{logit_of_byte, sh_rest_to_coefficient_major, sigmoid, to_u8};
+use super::quantise::{sh_rest_to_coefficient_major, sigmoid, to_u8};
+use super::spz_decode::{BodyShape, Rows, RowsOf, Section, SpzDecoder, COLOUR_SCALE, SH_FLIP, SQRT1_2};
 use crate::gaussians::{sh_coeffs_for_degree, Gaussians};
-use flate2::read::GzDecoder;
+use flate2::bufread::GzDecoder;
 use flate2::write::GzEncoder;
-use rayon::prelude::*;
-use std::io::{Read, Write};
+use std::cell::Cell;
+use std::io::{BufRead, Read, Write};
+use std::sync::mpsc::{self, TrySendError};
 
 /// Format name used in error messages.
 pub(crate) const FORMAT: &str = "SPZ";
@@ -32,19 +34,21 @@ const HEADER_BYTES: usize = 16;
 /// Header flag: trained with antialiasing (kept by nothing in splatseg, accepted).
 const FLAG_ANTIALIASED: u8 = 0x1;
 
-/// DC colours are stored as `f_dc · COLOUR_SCALE`, a smaller factor than SH_C0 so that colours a
-/// little outside [0, 1] survive.
-const COLOUR_SCALE: f32 = 0.15;
-
 /// Fractional bits of the positions the writer makes (≈ 0.24 mm).
 const WRITE_FRACTIONAL_BITS: u8 = 12;
 
-/// 1/√2: the largest magnitude the three smallest components of a unit quaternion can have.
-const SQRT1_2: f32 = std::f32::consts::FRAC_1_SQRT_2;
+/// Bytes of the body the reader inflates at a time (whole elements of one section, so a little
+/// less): small enough to stay in the caches between the inflating and the decoding thread, large
+/// enough that handing one over costs nothing.
+pub(super) const CHUNK_BYTES: usize = 1 << 20;
 
-/// Sign of each SH rest coefficient `k` (INRIA order, bands 1–3) under the 180° turn about x
-/// between SPZ's frame and the PLY's: −1 where the basis function is odd in y and z together.
-const SH_FLIP: [f32; 15] = [-1., -1., 1., -1., 1., 1., -1., 1., -1., 1., -1., -1., 1., -1., 1.];
+/// Chunks inflated ahead of the decoding thread; when that many wait, the inflating thread
+/// decodes the next chunk itself.
+const CHUNKS_IN_FLIGHT: usize = 2;
+
+/// The most bytes deflate inflates from one compressed byte (a 258-byte match coded in 2 bits):
+/// a file of `L` bytes cannot hold a body longer than `1032 · L`.
+const DEFLATE_MAX_RATIO: u64 = 1032;
 
 /// The 16-byte header.
 #[derive(Clone, Copy, Debug)]
@@ -101,6 +105,14 @@ impl Header {
         sh_coeffs_for_degree(self.sh_degree) - 1
     }
 
+    fn body_shape(&self) -> BodyShape {
+        BodyShape {
+            fractional_bits: self.fractional_bits,
+            rotation_bytes: self.rotation_bytes(),
+            rest_per_channel: self.rest_per_channel(),
+        }
+    }
+
     /// Bytes per Gaussian after the header.
     fn row_bytes(&self) -> usize {
         9 + 1 + 3 + 3 + self.rotation_bytes() + 3 * self.rest_per_channel()
@@ -112,158 +124,189 @@ pub(crate) fn is_gzip(bytes: &[u8]) -> bool {
     bytes.starts_with(&[0x1f, 0x8b])
 }
 
-/// Decodes a whole `.spz` file. Each attribute is decoded (in parallel) while the stream goes on
-/// inflating the next, and the SH rest chunk by chunk, so reading takes little more than inflating.
-/// Sizes are checked before any per-Gaussian array is made: an attribute is read up to the size
-/// the header declares and no further, and its array is made once its bytes have arrived (the SH
-/// array once the 20 bytes of every Gaussian's other attributes have), so a small file declaring
-/// many Gaussians is an error, not an allocation. The stream is then drained to check gzip's CRC.
+/// Decodes a whole `.spz` file held in memory; see [`read_spz`].
 pub(crate) fn parse_spz(file: &[u8]) -> Result<Gaussians, String> {
     if !is_gzip(file) {
         return Err("not a gzip stream (SPZ files start with bytes 1f 8b)".to_string());
     }
+    read_spz(file, file.len() as u64)
+}
+
+/// Decodes an SPZ file of `file_len` bytes read from `file` (a gzip stream); see
+/// [`read_spz_in_chunks`].
+pub(crate) fn read_spz<R: BufRead>(file: R, file_len: u64) -> Result<Gaussians, String> {
+    read_spz_in_chunks(file, file_len, CHUNK_BYTES)
+}
+
+/// Decodes an SPZ file of `file_len` bytes read from `file` (a gzip stream). The Gaussians' arrays
+/// are made first, for the count the header declares once the file is long enough to inflate to
+/// that many (deflate expands at most 1032×; a file too short for its count is inflated to the end
+/// to say where it stops, allocating nothing); they stay untouched (zeroed pages from the system)
+/// until decoded. Then this thread inflates the body `chunk_bytes` at a time (whole elements of
+/// one attribute section) and a second thread decodes the chunks straight into the arrays, handing
+/// the buffers back to be filled again, so the inflater writes into memory that stays in the
+/// caches; when the decoding thread falls behind, the inflating one decodes the next chunk itself.
+/// The stream is then drained to check gzip's CRC.
+pub(super) fn read_spz_in_chunks<R: BufRead>(
+    file: R,
+    file_len: u64,
+    chunk_bytes: usize,
+) -> Result<Gaussians, String> {
     let mut stream = GzDecoder::new(file);
     let mut head = Vec::with_capacity(HEADER_BYTES);
     (&mut stream).take(HEADER_BYTES as u64).read_to_end(&mut head).map_err(gzip_error)?;
     let header = Header::parse(&head)?;
-    let n = header.count;
-    let k = header.rest_per_channel();
-    let mut g = Gaussians { sh_degree: header.sh_degree, ..Gaussians::default() };
-    let Gaussians { means, sh_dc, sh_rest, raw_opacities, log_scales, rotations, .. } = &mut g;
-    let mut read = Attributes { stream: &mut stream, header, done: 0 };
-    rayon::scope(|scope| -> Result<(), String> {
-        let bytes = read.next(9 * n, "positions")?;
-        scope.spawn(move |_| *means = decode_positions(&bytes, header.fractional_bits));
-        let bytes = read.next(n, "alphas")?;
-        scope.spawn(move |_| *raw_opacities = bytes.par_iter().map(|&a| logit_of_byte(a)).collect());
-        let bytes = read.next(3 * n, "colours")?;
-        scope.spawn(move |_| {
-            *sh_dc = bytes
-                .par_chunks_exact(3)
-                .map(|c| [0, 1, 2].map(|i| (c[i] as f32 / 255.0 - 0.5) / COLOUR_SCALE))
-                .collect()
-        });
-        let bytes = read.next(3 * n, "scales")?;
-        scope.spawn(move |_| {
-            *log_scales =
-                bytes.par_chunks_exact(3).map(|s| [0, 1, 2].map(|i| s[i] as f32 / 16.0 - 10.0)).collect()
-        });
-        let rotation_bytes = header.rotation_bytes();
-        let bytes = read.next(rotation_bytes * n, "rotations")?;
-        scope.spawn(move |_| *rotations = decode_rotations(&bytes, rotation_bytes));
-        if k > 0 {
-            *sh_rest = vec![0.0f32; 3 * k * n];
-            for out in sh_rest.chunks_mut(3 * k * SH_ROWS_PER_TASK) {
-                let bytes = read.next(out.len(), "SH coefficients")?;
-                scope.spawn(move |_| decode_sh(&bytes, out, k));
-            }
-        }
-        Ok(())
-    })?;
+    let body_len = header.count as u64 * header.row_bytes() as u64;
+    if body_len > DEFLATE_MAX_RATIO.saturating_mul(file_len) {
+        return Err(where_the_stream_ends(&mut stream, &header));
+    }
+    let (n, k) = (header.count, header.rest_per_channel());
+    let mut g = Gaussians {
+        means: vec![[0.0; 3]; n],
+        sh_dc: vec![[0.0; 3]; n],
+        sh_degree: header.sh_degree,
+        sh_rest: vec![0.0; 3 * k * n],
+        raw_opacities: vec![0.0; n],
+        log_scales: vec![[0.0; 3]; n],
+        rotations: vec![[0.0; 4]; n],
+        ..Gaussians::default()
+    };
+    let decoder = SpzDecoder::new(header.body_shape());
+    let mut body = Body { stream: &mut stream, header, chunk_bytes, done: 0 };
+    let mut rows = RowsOf::new(&mut g, k);
+    if body_len <= chunk_bytes as u64 {
+        body.inflate(
+            &mut rows,
+            || None,
+            |rows, bytes| {
+                decoder.decode(rows, &bytes);
+                Ok(())
+            },
+        )?;
+    } else {
+        inflate_beside_decoding(&mut body, &mut rows, &decoder)?;
+    }
     std::io::copy(&mut stream, &mut std::io::sink()).map_err(gzip_error)?;
     Ok(g)
 }
 
-/// Gaussians whose SH rest one task decodes while the stream inflates the next ones.
-const SH_ROWS_PER_TASK: usize = 64 * 1024;
+/// `body` inflated on this thread into `rows` while a second thread decodes the chunks already
+/// inflated and hands their buffers back; a chunk the second thread has no room for is decoded here.
+fn inflate_beside_decoding<'a, R: Read>(
+    body: &mut Body<'_, R>,
+    rows: &mut RowsOf<'a>,
+    decoder: &SpzDecoder,
+) -> Result<(), String> {
+    let (to_decoder, inflated) = mpsc::sync_channel::<(Rows<'a>, Vec<u8>)>(CHUNKS_IN_FLIGHT);
+    let (to_inflater, decoded) = mpsc::channel::<Vec<u8>>();
+    std::thread::scope(|scope| {
+        scope.spawn(move || {
+            for (rows, bytes) in inflated {
+                decoder.decode(rows, &bytes);
+                // The inflater may have stopped (an error): then nobody needs the buffer back.
+                let _ = to_inflater.send(bytes);
+            }
+        });
+        // A buffer this thread decoded itself, to fill again.
+        let own = Cell::new(None);
+        let inflating = body.inflate(
+            rows,
+            || own.take().or_else(|| decoded.try_recv().ok()),
+            |rows, bytes| match to_decoder.try_send((rows, bytes)) {
+                Ok(()) => Ok(()),
+                Err(TrySendError::Full((rows, bytes))) => {
+                    decoder.decode(rows, &bytes);
+                    own.set(Some(bytes));
+                    Ok(())
+                }
+                Err(TrySendError::Disconnected(_)) => Err("the decoding thread stopped".to_string()),
+            },
+        );
+        drop(to_decoder);
+        inflating
+    })
+}
 
-/// The attributes of the body, read one after the other from the inflating stream.
-struct Attributes<'a, R: Read> {
-    stream: &'a mut R,
+/// The body of a file, inflated section by section, chunk by chunk.
+struct Body<'s, R: Read> {
+    stream: &'s mut R,
     header: Header,
-    /// Body bytes read so far.
+    chunk_bytes: usize,
+    /// Body bytes inflated so far.
     done: u64,
 }
 
-impl<R: Read> Attributes<'_, R> {
-    /// The next `len` bytes of the body (`what` they hold), or an error saying the stream ends first.
-    fn next(&mut self, len: usize, what: &str) -> Result<Vec<u8>, String> {
-        let mut bytes = Vec::with_capacity(len);
-        (&mut *self.stream).take(len as u64).read_to_end(&mut bytes).map_err(gzip_error)?;
-        self.done += bytes.len() as u64;
-        if bytes.len() < len {
-            let h = &self.header;
-            return Err(format!(
-                "truncated: the header declares {} Gaussians × {} bytes = {} bytes but the stream \
-                 ends after {} of them, in the {what}",
-                h.count,
-                h.row_bytes(),
-                h.count as u64 * h.row_bytes() as u64,
-                self.done
-            ));
+impl<R: Read> Body<'_, R> {
+    /// Inflates every section the header declares, handing each chunk (whole elements of one
+    /// section, in a buffer from `spare` when it has one) and its rows of `rows` to `take`;
+    /// errors when the stream ends first, saying where.
+    fn inflate<'a>(
+        &mut self,
+        rows: &mut RowsOf<'a>,
+        mut spare: impl FnMut() -> Option<Vec<u8>>,
+        mut take: impl FnMut(Rows<'a>, Vec<u8>) -> Result<(), String>,
+    ) -> Result<(), String> {
+        let shape = self.header.body_shape();
+        for section in Section::ALL {
+            let element = shape.element_bytes(section);
+            if element == 0 {
+                continue;
+            }
+            let chunk_rows = (self.chunk_bytes / element).max(1);
+            let mut left = self.header.count;
+            while left > 0 {
+                let count = left.min(chunk_rows);
+                let len = count * element;
+                let mut bytes = spare().unwrap_or_default();
+                bytes.clear();
+                bytes.reserve(len);
+                (&mut *self.stream).take(len as u64).read_to_end(&mut bytes).map_err(gzip_error)?;
+                self.done += bytes.len() as u64;
+                if bytes.len() < len {
+                    return Err(truncated(&self.header, self.done, section));
+                }
+                take(rows.next(section, count), bytes)?;
+                left -= count;
+            }
         }
-        Ok(bytes)
+        Ok(())
     }
+}
+
+/// The error for a file too short to inflate to the body its header declares: the stream
+/// inflated to its end, nothing kept, to say where it stops.
+fn where_the_stream_ends(stream: &mut impl Read, header: &Header) -> String {
+    let body_len = header.count as u64 * header.row_bytes() as u64;
+    let done = match std::io::copy(&mut stream.take(body_len), &mut std::io::sink()) {
+        Ok(done) => done,
+        Err(e) => return gzip_error(e),
+    };
+    let shape = header.body_shape();
+    let mut end = 0;
+    for section in Section::ALL {
+        end += header.count as u64 * shape.element_bytes(section) as u64;
+        if done < end {
+            return truncated(header, done, section);
+        }
+    }
+    format!("the header declares {body_len} bytes of Gaussians, more than deflate can hold in this file")
+}
+
+/// The error for a stream that ends `done` bytes into the body, in `section`.
+fn truncated(header: &Header, done: u64, section: Section) -> String {
+    format!(
+        "truncated: the header declares {} Gaussians × {} bytes = {} bytes but the stream ends after {} \
+         of them, in the {}",
+        header.count,
+        header.row_bytes(),
+        header.count as u64 * header.row_bytes() as u64,
+        done,
+        section.name()
+    )
 }
 
 fn gzip_error(e: std::io::Error) -> String {
     format!("the gzip stream is truncated or corrupt ({e})")
-}
-
-/// `[N]` centres in the PLY's frame from `[N, 3]` 24-bit fixed-point coordinates.
-fn decode_positions(bytes: &[u8], fractional_bits: u8) -> Vec<[f32; 3]> {
-    let unit = 1.0 / (1u32 << fractional_bits) as f32;
-    let flip = [1.0, -1.0, -1.0];
-    bytes
-        .par_chunks_exact(9)
-        .map(|p| {
-            [0, 1, 2].map(|a| {
-                let b = &p[3 * a..3 * a + 3];
-                let fixed = i32::from_le_bytes([b[0], b[1], b[2], 0]) << 8 >> 8;
-                flip[a] * fixed as f32 * unit
-            })
-        })
-        .collect()
-}
-
-/// `[N]` quaternions `w x y z` in the PLY's frame from version 2's (3 bytes) or 3's (4 bytes).
-fn decode_rotations(bytes: &[u8], rotation_bytes: usize) -> Vec<[f32; 4]> {
-    bytes
-        .par_chunks_exact(rotation_bytes)
-        .map(|r| {
-            rdf_quaternion(if rotation_bytes == 4 { smallest_three_xyzw(r) } else { first_three_xyzw(r) })
-        })
-        .collect()
-}
-
-/// SH rest stored `[rows, K, 3]` (channel fastest) into `out`, `[rows, 3, K]`, in the PLY's frame.
-fn decode_sh(bytes: &[u8], out: &mut [f32], k: usize) {
-    out.par_chunks_mut(3 * k).zip(bytes.par_chunks_exact(3 * k)).for_each(|(row, q)| {
-        for j in 0..k {
-            for c in 0..3 {
-                row[c * k + j] = SH_FLIP[j] * (q[3 * j + c] as f32 - 128.0) / 128.0;
-            }
-        }
-    });
-}
-
-/// Version 2: x y z of a unit quaternion with w ≥ 0; w is what makes the norm 1.
-fn first_three_xyzw(r: &[u8]) -> [f32; 4] {
-    let [x, y, z] = [0, 1, 2].map(|i| r[i] as f32 / 127.5 - 1.0);
-    [x, y, z, (1.0 - x * x - y * y - z * z).max(0.0).sqrt()]
-}
-
-/// Version 3: a little-endian u32 whose top 2 bits index the largest of x y z w (stored
-/// positive, so not stored), then the other three from the first (highest bits) to the last,
-/// each a sign bit and 9 bits of magnitude in units of (1/√2)/511.
-fn smallest_three_xyzw(r: &[u8]) -> [f32; 4] {
-    let mut packed = u32::from_le_bytes([r[0], r[1], r[2], r[3]]);
-    let largest = (packed >> 30) as usize;
-    let mut q = [0.0f32; 4];
-    let mut sum_squares = 0.0;
-    for i in (0..4).rev().filter(|&i| i != largest) {
-        let magnitude = (packed & 0x1ff) as f32 / 511.0 * SQRT1_2;
-        q[i] = if packed & 0x200 != 0 { -magnitude } else { magnitude };
-        sum_squares += q[i] * q[i];
-        packed >>= 10;
-    }
-    q[largest] = (1.0 - sum_squares).max(0.0).sqrt();
-    q
-}
-
-/// An SPZ-frame quaternion `x y z w` as the PLY's `w x y z` in the PLY's frame.
-fn rdf_quaternion([x, y, z, w]: [f32; 4]) -> [f32; 4] {
-    [w, x, -y, -z]
 }
 
 /// The bytes of an SPZ version 3 file holding `g` (which the caller validated: finite values).
@@ -340,6 +383,7 @@ fn pack_smallest_three(q: [f32; 4]) -> u32 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::spz_decode::smallest_three_xyzw;
     use super::*;
 
     #[test]
