@@ -161,6 +161,7 @@ pub(super) fn read_spz_in_chunks<R: BufRead>(
         return Err(where_the_stream_ends(&mut stream, &header));
     }
     let (n, k) = (header.count, header.rest_per_channel());
+    check_allocatable(n, k)?;
     let mut g = Gaussians {
         means: vec![[0.0; 3]; n],
         sh_dc: vec![[0.0; 3]; n],
@@ -188,6 +189,21 @@ pub(super) fn read_spz_in_chunks<R: BufRead>(
     }
     std::io::copy(&mut stream, &mut std::io::sink()).map_err(gzip_error)?;
     Ok(g)
+}
+
+/// An error, not an abort, when the system cannot give the arrays of `n` Gaussians with `k` SH
+/// coefficients per channel beyond DC (a file of highly compressible bytes may declare up to 1032×
+/// its size): the whole size is reserved once and given back before the zeroed arrays are made.
+fn check_allocatable(n: usize, k: usize) -> Result<(), String> {
+    let floats = n.checked_mul(3 + 3 + 1 + 3 + 4 + 3 * k);
+    let bytes = floats.and_then(|f| f.checked_mul(std::mem::size_of::<f32>()));
+    let mut probe: Vec<u8> = Vec::new();
+    match bytes {
+        Some(b) if probe.try_reserve_exact(b).is_ok() => Ok(()),
+        _ => Err(format!(
+            "the header declares {n} Gaussians, whose arrays are more memory than this machine can give"
+        )),
+    }
 }
 
 /// `body` inflated on this thread into `rows` while a second thread decodes the chunks already

@@ -165,3 +165,20 @@ fn a_stream_ending_in_a_later_chunk_names_the_attribute_and_the_bytes_read() {
         );
     }
 }
+
+#[test]
+fn a_header_declaring_more_gaussians_than_memory_holds_is_an_error_not_an_abort() {
+    // 2^27 Gaussians of SH degree 3 (31.7 GB of arrays) and no body; the file claims to be long
+    // enough for deflate to reach that many. Either the arrays are refused up front or the body
+    // is missing: an error either way, never an allocation failure's abort.
+    let mut raw = Vec::new();
+    raw.extend_from_slice(b"NGSP");
+    raw.extend_from_slice(&3u32.to_le_bytes());
+    raw.extend_from_slice(&(1u32 << 27).to_le_bytes());
+    raw.extend_from_slice(&[3, 12, 0, 0]);
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(&raw).unwrap();
+    let file = gz.finish().unwrap();
+    let err = read_spz_in_chunks(&file[..], u64::MAX / 2048, 1 << 20).expect_err("no such body");
+    assert!(err.contains("Gaussians") || err.contains("byte"), "{err}");
+}
