@@ -199,6 +199,11 @@ impl splatseg_lift::SeparateWholes for ObjectWholes<'_> {
     fn separate(&self, a: &[u32], b: &[u32]) -> bool {
         self.0.count_gaussians([a, b]).separate()
     }
+
+    fn count(&self, a: &[u32], b: &[u32]) -> Option<splatseg_lift::SamViews> {
+        let c = self.0.count_gaussians([a, b]);
+        Some(splatseg_lift::SamViews { together: c.together, apart: c.apart, seen: c.seen })
+    }
 }
 
 /// The lift stage's [`ViewStore`] over `run`'s per-view results: the visible Gaussians and tile
