@@ -164,10 +164,11 @@ pub trait SeparateWholes: Sync {
     /// wholes.
     fn separate(&self, a: &[u32], b: &[u32]) -> bool;
 
-    /// The counts behind [`SeparateWholes::separate`], for the graph's record (default: not
-    /// given).
-    fn count(&self, _a: &[u32], _b: &[u32]) -> Option<SamViews> {
-        None
+    /// The counts behind [`SeparateWholes::separate`] for each pair of `pairs` (indices into
+    /// `sets`, each a set of Gaussian indices), for the graph's record: `[n_pairs]`, or empty
+    /// when not given (the default).
+    fn count_pairs(&self, _sets: &[&[u32]], _pairs: &[(usize, usize)]) -> Vec<SamViews> {
+        Vec::new()
     }
 }
 
@@ -311,9 +312,18 @@ pub fn join_touching_objects(
                 gaussians_of.entry(id as u32).or_default().push(g as u32);
             }
         }
-        let own = |id: u32| gaussians_of.get(&id).map_or(&[][..], |g| &g[..]);
-        for r in &mut records {
-            r.sam = wholes.count(own(r.a), own(r.b));
+        let nodes: Vec<u32> = {
+            let mut n: Vec<u32> = records.iter().flat_map(|r| [r.a, r.b]).collect();
+            n.sort_unstable();
+            n.dedup();
+            n
+        };
+        let sets: Vec<&[u32]> =
+            nodes.iter().map(|id| gaussians_of.get(id).map_or(&[][..], |g| &g[..])).collect();
+        let at = |id: u32| nodes.binary_search(&id).unwrap_or(0);
+        let pairs: Vec<(usize, usize)> = records.iter().map(|r| (at(r.a), at(r.b))).collect();
+        for (r, sam) in records.iter_mut().zip(wholes.count_pairs(&sets, &pairs)) {
+            r.sam = Some(sam);
         }
     }
     let mut sets = DisjointSets::new(n_objects + 1);

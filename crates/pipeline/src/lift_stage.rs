@@ -16,6 +16,7 @@ use crate::view_data::{self, ViewData};
 use crate::visible;
 use crate::RunConfig;
 use indicatif::ProgressBar;
+use rayon::prelude::*;
 use splatseg_lift::{
     LiftError, LiftOutput, LiftStage, MatchedViews, ObjectFeatures, PosedCamera, PreparedGaussians,
     ViewRegions, ViewStore, VisibleGaussians,
@@ -200,9 +201,15 @@ impl splatseg_lift::SeparateWholes for ObjectWholes<'_> {
         self.0.count_gaussians([a, b]).separate()
     }
 
-    fn count(&self, a: &[u32], b: &[u32]) -> Option<splatseg_lift::SamViews> {
-        let c = self.0.count_gaussians([a, b]);
-        Some(splatseg_lift::SamViews { together: c.together, apart: c.apart, seen: c.seen })
+    fn count_pairs(&self, sets: &[&[u32]], pairs: &[(usize, usize)]) -> Vec<splatseg_lift::SamViews> {
+        let observed: Vec<splatseg_merge::Observed> = sets.par_iter().map(|s| self.0.observe(s)).collect();
+        pairs
+            .par_iter()
+            .map(|&(a, b)| {
+                let c = self.0.count_observed([&observed[a], &observed[b]]);
+                splatseg_lift::SamViews { together: c.together, apart: c.apart, seen: c.seen }
+            })
+            .collect()
     }
 }
 
