@@ -33,7 +33,6 @@ TERMS = [
     # (name, function of the edge record) — each a number the decision weighs.
     ("contact", lambda e: math.log1p(e["voxel_pairs"])),
     ("smooth", lambda e: e["smooth"] / e["measured"] if e["measured"] else 0.0),
-    ("unmeasured", lambda e: 1.0 - (e["measured"] / e["voxel_pairs"] if e["voxel_pairs"] else 0.0)),
     ("concave", lambda e: e["concave"] / e["oriented"] if e["oriented"] else 0.0),
     ("convex", lambda e: e["convex"] / e["oriented"] if e["oriented"] else 0.0),
     ("coplanar", lambda e: float(e["coplanar"])),
@@ -43,6 +42,12 @@ TERMS = [
     ("sam", lambda e: math.log((e["sam"]["together"] + 0.5) / (e["sam"]["apart"] + 0.5)) if e.get("sam") else 0.0),
     ("cos", lambda e: e["cos"]),
     ("small_side", lambda e: math.log1p(min(e["sizes"]))),
+    # The rules' conjunctions, as terms of their own: one surface continuing on a plane; no
+    # concave edge where the views hold both together; a convex edge with no concave one.
+    ("seam", lambda e: float(e["coplanar"]) * (e["smooth"] / e["measured"] if e["measured"] else 0.0)),
+    ("no_edge_together", lambda e: (1.0 - (e["concave"] / e["oriented"] if e["oriented"] else 1.0))
+        * (e["together"] / e["seeing_both"] if e["seeing_both"] else 0.0)),
+    ("convex_edge", lambda e: (e["convex"] - e["concave"]) / e["oriented"] if e["oriented"] else 0.0),
 ]
 
 
@@ -70,6 +75,48 @@ def load(folder, descriptors, purity):
 
 def labelled(graphs):
     return [r for _, rows in graphs for r in rows if r[1] is not None]
+
+
+def fit_stumps(rows, keep, rounds=150, rate=0.3, cuts=12):
+    """Boosted one-split stumps on the log-loss: a sum of log-odds again, each term a step
+    function of one input measured from the data (no term's shape is chosen). Returns a function
+    of an edge's term vector."""
+    xs = [r[0] for r in rows]
+    ys = [1.0 if r[1] else 0.0 for r in rows]
+    ws = [math.log1p(r[2]) for r in rows]
+    thresholds = {}
+    for k in keep:
+        values = sorted(x[k] for x in xs)
+        thresholds[k] = sorted({values[int(len(values) * q / cuts)] for q in range(1, cuts)})
+    pos = sum(w for w, y in zip(ws, ys) if y)
+    neg = sum(w for w, y in zip(ws, ys) if not y)
+    bias = math.log(pos / neg)
+    f = [bias] * len(xs)
+    stumps = []
+    for _ in range(rounds):
+        p = [1.0 / (1.0 + math.exp(-max(-30.0, min(30.0, z)))) for z in f]
+        g = [w * (y - pi) for w, y, pi in zip(ws, ys, p)]
+        h = [w * pi * (1 - pi) + 1e-9 for w, pi in zip(ws, p)]
+        best = None
+        for k in keep:
+            for t in thresholds[k]:
+                gl = hl = 0.0
+                for x, gi, hi in zip(xs, g, h):
+                    if x[k] <= t:
+                        gl += gi
+                        hl += hi
+                gr, hr = sum(g) - gl, sum(h) - hl
+                gain = gl * gl / (hl + 1.0) + gr * gr / (hr + 1.0)
+                if best is None or gain > best[0]:
+                    best = (gain, k, t, gl / (hl + 1.0), gr / (hr + 1.0))
+        _, k, t, left, right = best
+        stumps.append((k, t, rate * left, rate * right))
+        f = [fi + (rate * left if x[k] <= t else rate * right) for fi, x in zip(f, xs)]
+
+    def log_odds(x):
+        return bias + sum(l if x[k] <= t else r for k, t, l, r in stumps)
+
+    return log_odds, stumps
 
 
 def standardise(rows, keep):
@@ -224,6 +271,9 @@ def main():
     ap.add_argument("--descriptors", default="features", choices=["features", "model_free"])
     ap.add_argument("--purity", type=float, default=0.8, help="a side less pure than this is left out")
     ap.add_argument("--drop", action="append", default=[], help="a term to leave out (repeatable)")
+    ap.add_argument("--model", default="linear", choices=["linear", "stumps"],
+                    help="one weight per term (linear) or boosted stumps (a step function per term)")
+    ap.add_argument("--breakdown", action="store_true", help="today's rules and outcomes against the truth")
     ap.add_argument("--thresholds", type=float, nargs="+", default=[0.0], help="join above these log-odds")
     args = ap.parse_args()
     names = [n for n, _ in TERMS]
@@ -237,17 +287,41 @@ def main():
     def log_odds(r):
         return b + sum(wi * xi for wi, xi in zip(w, features(r, keep, mean, dev)))
 
+    if args.model == "stumps":
+        stump_odds, stumps = fit_stumps(labelled(sets[0][1]), keep)
+        log_odds = lambda r: stump_odds(r[0])  # noqa: E731
+        used = {}
+        for k, _, l, r in stumps:
+            used[names[k]] = used.get(names[k], 0.0) + abs(l - r)
+        print("  boosted stumps; summed log-odds step per term:",
+              ", ".join(f"{n} {v:.2f}" for n, v in sorted(used.items(), key=lambda x: -x[1])))
+
     print(f"fitted on {sets[0][0]} ({len(labelled(sets[0][1]))} labelled edges, {args.descriptors}); "
           f"left out: {', '.join(args.drop) or 'nothing'}")
     print("  log-odds per deviation of each term (the term's mean and deviation):")
     for j, k in enumerate(keep):
         print(f"    {names[k]:<12} {w[j]:+.3f}   (mean {mean[j]:.3f}, deviation {dev[j]:.3f})")
     print(f"    {'bias':<12} {b:+.3f}")
+    def breakdown(graphs):
+        """Labelled edges by today's (rule, outcome): how many join one object, how many two."""
+        table = {}
+        for _, rows in graphs:
+            for r in rows:
+                if r[1] is None:
+                    continue
+                key = (r[5]["rule"], r[5]["outcome"])
+                same, diff = table.get(key, (0, 0))
+                table[key] = (same + r[1], diff + (not r[1]))
+        for (rule, outcome), (same, diff) in sorted(table.items()):
+            print(f"    {rule:<15} {outcome:<40} one object {same:>5}   two objects {diff:>5}")
+
     for folder, rows in sets:
         same = sum(1 for r in labelled(rows) if r[1])
         print(f"{folder}: {len(labelled(rows))} labelled edges, {same} same object, "
               f"{len(labelled(rows)) - same} different, in {len(rows)} graphs")
         show("today's rules", score(rows, lambda r: r[3]))
+        if args.breakdown:
+            breakdown(rows)
         for t in args.thresholds:
             show(f"log-odds > {t:g}", score(rows, lambda r: log_odds(r) > t))
             edge_odds = lambda e: log_odds(([f(e) for _, f in TERMS],))
