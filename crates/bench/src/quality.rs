@@ -43,6 +43,21 @@ pub fn seeds_of(text: &str) -> crate::Result<Vec<u64>> {
     }
 }
 
+/// Copies each run's object graph (`cache/graph.json`, with its ground truth) of the scene in
+/// `work` to `dest/<name>_<descriptors>.json`, for `tools/edge_study.py` (issue 58).
+fn keep_graphs(work: &std::path::Path, dest: &std::path::Path, name: &str) -> crate::Result<()> {
+    for run in ["run_features", "run_model_free"] {
+        let graph = work.join(run).join("cache").join("graph.json");
+        if graph.is_file() {
+            std::fs::create_dir_all(dest).with_context(|| format!("cannot create {}", dest.display()))?;
+            let to = dest.join(format!("{name}_{}.json", run.trim_start_matches("run_")));
+            std::fs::copy(&graph, &to)
+                .with_context(|| format!("cannot copy {} to {}", graph.display(), to.display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Scores every scene of `request` and returns the Markdown report (also written to
 /// `OUT/quality.md`, with the scores in `OUT/quality.json`, when `out` is given). `progress`
 /// gets one line per scored scene.
@@ -74,6 +89,9 @@ pub fn quality(request: &QualityRequest, progress: &mut dyn FnMut(String)) -> cr
                 &request.pipeline,
                 &work,
             )?;
+            if let Some(out) = &request.out {
+                keep_graphs(&work, &out.join("graphs"), &format!("{family}_{seed}"))?;
+            }
             if !request.keep {
                 std::fs::remove_dir_all(&work)
                     .with_context(|| format!("cannot remove the scene folder {}", work.display()))?;

@@ -23,7 +23,7 @@
 use crate::config::{FinalMaps, LiftConfig};
 use crate::error::LiftError;
 use crate::facing::Facing;
-use crate::graph::ViewCounts;
+use crate::graph::{EdgeRecord, ViewCounts};
 use crate::lifting::{Lifted, ObjectFeatures, VoteAccumulator};
 use crate::numbering::drop_specks_and_number;
 use crate::project::PreparedGaussians;
@@ -32,7 +32,7 @@ use crate::render_labels::{render_label_map, render_votes, RenderVotes};
 use crate::run_lengths::RunLengths;
 use crate::snap::snap_view;
 use crate::split::split_disconnected_objects;
-use crate::touching::{join_touching_objects, SeparateWholes};
+use crate::touching::{join_touching_objects, JoinReport, SeparateWholes};
 use crate::PosedCamera;
 use rayon::prelude::*;
 use splatseg_render::bin::TileBins;
@@ -127,6 +127,10 @@ pub struct LiftOutput {
     /// Pixels over all views the Gaussians left without an id that took their merged region's
     /// matched object (step 6): the rest of the labelled pixels are the Gaussians' own.
     pub filled_px: u64,
+    /// `[N]` the vote's ids (step 1, -1 = none): the object graph's nodes.
+    pub voted_ids: Vec<i32>,
+    /// The object graph's edges as step 2 weighed them.
+    pub edges: Vec<EdgeRecord>,
 }
 
 impl LiftOutput {
@@ -144,8 +148,9 @@ impl LiftStage<'_> {
     /// The whole stage (module docs): the Gaussians labelled and every view's final map.
     pub fn run<S: ViewStore>(&self, store: &S) -> Result<LiftOutput, S::Error> {
         let (mut lifted, facing) = store.time("votes, fusion, variance filter", || self.vote(store))?;
-        let joins = store.time("touching objects", || self.join_touching(&mut lifted, &facing, store))?;
-        tracing::info!("joined {joins} pairs of touching objects");
+        let voted_ids = lifted.object_ids.clone();
+        let joined = store.time("touching objects", || self.join_touching(&mut lifted, &facing, store))?;
+        tracing::info!("joined {} pairs of touching objects", joined.joins);
         let split = store.time("split objects apart in 3D", || {
             let objects = &self.matched.objects;
             let reserved = objects.values.len().checked_div(objects.dim).unwrap_or(0) as u32;
@@ -173,7 +178,7 @@ impl LiftStage<'_> {
             maps.iter().map(|m| (m.width * m.height) as u64).sum::<u64>() / maps.len().max(1) as u64;
         let min_px = self.config.min_object_px_for(mean_view_px);
         let new_of_old = drop_specks_and_number(&maps, &mut lifted.object_ids, min_px);
-        Ok(LiftOutput { lifted, maps, new_of_old, filled_px })
+        Ok(LiftOutput { lifted, maps, new_of_old, filled_px, voted_ids, edges: joined.edges })
     }
 
     /// The views with masks, in view order, with their label → global id tables.
@@ -222,7 +227,7 @@ impl LiftStage<'_> {
         lifted: &mut Lifted,
         facing: &Facing,
         store: &S,
-    ) -> Result<usize, S::Error> {
+    ) -> Result<JoinReport, S::Error> {
         let counts: Vec<ViewCounts> = self
             .voting_views()
             .par_iter()

@@ -16,6 +16,7 @@ use crate::facing::Facing;
 use crate::lifting::ObjectFeatures;
 use crate::project::PreparedGaussians;
 use crate::shape::{contacts, coplanar_ids, planes_and_lines, Contact, THIN_MIN_ELONGATION};
+use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 /// A view counts for a pair only when it sees at least this many Gaussians of each object: fewer
@@ -141,6 +142,92 @@ pub(crate) struct Evidence {
 pub(crate) struct ObjectGraph {
     /// `(a, b)`, `a < b`, both objects of the features' table → the edge's evidence.
     pub edges: BTreeMap<(u32, u32), Evidence>,
+    /// Object → its labelled Gaussians (the nodes' sizes).
+    pub sizes: HashMap<u32, u32>,
+}
+
+/// What SAM's masks in every view say about two objects' Gaussians (the merge's separate-wholes
+/// evidence, counted by the caller: [`crate::SeparateWholes::count`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SamViews {
+    /// Views where one mask holds both.
+    pub together: u32,
+    /// Views where no mask holds both and one of them is held by nested masks.
+    pub apart: u32,
+    /// Views that see enough of both.
+    pub seen: u32,
+}
+
+/// One edge of the object graph as the run weighed it: its evidence term by term, the rule that
+/// asked for the join, and what became of it. Written to `OUT/cache/graph.json` so that a join
+/// (or a missing one) can be read back, and so that the terms can be measured against ground
+/// truth (`tools/edge_study.py`, issue 58).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EdgeRecord {
+    /// The smaller object id (the vote's ids, before any join).
+    pub a: u32,
+    /// The larger object id.
+    pub b: u32,
+    /// Labelled Gaussians of `a` and of `b`.
+    pub sizes: [u32; 2],
+    /// Surface: contact voxel pairs.
+    pub voxel_pairs: u32,
+    /// Surface: pairs with both sides' normals or planes measured.
+    pub measured: u32,
+    /// Surface: measured pairs where one surface continues.
+    pub smooth: u32,
+    /// Surface: pairs with both sides' outward normals.
+    pub oriented: u32,
+    /// Surface: oriented pairs at a concave edge.
+    pub concave: u32,
+    /// Surface: oriented pairs at a convex edge.
+    pub convex: u32,
+    /// Surface: both objects are planes with parallel normals.
+    pub coplanar: bool,
+    /// Surface: both objects are thin and lie on one line.
+    pub thin_line: bool,
+    /// Views: views seeing enough of both.
+    pub seeing_both: u32,
+    /// Views: of those, views where one merged mask holds a good part of each.
+    pub together: u32,
+    /// Views: SAM's masks (nested levels included) over the two objects' Gaussians, when the
+    /// run had that evidence.
+    pub sam: Option<SamViews>,
+    /// Appearance: cosine of the identity features (or model-free descriptors).
+    pub cos: f32,
+    /// The rule that asks for the join (`"seam"`, `"look-alike"`, `"parts"`, `"parts, no edge"`,
+    /// `"thin"`), or `"none"`.
+    pub rule: &'static str,
+    /// What became of it: `"joined"`, `"already one set"`, `"refused: concave edge between the
+    /// sets"`, `"refused: SAM's wholes"`, or `"no join"`.
+    pub outcome: &'static str,
+}
+
+impl EdgeRecord {
+    /// The record of edge `(a, b)` with its evidence, before any decision (`rule` and `outcome`
+    /// "none" / "no join").
+    pub(crate) fn new(a: u32, b: u32, e: &Evidence, sizes: [u32; 2]) -> Self {
+        let c = &e.surface.contact;
+        EdgeRecord {
+            a,
+            b,
+            sizes,
+            voxel_pairs: c.voxel_pairs,
+            measured: c.measured,
+            smooth: c.smooth,
+            oriented: c.oriented,
+            concave: c.concave,
+            convex: c.convex,
+            coplanar: e.surface.coplanar,
+            thin_line: e.surface.thin_line,
+            seeing_both: e.views.seeing_both,
+            together: e.views.together,
+            sam: None,
+            cos: e.cos,
+            rule: "none",
+            outcome: "no join",
+        }
+    }
 }
 
 impl ObjectGraph {
@@ -176,7 +263,16 @@ impl ObjectGraph {
                 e.views = views;
             }
         }
-        ObjectGraph { edges }
+        let mut sizes: HashMap<u32, u32> = HashMap::new();
+        for &id in ids.iter().filter(|&&id| id > 0) {
+            *sizes.entry(id as u32).or_insert(0) += 1;
+        }
+        ObjectGraph { edges, sizes }
+    }
+
+    /// Labelled Gaussians of object `id`.
+    pub fn size(&self, id: u32) -> u32 {
+        self.sizes.get(&id).copied().unwrap_or(0)
     }
 
     /// The contact of `a` and `b` (any order), if they touch (for the edge between two sets of joined objects).

@@ -52,7 +52,7 @@ pub use config::{FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
 pub use facing::Facing;
 pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewRegions, ViewStore, VisibleGaussians};
-pub use graph::ViewCounts;
+pub use graph::{EdgeRecord, SamViews, ViewCounts};
 pub use labelled_ply::{ids_of_every_row, write_labelled_ply};
 pub use lifting::{FusedFeatures, GaussianStatus, LiftStats, Lifted, ObjectFeatures, VoteAccumulator};
 pub use numbering::{drop_specks_and_number, renumber};
@@ -62,7 +62,7 @@ pub use render_labels::{render_label_map, render_votes, RenderVotes};
 pub use run_lengths::RunLengths;
 pub use snap::{snap_view, SnapRule, Snapped};
 pub use split::{split_disconnected_objects, SplitStats};
-pub use touching::{join_touching_objects, SeparateWholes};
+pub use touching::{join_touching_objects, JoinReport, SeparateWholes};
 pub use visibility::{view_visibility, ViewVisibility, VisibilityPass};
 
 use splatseg_scene::{Camera, Pose};

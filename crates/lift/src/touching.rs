@@ -104,7 +104,7 @@
 
 use crate::config::LiftConfig;
 use crate::facing::Facing;
-use crate::graph::{Evidence, ObjectGraph, ViewCounts};
+use crate::graph::{EdgeRecord, Evidence, ObjectGraph, SamViews, ViewCounts};
 use crate::lifting::{Lifted, ObjectFeatures};
 use crate::project::PreparedGaussians;
 use crate::shape::{typical_sigma, Contact, SEAM_SMOOTH_SHARE};
@@ -163,11 +163,28 @@ pub trait SeparateWholes: Sync {
     /// True when the masks hold the Gaussians `a` and `b` (indices, any order) in different
     /// wholes.
     fn separate(&self, a: &[u32], b: &[u32]) -> bool;
+
+    /// The counts behind [`SeparateWholes::separate`] for each pair of `pairs` (indices into
+    /// `sets`, each a set of Gaussian indices), for the graph's record: `[n_pairs]`, or empty
+    /// when not given (the default).
+    fn count_pairs(&self, _sets: &[&[u32]], _pairs: &[(usize, usize)]) -> Vec<SamViews> {
+        Vec::new()
+    }
 }
 
-/// The rules of the module docs over one edge's evidence: `Some(check)` when they join `a` and
-/// `b`, with what the two sets' edge must not be for the join to stand.
-fn join_rule(a: u32, b: u32, e: &Evidence, config: &LiftConfig) -> Option<SetEdge> {
+/// What the join did: the joins made, and every edge of the graph with its evidence and fate.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JoinReport {
+    /// Pairs joined.
+    pub joins: usize,
+    /// The graph's edges, `(a, b)` ascending.
+    pub edges: Vec<EdgeRecord>,
+}
+
+/// The rules of the module docs over one edge's evidence: `Some((check, rule))` when they join
+/// `a` and `b`, with what the two sets' edge must not be for the join to stand and the rule's
+/// name.
+fn join_rule(a: u32, b: u32, e: &Evidence, config: &LiftConfig) -> Option<(SetEdge, &'static str)> {
     let (c, cos, share) = (&e.surface.contact, e.cos, e.views.together_share());
     let thin = e.surface.thin_line;
     if thin {
@@ -185,7 +202,7 @@ fn join_rule(a: u32, b: u32, e: &Evidence, config: &LiftConfig) -> Option<SetEdg
         e.surface.coplanar,
     );
     if c.voxel_pairs < MIN_CONTACT_VOXELS {
-        return thin.then_some(SetEdge::Any);
+        return thin.then_some((SetEdge::Any, "thin"));
     }
     let seam = c.measured >= MIN_CONTACT_VOXELS
         && e.surface.coplanar
@@ -224,14 +241,25 @@ fn join_rule(a: u32, b: u32, e: &Evidence, config: &LiftConfig) -> Option<SetEdg
     } else {
         SetEdge::Any
     };
-    (seam || alike || parts || thin).then_some(check)
+    let rule = if seam {
+        "seam"
+    } else if alike {
+        "look-alike"
+    } else if parts && smooth {
+        "parts, no edge"
+    } else if parts {
+        "parts"
+    } else {
+        "thin"
+    };
+    (seam || alike || parts || thin).then_some((check, rule))
 }
 
 /// Joins touching look-alike objects in `lifted` (object and majority ids), see the module
 /// docs. `counts`: per view its [`ViewCounts`] (`[n_views]`, made from the ids of `lifted`
 /// before the join, one view at a time by a caller streaming the views); `facing`: the
 /// Gaussians' [`Facing`] (`None`: no part join, which needs outward normals); `wholes`: SAM's
-/// wholes, which veto joins (`None`: no veto). Returns the number of joins.
+/// wholes, which veto joins (`None`: no veto). Returns the joins made and the graph's edges.
 pub fn join_touching_objects(
     gaussians: &PreparedGaussians,
     lifted: &mut Lifted,
@@ -240,21 +268,31 @@ pub fn join_touching_objects(
     facing: Option<&Facing>,
     wholes: Option<&dyn SeparateWholes>,
     config: &LiftConfig,
-) -> usize {
+) -> JoinReport {
     if features.dim == 0 {
-        return 0;
+        return JoinReport::default();
     }
     let voxel = CONTACT_VOXEL_FACTOR * typical_sigma(gaussians);
     if voxel <= 0.0 || !voxel.is_finite() {
-        return 0;
+        return JoinReport::default();
     }
     let n_objects = features.n_objects();
     let graph = ObjectGraph::new(gaussians, &lifted.object_ids, voxel, &features, counts, facing);
-    // (cos, a, b, what the two sets' edge must not be).
-    let mut pairs: Vec<(f32, u32, u32, SetEdge)> = graph
+    let mut records: Vec<EdgeRecord> = graph
         .edges
         .iter()
-        .filter_map(|(&(a, b), e)| join_rule(a, b, e, config).map(|check| (e.cos, a, b, check)))
+        .map(|(&(a, b), e)| EdgeRecord::new(a, b, e, [graph.size(a), graph.size(b)]))
+        .collect();
+    // (cos, a, b, what the two sets' edge must not be, the edge's record).
+    let mut pairs: Vec<(f32, u32, u32, SetEdge, usize)> = graph
+        .edges
+        .iter()
+        .enumerate()
+        .filter_map(|(k, (&(a, b), e))| {
+            let (check, rule) = join_rule(a, b, e, config)?;
+            records[k].rule = rule;
+            Some((e.cos, a, b, check, k))
+        })
         .collect();
     // Joins on a surface with no edge say least: they come last, asked against the sets every
     // other rule made (else a piece joins one object first and the floor swallows both after).
@@ -268,18 +306,32 @@ pub fn join_touching_objects(
     // two sets as they stand (what is already joined to each), so that no chain of joins puts
     // together two objects that the masks keep apart.
     let mut gaussians_of: HashMap<u32, Vec<u32>> = HashMap::new();
-    if wholes.is_some() {
+    if let Some(wholes) = wholes {
         for (g, &id) in lifted.object_ids.iter().enumerate() {
             if id > 0 {
                 gaussians_of.entry(id as u32).or_default().push(g as u32);
             }
         }
+        let nodes: Vec<u32> = {
+            let mut n: Vec<u32> = records.iter().flat_map(|r| [r.a, r.b]).collect();
+            n.sort_unstable();
+            n.dedup();
+            n
+        };
+        let sets: Vec<&[u32]> =
+            nodes.iter().map(|id| gaussians_of.get(id).map_or(&[][..], |g| &g[..])).collect();
+        let at = |id: u32| nodes.binary_search(&id).unwrap_or(0);
+        let pairs: Vec<(usize, usize)> = records.iter().map(|r| (at(r.a), at(r.b))).collect();
+        for (r, sam) in records.iter_mut().zip(wholes.count_pairs(&sets, &pairs)) {
+            r.sam = Some(sam);
+        }
     }
     let mut sets = DisjointSets::new(n_objects + 1);
     let mut joins = 0;
-    for (cos, a, b, check) in pairs {
+    for (cos, a, b, check, k) in pairs {
         let (ra, rb) = (sets.find(a), sets.find(b));
         if ra == rb {
+            records[k].outcome = "already one set";
             continue;
         }
         let set = |r: u32| objects_of.get(&r).map_or(vec![r], Vec::clone);
@@ -310,6 +362,7 @@ pub fn join_touching_objects(
                     edge.convex,
                     edge.oriented
                 );
+                records[k].outcome = "refused: concave edge between the sets";
                 continue;
             }
         }
@@ -328,6 +381,7 @@ pub fn join_touching_objects(
                     "objects {a} and {b} (joined so far into {ra} and {rb}), cos {cos:.3}: SAM's masks \
                      hold them in different wholes, not joined"
                 );
+                records[k].outcome = "refused: SAM's wholes";
                 continue;
             }
         }
@@ -335,6 +389,7 @@ pub fn join_touching_objects(
         objects_of.remove(&ra);
         objects_of.remove(&rb);
         objects_of.insert(sets.find(a), [set_a, set_b].concat());
+        records[k].outcome = "joined";
         joins += 1;
     }
     if joins > 0 {
@@ -345,5 +400,5 @@ pub fn join_touching_objects(
             *id = sets.find(*id);
         }
     }
-    joins
+    JoinReport { joins, edges: records }
 }

@@ -49,7 +49,8 @@ fn join(prepared: &PreparedGaussians, ids: Vec<i32>) -> (usize, Lifted) {
     let mut facing = Facing::new(prepared.len());
     facing.add_view(prepared, &all, glam::Vec3::new(0.3, 1.5, -1.5));
     let joins =
-        join_touching_objects(prepared, &mut l, features, &[], Some(&facing), None, &LiftConfig::default());
+        join_touching_objects(prepared, &mut l, features, &[], Some(&facing), None, &LiftConfig::default())
+            .joins;
     (joins, l)
 }
 
@@ -257,7 +258,7 @@ fn join_parts_seen(
     let mut l = lifted(ids);
     let features = ObjectFeatures { dim: 2, values: features };
     let facing = with_facing.then_some(&facing);
-    join_touching_objects(prepared, &mut l, features, &counts, facing, None, config)
+    join_touching_objects(prepared, &mut l, features, &counts, facing, None, config).joins
 }
 
 #[test]
@@ -418,7 +419,8 @@ fn look_alike_objects_meeting_at_a_concave_edge_stay_apart_even_through_a_piece_
     let mut l = lifted(ids);
     let objects = ObjectFeatures { dim: 3, values: &features };
     let joins =
-        join_touching_objects(&prepared, &mut l, objects, &[], Some(&facing), None, &LiftConfig::default());
+        join_touching_objects(&prepared, &mut l, objects, &[], Some(&facing), None, &LiftConfig::default())
+            .joins;
     // The wall's pieces join (one plane continued); the floor joins neither them nor the strip.
     assert_eq!(joins, 1);
     assert!(l.object_ids[..400].iter().all(|&i| i == 1));
@@ -567,7 +569,8 @@ fn a_join_with_no_edge_waits_for_the_other_joins_and_then_sees_the_concave_edge(
         Some(&facing),
         None,
         &LiftConfig::default(),
-    );
+    )
+    .joins;
     assert_eq!(joins, 1);
     assert!(l.object_ids[..600].iter().all(|&i| i == 1), "the piece joins the floor");
     assert!(l.object_ids[600..].iter().all(|&i| i == 3), "the wall stays apart");

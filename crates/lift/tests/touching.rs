@@ -35,7 +35,8 @@ fn run(means: Vec<[f32; 3]>, ids: Vec<i32>) -> (usize, Lifted) {
         Some(&facing_camera(&prepared)),
         None,
         &LiftConfig::default(),
-    );
+    )
+    .joins;
     (joins, l)
 }
 
@@ -95,11 +96,17 @@ fn views_that_keep_the_pieces_apart_block_the_join() {
     // One view of three unites them: share 1/3 < 0.5, no join.
     let views = [counts(&apart), counts(&apart), counts(&together)];
     let mut l = lifted(ids.clone());
-    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), None, &config), 0);
+    assert_eq!(
+        join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), None, &config).joins,
+        0
+    );
     // Two of three: share 2/3, joined.
     let views = [counts(&apart), counts(&together), counts(&together)];
     let mut l = lifted(ids.clone());
-    assert_eq!(join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), None, &config), 1);
+    assert_eq!(
+        join_touching_objects(&prepared, &mut l, features, &views, Some(&facing), None, &config).joins,
+        1
+    );
 }
 
 /// SAM's wholes (a stand-in for the merge's evidence): object 1's Gaussians (0..400) and object
@@ -133,7 +140,8 @@ fn sam_wholes_veto_a_chain_of_joins_through_a_piece_touching_both() {
     let join = |wholes: Option<&dyn SeparateWholes>| {
         let mut l = lifted(ids.clone());
         let config = LiftConfig::default();
-        let joins = join_touching_objects(&prepared, &mut l, features, &[], Some(&facing), wholes, &config);
+        let joins =
+            join_touching_objects(&prepared, &mut l, features, &[], Some(&facing), wholes, &config).joins;
         (joins, l.object_ids)
     };
     // Without SAM's wholes the chain makes one object.
@@ -147,6 +155,34 @@ fn sam_wholes_veto_a_chain_of_joins_through_a_piece_touching_both() {
     assert_eq!(joins, 1);
     assert!(joined[..400].iter().all(|&i| i == 1));
     assert!(joined[400..].iter().all(|&i| i == 2));
+}
+
+#[test]
+fn the_join_reports_every_edge_with_its_evidence_rule_and_outcome() {
+    // The chain of the test above, vetoed by SAM's wholes: the report lists the two touching pairs
+    // (1 and 3 never touch), each with the rule that asked for its join and what became of it.
+    let (prepared, ids) = three_patches_in_a_row();
+    let features = ObjectFeatures { dim: 2, values: &[1.0, 0.0, 0.99, 0.141_07, 0.98, 0.198_99] };
+    let facing = facing_camera(&prepared);
+    let mut l = lifted(ids);
+    let report = join_touching_objects(
+        &prepared,
+        &mut l,
+        features,
+        &[],
+        Some(&facing),
+        Some(&OneAndThreeApart),
+        &LiftConfig::default(),
+    );
+    assert_eq!(report.joins, 1);
+    let edges: Vec<(u32, u32, &str, &str)> =
+        report.edges.iter().map(|e| (e.a, e.b, e.rule, e.outcome)).collect();
+    assert_eq!(edges, vec![(1, 2, "seam", "refused: SAM's wholes"), (2, 3, "seam", "joined")]);
+    let e = &report.edges[1];
+    assert_eq!(e.sizes, [400, 400]);
+    assert!(e.voxel_pairs >= 8 && e.smooth > 0 && e.coplanar, "{e:?}");
+    assert!((e.cos - (0.99 * 0.98 + 0.141_07 * 0.198_99)).abs() < 1e-5, "{e:?}");
+    assert_eq!(e.sam, None, "this stand-in gives no counts");
 }
 
 /// SAM's wholes (a stand-in): object 2's Gaussians (400..800) alone sit in nested masks apart
@@ -183,7 +219,8 @@ fn sam_wholes_that_keep_two_objects_apart_veto_their_join_after_one_joined_a_thi
         Some(&facing),
         Some(&TwoAloneApartFromOne),
         &config,
-    );
+    )
+    .joins;
     assert_eq!(joins, 1);
     assert!(l.object_ids[..400].iter().all(|&i| i == 1));
     assert!(l.object_ids[400..].iter().all(|&i| i == 2));

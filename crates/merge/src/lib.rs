@@ -28,4 +28,4 @@ pub use merge::{
     merge_view, merge_view_with_wholes, Decision, MergeLog, MergeResult, RegionSummary, ViewInputs,
 };
 pub use score::{Outcome, ScoreTerms};
-pub use wholes::{ViewMaskSets, ViewWholes, WholesCount, WholesEvidence};
+pub use wholes::{Observed, ViewMaskSets, ViewWholes, WholesCount, WholesEvidence};

@@ -361,6 +361,38 @@ impl WholesEvidence {
         }
         classify(n_views, &seen, &mut held, &mut Default::default())
     }
+
+    /// What every view's masks hold of one set of Gaussians, gathered once so that the set can be
+    /// counted against many others ([`WholesEvidence::count_observed`]).
+    pub fn observe(&self, gaussians: &[u32]) -> Observed {
+        let mut seen = vec![0u32; self.views()];
+        let mut held: Vec<(u32, u32)> = Vec::new();
+        for row in gaussians.iter().filter_map(|&g| self.row(g)) {
+            for &(w, set) in self.entries(row) {
+                seen[w as usize] += 1;
+                held.extend(self.views[w as usize].set(set).iter().map(|&m| (w, m)));
+            }
+        }
+        held.sort_unstable();
+        Observed { seen, held }
+    }
+
+    /// [`WholesEvidence::count_gaussians`] of two sets observed by [`WholesEvidence::observe`]
+    /// (the same counts).
+    pub fn count_observed(&self, sides: [&Observed; 2]) -> WholesCount {
+        let seen = [sides[0].seen.clone(), sides[1].seen.clone()];
+        let mut held = [sides[0].held.clone(), sides[1].held.clone()];
+        classify(self.views(), &seen, &mut held, &mut Default::default())
+    }
+}
+
+/// One set of Gaussians as every view's masks hold it ([`WholesEvidence::observe`]).
+#[derive(Clone, Debug, Default)]
+pub struct Observed {
+    /// `[n_views]` the set's Gaussians each view sees.
+    seen: Vec<u32>,
+    /// A `(view, mask)` per observation inside a mask, sorted.
+    held: Vec<(u32, u32)>,
 }
 
 /// The counts from each side's observations: `seen[k][w]` the side's Gaussians view `w` sees,
@@ -441,7 +473,13 @@ mod tests {
         let plain = [columns(8, 1, 0, 4), columns(8, 1, 4, 8)];
         let sets = |masks: &[MaskInput]| ViewMaskSets::new(masks, &gaussians, &gaussians, 1);
         let (a, b): (Vec<u32>, Vec<u32>) = ((0..4).collect(), (4..8).collect());
-        let count = |views: Vec<ViewMaskSets>| WholesEvidence::new(8, 1, views).count_gaussians([&a, &b]);
+        let count = |views: Vec<ViewMaskSets>| {
+            let evidence = WholesEvidence::new(8, 1, views);
+            let c = evidence.count_gaussians([&a, &b]);
+            let observed = evidence.count_observed([&evidence.observe(&a), &evidence.observe(&b)]);
+            assert_eq!(observed, c, "observed once, counted the same");
+            c
+        };
         // Apart in a whole in two views, together in one, no hierarchy in one: separate.
         let c = count(vec![sets(&nested), sets(&one_mask), sets(&nested), sets(&plain)]);
         assert_eq!(c, WholesCount { together: 1, apart: 2, seen: 4 });

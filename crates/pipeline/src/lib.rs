@@ -43,6 +43,7 @@ pub mod demo;
 pub mod digest;
 mod error;
 mod eval_stage;
+mod graph_record;
 pub mod identity_study;
 mod inputs;
 mod lift_stage;
@@ -308,6 +309,11 @@ pub fn run_pipeline(config: &RunConfig) -> crate::Result<RunSummary> {
         .map(|p| lift_stage::lift_views(p, &cams, &views, &matching, &ctx, config, &times))
         .transpose()?;
     drop(wholes);
+    if let Some(l) = &lifted {
+        let truth = inputs.gt.as_ref().and_then(|g| g.gaussian_ids.as_deref());
+        let truth = truth.and_then(|t| graph_record::node_truth(inputs.ply_rows.as_ref(), &l.voted_ids, t));
+        graph_record::write_graph(&cache_dir, l, truth.as_ref())?;
+    }
     profiler.parts(times.take());
     remove_spills(&cache_dir.join("visible"))?;
 

@@ -16,6 +16,7 @@ use crate::view_data::{self, ViewData};
 use crate::visible;
 use crate::RunConfig;
 use indicatif::ProgressBar;
+use rayon::prelude::*;
 use splatseg_lift::{
     LiftError, LiftOutput, LiftStage, MatchedViews, ObjectFeatures, PosedCamera, PreparedGaussians,
     ViewRegions, ViewStore, VisibleGaussians,
@@ -198,6 +199,17 @@ struct ObjectWholes<'a>(&'a splatseg_merge::WholesEvidence);
 impl splatseg_lift::SeparateWholes for ObjectWholes<'_> {
     fn separate(&self, a: &[u32], b: &[u32]) -> bool {
         self.0.count_gaussians([a, b]).separate()
+    }
+
+    fn count_pairs(&self, sets: &[&[u32]], pairs: &[(usize, usize)]) -> Vec<splatseg_lift::SamViews> {
+        let observed: Vec<splatseg_merge::Observed> = sets.par_iter().map(|s| self.0.observe(s)).collect();
+        pairs
+            .par_iter()
+            .map(|&(a, b)| {
+                let c = self.0.count_observed([&observed[a], &observed[b]]);
+                splatseg_lift::SamViews { together: c.together, apart: c.apart, seen: c.seen }
+            })
+            .collect()
     }
 }
 

@@ -259,3 +259,32 @@ fn run_on_an_spz_of_the_ply_labels_the_gaussians_as_on_the_ply() {
     );
     assert!(agreement >= 0.99, "per-Gaussian label agreement {agreement:.4} < 0.99");
 }
+
+/// Issue 58: a run writes its object graph to `cache/graph.json`, every edge with its evidence,
+/// rule and outcome, and with ground truth the object each side mostly is.
+#[test]
+fn a_run_records_its_object_graph_with_ground_truth() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scene = tmp.path().join("scene");
+    synth(&scene, &SynthConfig { seed: 3, views: 6, width: 160, height: 120, ..SynthConfig::default() });
+    let out = tmp.path().join("out");
+    run_pipeline(&run_config(&scene, &out)).expect("pipeline runs");
+    let text =
+        std::fs::read_to_string(out.join("cache").join(crate::graph_record::GRAPH_FILE)).expect("graph");
+    let graph: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let edges = graph["edges"].as_array().expect("edges");
+    assert!(graph["nodes"].as_u64().expect("nodes") >= 2 && !edges.is_empty(), "{text}");
+    for e in edges {
+        assert!(e["a"].as_u64() < e["b"].as_u64(), "{e}");
+        assert!(e["voxel_pairs"].as_u64().expect("surface term") >= 1, "{e}");
+        let truth = e["truth"].as_array().expect("ground truth given");
+        for side in truth {
+            let purity = side["purity"].as_f64().expect("purity");
+            assert!(purity > 0.0 && purity <= 1.0, "{e}");
+        }
+        assert!(e["outcome"].as_str().is_some_and(|o| !o.is_empty()), "{e}");
+    }
+    let joined = edges.iter().filter(|e| e["outcome"] == "joined").count();
+    let asked = edges.iter().filter(|e| e["rule"] != "none").count();
+    assert!(joined <= asked, "only edges a rule asked for are joined");
+}
