@@ -64,8 +64,8 @@ pub struct Cli {
     /// More detail in the logs: -v debug, -vv trace.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
-    /// Refuse a PLY holding any non-finite value (NaN, ±Inf) or degenerate Gaussian (zero
-    /// quaternion, log-scale above 20). Without it such Gaussians are skipped with a warning: `run` keeps their rows in its gaussians.ply with
+    /// Refuse a Gaussian file (PLY, compressed PLY, SPZ, .splat, .ksplat) holding any non-finite
+    /// value (NaN, ±Inf) or degenerate Gaussian (zero quaternion, log-scale above 20). Without it such Gaussians are skipped with a warning: `run` keeps their rows in its gaussians.ply with
     /// object_id -1, other commands leave them out of what they write.
     #[arg(long, global = true)]
     pub strict: bool,

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 /// draws progress bars (on a terminal only).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RunOptions {
-    /// Refuse a PLY holding any non-finite value (NaN, ±Inf) or degenerate Gaussian (zero
+    /// Refuse a Gaussian file (any format) holding any non-finite value (NaN, ±Inf) or degenerate Gaussian (zero
     /// quaternion, log-scale above 20) instead of skipping those Gaussians with one warning per
     /// kind and file.
     pub strict: bool,

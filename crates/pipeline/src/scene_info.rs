@@ -23,7 +23,7 @@ pub struct InfoRequest {
     pub resolution: u32,
     /// Blender split to read.
     pub split: String,
-    /// Refuse a PLY holding non-finite values (`--strict`) rather than counting them.
+    /// Refuse a Gaussian file holding non-finite values (`--strict`) rather than counting them.
     pub strict: bool,
 }
 
