@@ -211,6 +211,8 @@ def agglomerate(rows, log_odds_of_edge, threshold):
 
 
 def score_sets(graphs, make_parent):
+    """Counts and cost-weighted errors over the labelled edges of the sets `make_parent(rows)` makes
+    of each graph: an edge is joined when its two sides end in one set."""
     s = {"edges": 0, "wrong_joins": 0, "missed_joins": 0, "cost_wrong": 0, "cost_missed": 0, "cost": 0}
     for _, rows in graphs:
         parent = make_parent(rows)
@@ -231,30 +233,18 @@ def score_sets(graphs, make_parent):
 
 
 def score(graphs, decide):
-    """Counts and cost-weighted errors of a decision over the labelled edges, each edge judged by
-    whether its two sides end in one set after every edge the decision joins (as the union-find
-    of the lift does)."""
-    s = {"edges": 0, "wrong_joins": 0, "missed_joins": 0, "cost_wrong": 0, "cost_missed": 0, "cost": 0}
-    for _, rows in graphs:
+    """[`score_sets`] of a pairwise decision: every edge `decide` accepts joined by union-find, as
+    the lift's union-find does, each edge then judged by whether its two sides end in one set."""
+
+    def union_of_accepted(rows):
         parent = {}
         for r in rows:
             if decide(r):
                 ra, rb = find(parent, r[4][0]), find(parent, r[4][1])
                 parent[max(ra, rb)] = min(ra, rb)
-        for r in rows:
-            if r[1] is None:
-                continue
-            s["edges"] += 1
-            joined = find(parent, r[4][0]) == find(parent, r[4][1])
-            same, cost = r[1], r[2]
-            s["cost"] += cost
-            if joined and not same:
-                s["wrong_joins"] += 1
-                s["cost_wrong"] += cost
-            elif same and not joined:
-                s["missed_joins"] += 1
-                s["cost_missed"] += cost
-    return s
+        return parent
+
+    return score_sets(graphs, union_of_accepted)
 
 
 def show(name, s):
