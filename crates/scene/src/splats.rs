@@ -198,6 +198,36 @@ pub fn parse_gaussian_bytes_rows(format: SplatFormat, bytes: &[u8]) -> Result<Pl
     }
 }
 
+/// Panics unless the SPZ `bytes` read `chunk_bytes` of body at a time (on two threads once the
+/// body is longer) give what reading them whole gives: the same error, or the same Gaussians bit
+/// for bit (the fuzz target's check of the chunked reader, [`crate::fuzzing::spz`]).
+pub(crate) fn check_spz_chunked_read(bytes: &[u8], chunk_bytes: usize) {
+    let whole = spz::parse_spz(bytes);
+    let chunked = if spz::is_gzip(bytes) {
+        spz::read_spz_in_chunks(bytes, bytes.len() as u64, chunk_bytes)
+    } else {
+        spz::parse_spz(bytes)
+    };
+    match (whole, chunked) {
+        (Ok(a), Ok(b)) => {
+            assert!(float_bits(&a) == float_bits(&b), "SPZ read in chunks of {chunk_bytes} bytes differs")
+        }
+        (Err(a), Err(b)) => assert_eq!(a, b, "SPZ read in chunks of {chunk_bytes} bytes fails otherwise"),
+        (a, b) => panic!("SPZ read whole: {:?}; in chunks of {chunk_bytes} bytes: {:?}", a.err(), b.err()),
+    }
+}
+
+/// The SH degree and every float an SPZ holds, as bits (so −0.0 ≠ 0.0), attribute by attribute.
+fn float_bits(g: &Gaussians) -> (u8, Vec<u32>) {
+    let floats = (g.means.iter().flatten())
+        .chain(&g.raw_opacities)
+        .chain(g.sh_dc.iter().flatten())
+        .chain(g.log_scales.iter().flatten())
+        .chain(g.rotations.iter().flatten())
+        .chain(&g.sh_rest);
+    (g.sh_degree, floats.map(|v| v.to_bits()).collect())
+}
+
 /// Writes `g` atomically in the format `path`'s extension names ([`SplatFormat::from_extension`]),
 /// or as a PLY when the extension names none. Refuses (naming the file, writing nothing) what
 /// [`Gaussians::validate`] refuses; SPZ refuses positions beyond its ±2048 range. What a format
