@@ -93,7 +93,9 @@ impl PlyRows {
     /// when every row is usable.
     pub fn skip_warnings(&self, path: &Path, consequence: &str) -> Vec<String> {
         let mut warnings = Vec::new();
-        if let Some(first) = self.gaussians.first_non_finite() {
+        // The first bad value is looked for only when there is one (a scan of every value).
+        let first_non_finite = || self.gaussians.first_non_finite();
+        if let Some(first) = self.non_finite.first().and_then(|_| first_non_finite()) {
             warnings.push(format!(
                 "skipping {} of {} Gaussians with non-finite values (first: {first}); {consequence}: {}",
                 self.non_finite.len(),
@@ -119,7 +121,7 @@ impl PlyRows {
     /// The error [`read_ply`] gives for a file with non-finite rows, or a degenerate one, or
     /// `Ok` when every row is usable (what `--strict` asks for); it names the file's format.
     pub fn refuse_skipped(&self, path: &Path) -> SceneResult<()> {
-        if let Some(reason) = self.gaussians.first_non_finite() {
+        if let Some(reason) = self.non_finite.first().and_then(|_| self.gaussians.first_non_finite()) {
             return Err(SceneError::invalid(self.format, path, reason));
         }
         match self.degenerate.first() {
