@@ -80,11 +80,16 @@ fn evict_from_page_cache(_path: &Path) -> bool {
     false
 }
 
+/// Wall and CPU seconds `f` takes.
+fn timed(f: impl FnOnce()) -> (f64, f64) {
+    let (cpu, start) = (process_cpu_seconds(), Instant::now());
+    f();
+    (start.elapsed().as_secs_f64(), process_cpu_seconds() - cpu)
+}
+
 /// Wall and CPU seconds of reading the Gaussians at `path` and dropping them.
 fn timed_read(path: &Path) -> (f64, f64) {
-    let (cpu, start) = (process_cpu_seconds(), Instant::now());
-    drop(read_gaussians(path).expect("read"));
-    (start.elapsed().as_secs_f64(), process_cpu_seconds() - cpu)
+    timed(|| drop(read_gaussians(path).expect("read")))
 }
 
 /// One round of one setting: the PLY and the SPZ read, `spz_first` or not, each evicted from the
@@ -181,35 +186,37 @@ fn main() {
             "COLD READS NOT MEASURED: this system cannot drop a file's pages (posix_fadvise, Linux only)"
         );
     }
-    let (mut warm, mut cold, mut inflate_s) = (Times::default(), Times::default(), Vec::new());
+    let (mut warm, mut cold) = (Times::default(), Times::default());
+    let (mut inflate_wall, mut inflate_cpu) = (Vec::new(), Vec::new());
     for round in 0..rounds {
         let spz_first = round % 2 == 1;
         let w = read_both(&ply, &spz, spz_first, false);
         let c = cold_possible.then(|| read_both(&ply, &spz, spz_first, true));
-        let ti = {
-            let start = Instant::now();
-            assert_eq!(inflate_only(&spz), 16 + 65 * N as u64);
-            start.elapsed().as_secs_f64()
-        };
+        let inflate = timed(|| assert_eq!(inflate_only(&spz), 16 + 65 * N as u64));
         let ms = |(wall, cpu): (f64, f64)| format!("{:.0} ms (CPU {:.0})", wall * 1e3, cpu * 1e3);
         let cold_line = c.map(|c| format!("; cold PLY {}, SPZ {}", ms(c[0]), ms(c[1]))).unwrap_or_default();
         println!(
-            "round {round}: warm PLY {}, SPZ {}{cold_line}; inflate only {:.0} ms",
+            "round {round}: warm PLY {}, SPZ {}{cold_line}; inflate only {}",
             ms(w[0]),
             ms(w[1]),
-            ti * 1e3
+            ms(inflate)
         );
         warm.push(w);
         if let Some(c) = c {
             cold.push(c);
         }
-        inflate_s.push(ti);
+        inflate_wall.push(inflate.0);
+        inflate_cpu.push(inflate.1);
     }
     println!("median {}", warm.summary("warm"));
     if cold_possible {
         println!("median {}", cold.summary("cold"));
     }
-    println!("median inflate only (warm): {:.0} ms", median(inflate_s) * 1e3);
+    println!(
+        "median inflate only (warm): {:.0} ms (CPU {:.0} ms)",
+        median(inflate_wall) * 1e3,
+        median(inflate_cpu) * 1e3
+    );
     for path in [&ply, &spz] {
         let _ = std::fs::remove_file(path);
     }
