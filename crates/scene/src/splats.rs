@@ -15,6 +15,8 @@ mod splat;
 mod spz;
 mod spz_decode;
 #[cfg(test)]
+mod spz_decode_tests;
+#[cfg(test)]
 mod spz_tests;
 
 use crate::error::{SceneError, SceneResult};
@@ -115,8 +117,17 @@ const ANY_FORMAT: &str = "Gaussian splat";
 pub fn read_gaussians(path: &Path) -> SceneResult<Gaussians> {
     let (format, rows) = read_gaussian_rows_with_format(path)?;
     let g = rows.gaussians;
-    g.validate().map_err(|reason| SceneError::invalid(format.name(), path, reason))?;
+    if !decodes_finite(format) {
+        g.validate().map_err(|reason| SceneError::invalid(format.name(), path, reason))?;
+    }
     Ok(g)
+}
+
+/// True for the formats whose reader checks the set's structure itself and cannot decode a
+/// non-finite value or a degenerate shape, so that neither is looked for
+/// ([`PlyRows::usable_by_construction`]): SPZ, all of whose values are fixed-point or byte codes.
+fn decodes_finite(format: SplatFormat) -> bool {
+    format == SplatFormat::Spz
 }
 
 /// Every Gaussian of a PLY, compressed PLY, SPZ, `.splat` or `.ksplat` file with the non-finite
@@ -135,13 +146,20 @@ pub fn read_gaussian_rows_with_format(path: &Path) -> SceneResult<(SplatFormat, 
         SplatFormat::detect(&head, path).map_err(|reason| SceneError::invalid(ANY_FORMAT, path, reason))?;
     match format {
         SplatFormat::Ply => return Ok((format, crate::ply::read_ply_rows(path)?)),
-        SplatFormat::Spz => return Ok((format, PlyRows::new(read_spz_file(path)?).in_format(spz::FORMAT))),
+        SplatFormat::Spz => return Ok((format, compact_rows(format, read_spz_file(path)?))),
         _ => {}
     }
     let bytes = std::fs::read(path).map_err(io)?;
     let g =
         parse_compact(format, &bytes).map_err(|reason| SceneError::invalid(format.name(), path, reason))?;
-    Ok((format, PlyRows::new(g).in_format(format.name())))
+    Ok((format, compact_rows(format, g)))
+}
+
+/// The rows of `g`, decoded from a file in `format` (not a PLY), with the non-finite and
+/// degenerate ones listed unless the format cannot hold any ([`decodes_finite`]).
+fn compact_rows(format: SplatFormat, g: Gaussians) -> PlyRows {
+    let rows = if decodes_finite(format) { PlyRows::usable_by_construction(g) } else { PlyRows::new(g) };
+    rows.in_format(format.name())
 }
 
 /// An SPZ file's Gaussians, read through a buffer as it inflates (never held whole in memory).
@@ -176,8 +194,38 @@ fn parse_compact(format: SplatFormat, bytes: &[u8]) -> Result<Gaussians, String>
 pub fn parse_gaussian_bytes_rows(format: SplatFormat, bytes: &[u8]) -> Result<PlyRows, String> {
     match format {
         SplatFormat::Ply => crate::ply::parse_ply_bytes_rows(bytes),
-        _ => Ok(PlyRows::new(parse_compact(format, bytes)?).in_format(format.name())),
+        _ => Ok(compact_rows(format, parse_compact(format, bytes)?)),
     }
+}
+
+/// Panics unless the SPZ `bytes` read `chunk_bytes` of body at a time (on two threads once the
+/// body is longer) give what reading them whole gives: the same error, or the same Gaussians bit
+/// for bit (the fuzz target's check of the chunked reader, [`crate::fuzzing::spz`]).
+pub(crate) fn check_spz_chunked_read(bytes: &[u8], chunk_bytes: usize) {
+    let whole = spz::parse_spz(bytes);
+    let chunked = if spz::is_gzip(bytes) {
+        spz::read_spz_in_chunks(bytes, bytes.len() as u64, chunk_bytes)
+    } else {
+        spz::parse_spz(bytes)
+    };
+    match (whole, chunked) {
+        (Ok(a), Ok(b)) => {
+            assert!(float_bits(&a) == float_bits(&b), "SPZ read in chunks of {chunk_bytes} bytes differs")
+        }
+        (Err(a), Err(b)) => assert_eq!(a, b, "SPZ read in chunks of {chunk_bytes} bytes fails otherwise"),
+        (a, b) => panic!("SPZ read whole: {:?}; in chunks of {chunk_bytes} bytes: {:?}", a.err(), b.err()),
+    }
+}
+
+/// The SH degree and every float an SPZ holds, as bits (so −0.0 ≠ 0.0), attribute by attribute.
+fn float_bits(g: &Gaussians) -> (u8, Vec<u32>) {
+    let floats = (g.means.iter().flatten())
+        .chain(&g.raw_opacities)
+        .chain(g.sh_dc.iter().flatten())
+        .chain(g.log_scales.iter().flatten())
+        .chain(g.rotations.iter().flatten())
+        .chain(&g.sh_rest);
+    (g.sh_degree, floats.map(|v| v.to_bits()).collect())
 }
 
 /// Writes `g` atomically in the format `path`'s extension names ([`SplatFormat::from_extension`]),
