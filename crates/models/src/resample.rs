@@ -294,8 +294,17 @@ pub fn resize_plane_into(
     tmp: &mut Vec<f32>,
     dst: &mut [f32],
 ) {
-    let (out_h, out_w) = (rows.out_len(), cols.out_len());
-    // columns first: [in_h, out_w]
+    let out_w = cols.out_len();
+    resize_columns_into(src, cols, (in_h, in_w), tmp);
+    for (y, dst_row) in dst.chunks_exact_mut(out_w).take(rows.out_len()).enumerate() {
+        resize_row_from_columns(tmp, rows, in_h, y, dst_row);
+    }
+}
+
+/// The first half of [`resize_plane_into`]: every input row of `src` `[in_h, in_w]` resized along
+/// its columns into `tmp` `[in_h, cols.out_len]` (resized as needed).
+pub fn resize_columns_into(src: &[f32], cols: &AxisTaps, (in_h, in_w): (usize, usize), tmp: &mut Vec<f32>) {
+    let out_w = cols.out_len();
     tmp.clear();
     tmp.resize(in_h * out_w, 0.0);
     for y in 0..in_h {
@@ -312,19 +321,23 @@ pub fn resize_plane_into(
             tmp[y * out_w + x] = acc;
         }
     }
-    for y in 0..out_h {
-        let start = rows.starts[y];
-        let w = &rows.weights[y * rows.taps_per_output..(y + 1) * rows.taps_per_output];
-        let dst_row = &mut dst[y * out_w..(y + 1) * out_w];
-        dst_row.fill(0.0);
-        for (k, wk) in w.iter().enumerate() {
-            if *wk == 0.0 || start + k >= in_h {
-                continue;
-            }
-            let src_row = &tmp[(start + k) * out_w..(start + k + 1) * out_w];
-            for (d, s) in dst_row.iter_mut().zip(src_row) {
-                *d += wk * s;
-            }
+}
+
+/// The second half of [`resize_plane_into`] for one output row `y`: `dst_row` `[out_w]`
+/// (overwritten) from the column-resized rows `columns` `[in_h, out_w]`. Row by row, a caller can
+/// read each output row while it is in L1 without storing the plane.
+pub fn resize_row_from_columns(columns: &[f32], rows: &AxisTaps, in_h: usize, y: usize, dst_row: &mut [f32]) {
+    let out_w = dst_row.len();
+    let start = rows.starts[y];
+    let w = &rows.weights[y * rows.taps_per_output..(y + 1) * rows.taps_per_output];
+    dst_row.fill(0.0);
+    for (k, wk) in w.iter().enumerate() {
+        if *wk == 0.0 || start + k >= in_h {
+            continue;
+        }
+        let src_row = &columns[(start + k) * out_w..(start + k + 1) * out_w];
+        for (d, s) in dst_row.iter_mut().zip(src_row) {
+            *d += wk * s;
         }
     }
 }
