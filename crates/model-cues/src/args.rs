@@ -15,8 +15,14 @@ use std::path::PathBuf;
 /// --depth OUT/depth`.
 ///
 /// Models are given as a checkpoint file, a Hugging Face snapshot folder, or a model id found in the
-/// local Hugging Face cache (`facebook/dinov2-small`); nothing is downloaded. Outputs are cached by
-/// model, settings and image content: a rerun only computes what changed.
+/// local Hugging Face cache (`facebook/dinov2-small`); nothing is downloaded.
+///
+/// The next image is decoded while the models run on the current one. Progress and an ETA: a bar on
+/// a terminal; when stderr is piped, an INFO line at least every 30 s (`SPLATSEG_LOG_EVERY_SECS` sets
+/// the interval). Each output is written whole (a temporary file renamed) and then recorded in
+/// OUT/cache/<cue>/<stem>.key with the model (checkpoint path, size, modification time), the settings,
+/// and the image's size and content hash: a rerun, also after a kill, skips exactly the outputs whose
+/// key matches and computes the rest.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct CuesArgs {
@@ -48,8 +54,10 @@ impl CuesArgs {
     /// Runs the chosen models on every view with the library's defaults: the references' input
     /// sizes (518 px) and SAM's automatic mask generator settings (32 points per side, no crops,
     /// no clean-up), the train split.
-    pub fn compute(self, show_progress: bool) -> crate::Result<CuesSummary> {
+    /// `log_every`: the interval of progress lines when stderr is piped.
+    pub fn compute(self, show_progress: bool, log_every: std::time::Duration) -> crate::Result<CuesSummary> {
         compute_cues(&CuesRequest {
+            log_every,
             dinov2: self.dinov2,
             depth_model: self.depth_model,
             sam: self.sam,
