@@ -14,12 +14,14 @@
 
 use splatseg_scene::rle::Rle;
 
-use crate::resample::{resize_columns_into, resize_plane_into, resize_row_from_columns, AxisTaps};
+use crate::resample::{resize_columns_by_columns_into, resize_plane_into, resize_row_from_columns, AxisTaps};
 
 /// Buffers reused across the masks one worker handles.
 #[derive(Debug, Default)]
 pub struct MaskScratch {
     columns: Vec<f32>,
+    /// The transposed planes of [`resize_columns_by_columns_into`].
+    transposed: Vec<f32>,
     logits: Vec<f32>,
     /// One upscaled row.
     row: Vec<f32>,
@@ -76,7 +78,7 @@ impl MaskScratch {
         offset: f32,
     ) -> MaskMeasures {
         let (height, width) = (rows.out_len(), cols.out_len());
-        resize_columns_into(low, cols, low_size, &mut self.columns);
+        resize_columns_by_columns_into(low, cols, low_size, &mut self.columns, &mut self.transposed);
         self.row.resize(width, 0.0);
         self.mask.resize(height * width, 0);
         self.mask_size = (height, width);
