@@ -234,6 +234,10 @@ fn cues_write_progress_lines_with_an_eta_into_a_piped_log() {
     assert!(lines.iter().all(|l| l.contains("(eta ")), "{lines:?}");
     assert!(lines.iter().any(|l| l.contains("2/2 views")), "{lines:?}");
     assert!(!log.contains('\r') && !log.contains("\u{1b}["), "terminal control codes in a piped log:\n{log}");
+    let help = splatseg(&["cues", "--help"]);
+    for said in ["SPLATSEG_LOG_EVERY_SECS", "kill", "OUT/cache/<cue>/<stem>.key"] {
+        assert!(help.contains(said), "cues --help does not say {said}:\n{help}");
+    }
     let bad = Command::new(env!("CARGO_BIN_EXE_splatseg"))
         .args(["cues", &scene_s, "--out", &out("c")])
         .env("SPLATSEG_LOG_EVERY_SECS", "soon")
