@@ -157,3 +157,92 @@ fn run_computes_the_cues_itself_when_given_model_checkpoints() {
         assert_eq!((labels.width, labels.height), (70, 56));
     }
 }
+
+/// `splatseg cues` with `env` set, stderr piped: (stdout, stderr).
+fn cues_piped(args: &[&str], env: &[(&str, &str)]) -> (String, String) {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_splatseg"));
+    command.args(args).env_remove("RUST_LOG");
+    for (name, value) in env {
+        command.env(name, value);
+    }
+    let out = command.output().expect("run splatseg");
+    let (stdout, stderr) =
+        (String::from_utf8_lossy(&out.stdout).to_string(), String::from_utf8_lossy(&out.stderr).to_string());
+    assert!(out.status.success(), "splatseg {args:?} failed:\n{stdout}\n{stderr}");
+    (stdout, stderr)
+}
+
+#[test]
+fn cues_recompute_exactly_what_a_changed_image_checkpoint_or_setting_touches() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    let scene_s = scene.display().to_string();
+    splatseg(&["synth", "--out", &scene_s, "--views", "3", "--size", "64x48"]);
+    // a checkpoint of our own, so that touching it changes nothing in the repository
+    let sam = dir.path().join("sam.pth");
+    std::fs::copy(fixtures().join("sam_tiny.pth"), &sam).unwrap();
+    let (sam_s, out_s) = (sam.display().to_string(), dir.path().join("cues").display().to_string());
+    let base = ["cues", scene_s.as_str(), "--out", out_s.as_str(), "--sam", sam_s.as_str()];
+    let with =
+        |extra: &[&'static str]| -> Vec<&str> { base.iter().copied().chain(extra.iter().copied()).collect() };
+    // 3 views × (SAM, LoG)
+    assert!(splatseg(&with(&[])).contains("6 computed, 0 cached"));
+    assert!(splatseg(&with(&[])).contains("0 computed, 6 cached"));
+    let json = dir.path().join("cues/sam/view_001.json");
+    let before = std::fs::read(&json).unwrap();
+
+    // another image content under the same name: that view's two cues again, the rest cached
+    let images = scene.join("images");
+    let (first, second) = (images.join("view_000.png"), images.join("view_001.png"));
+    let (a, b) = (std::fs::read(&first).unwrap(), std::fs::read(&second).unwrap());
+    assert_ne!(a, b, "the synthetic views differ");
+    std::fs::write(&second, &a).unwrap();
+    assert!(splatseg(&with(&[])).contains("2 computed, 4 cached"));
+    assert_ne!(std::fs::read(&json).unwrap(), before, "view_001's masks are the new image's");
+    std::fs::write(&second, &b).unwrap();
+    assert!(splatseg(&with(&[])).contains("2 computed, 4 cached"));
+    assert_eq!(std::fs::read(&json).unwrap(), before, "the old image gives the old masks again");
+
+    // another setting (the image size): everything
+    assert!(splatseg(&with(&["--resolution", "2"])).contains("6 computed, 0 cached"));
+    assert!(splatseg(&with(&[])).contains("6 computed, 0 cached"));
+    // the checkpoint written again (its modification time): SAM's outputs, not the LoG maps
+    let file = std::fs::File::options().write(true).open(&sam).unwrap();
+    file.set_modified(std::time::SystemTime::now() + std::time::Duration::from_secs(5)).unwrap();
+    drop(file);
+    assert!(splatseg(&with(&[])).contains("3 computed, 3 cached"));
+    assert_eq!(std::fs::read(&json).unwrap(), before, "the same weights give the same masks");
+}
+
+#[test]
+fn cues_write_progress_lines_with_an_eta_into_a_piped_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    let scene_s = scene.display().to_string();
+    splatseg(&["synth", "--out", &scene_s, "--views", "2", "--size", "64x48"]);
+    let sam = fixtures().join("sam_tiny.pth").display().to_string();
+    let out = |name: &str| dir.path().join(name).display().to_string();
+    let (a, b) = (out("a"), out("b"));
+    // the default interval (30 s): this short run writes no progress line
+    let (_, quiet) = cues_piped(&["cues", &scene_s, "--out", &a, "--sam", &sam], &[]);
+    assert!(!quiet.contains("views"), "a progress line before 30 s:\n{quiet}");
+    let (stdout, log) =
+        cues_piped(&["cues", &scene_s, "--out", &b, "--sam", &sam], &[("SPLATSEG_LOG_EVERY_SECS", "0")]);
+    assert!(stdout.contains("4 computed, 0 cached"), "{stdout}");
+    let lines: Vec<&str> = log.lines().filter(|l| l.contains("INFO") && l.contains(" views ")).collect();
+    assert!(!lines.is_empty(), "no progress line in the piped log:\n{log}");
+    assert!(lines.iter().all(|l| l.contains("(eta ")), "{lines:?}");
+    assert!(lines.iter().any(|l| l.contains("2/2 views")), "{lines:?}");
+    assert!(!log.contains('\r') && !log.contains("\u{1b}["), "terminal control codes in a piped log:\n{log}");
+    let help = splatseg(&["cues", "--help"]);
+    for said in ["SPLATSEG_LOG_EVERY_SECS", "kill", "OUT/cache/<cue>/<stem>.key"] {
+        assert!(help.contains(said), "cues --help does not say {said}:\n{help}");
+    }
+    let bad = Command::new(env!("CARGO_BIN_EXE_splatseg"))
+        .args(["cues", &scene_s, "--out", &out("c")])
+        .env("SPLATSEG_LOG_EVERY_SECS", "soon")
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("SPLATSEG_LOG_EVERY_SECS"));
+}

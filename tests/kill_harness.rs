@@ -181,7 +181,13 @@ fn run_cues_and_train_survive_sigkill_and_resume_to_identical_outputs() {
         harness(
             "cues",
             tmp.path(),
-            |out| vec!["cues".into(), scene_str.clone(), "--out".into(), s(out)],
+            |out| {
+                // SAM's masks (the tiny random-weight fixture) and the LoG maps
+                let sam =
+                    s(&Path::new(env!("CARGO_MANIFEST_DIR"))
+                        .join("crates/models/tests/fixtures/sam_tiny.pth"));
+                vec!["cues".into(), scene_str.clone(), "--out".into(), s(out), "--sam".into(), sam]
+            },
             0x5eed_0002,
         ),
         harness(

@@ -86,6 +86,7 @@ pub enum Command {
     /// Print the default settings, each with its meaning and source, as a TOML file for `run --config`.
     Config(config::Args),
     /// Compute per-view cues with in-process models (SAM masks, DINOv2 features, depth, LoG).
+    #[command(long_about = splatseg_model_cues::args::CUES_LONG_ABOUT)]
     Cues(splatseg_model_cues::CuesArgs),
     /// Run the whole pipeline on a generated synthetic scene and print the metrics.
     Demo(pipeline::DemoArgs),

@@ -8,15 +8,27 @@ use splatseg_pipeline::{PipelineConfig, RunConfig, RunOptions};
 use splatseg_scene::paths::Role;
 use std::path::PathBuf;
 
-/// Compute per-view cues with in-process models: SAM automatic masks (`OUT/sam/<stem>.json`),
-/// DINOv2 patch features (`OUT/features/<stem>.npy`, `[h/14, w/14, C]`, L2-normalised),
-/// Depth Anything V2 relative inverse depth (`OUT/depth/<stem>.npy`, `[H, W]`) and the LoG edge map
-/// (`OUT/log/<stem>.npy`). Feed them to `splatseg run --masks OUT/sam --features OUT/features
-/// --depth OUT/depth`.
-///
-/// Models are given as a checkpoint file, a Hugging Face snapshot folder, or a model id found in the
-/// local Hugging Face cache (`facebook/dinov2-small`); nothing is downloaded. Outputs are cached by
-/// model, settings and image content: a rerun only computes what changed.
+/// What `splatseg cues --help` says after its one-line summary: how the views stream, how progress is
+/// shown, and how a rerun resumes.
+pub const CUES_LONG_ABOUT: &str = "Compute per-view cues with in-process models: SAM automatic masks \
+(OUT/sam/<stem>.json), DINOv2 patch features (OUT/features/<stem>.npy), Depth Anything V2 relative inverse \
+depth (OUT/depth/<stem>.npy) and the LoG edge map (OUT/log/<stem>.npy).
+
+The next image is decoded while the models run on the current one. Progress and an ETA: a bar on a \
+terminal; when stderr is piped, an INFO line at least every 30 s (SPLATSEG_LOG_EVERY_SECS sets the \
+interval). Each output is written whole (a temporary file renamed) and then recorded in \
+OUT/cache/<cue>/<stem>.key with the model (checkpoint path, size, modification time), the settings, and \
+the image's size and content hash: a rerun, also after a kill, skips exactly the outputs whose key \
+matches and computes the rest.
+
+Models are given as a checkpoint file, a Hugging Face snapshot folder, or a model id found in the local \
+Hugging Face cache (facebook/dinov2-small); nothing is downloaded. Feed the outputs to `splatseg run \
+--masks OUT/sam --features OUT/features --depth OUT/depth`.";
+
+/// The arguments of `splatseg cues` (what it does: [`CUES_LONG_ABOUT`], its `--help`). Feed its outputs
+/// to `splatseg run --masks OUT/sam --features OUT/features --depth OUT/depth`. Models are given as a
+/// checkpoint file, a Hugging Face snapshot folder, or a model id found in the local Hugging Face cache
+/// (`facebook/dinov2-small`); nothing is downloaded.
 #[derive(Debug)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct CuesArgs {
@@ -48,8 +60,10 @@ impl CuesArgs {
     /// Runs the chosen models on every view with the library's defaults: the references' input
     /// sizes (518 px) and SAM's automatic mask generator settings (32 points per side, no crops,
     /// no clean-up), the train split.
-    pub fn compute(self, show_progress: bool) -> crate::Result<CuesSummary> {
+    /// `log_every`: the interval of progress lines when stderr is piped.
+    pub fn compute(self, show_progress: bool, log_every: std::time::Duration) -> crate::Result<CuesSummary> {
         compute_cues(&CuesRequest {
+            log_every,
             dinov2: self.dinov2,
             depth_model: self.depth_model,
             sam: self.sam,

@@ -14,9 +14,10 @@
 //! text tower loaded once; a query (not empty, within CLIP's context) is ranked with LERF's relevancy
 //! against the canonical negatives ([`splatseg_models::clip::relevancy`]).
 
+use crate::cached_output::{fnv1a, FNV_OFFSET};
 use crate::object_index::{checkpoint_identity, ply_digest, run_key, FORMAT};
 pub use crate::object_index::{IndexedObject, ObjectIndex, RunIdentity, UsedView};
-use crate::{fnv1a, Context, ModelCuesError, FNV_OFFSET};
+use crate::{Context, ModelCuesError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use splatseg_models::clip::relevancy::{rank_objects, Embeddings, CANONICAL_NEGATIVES, LERF_SCALE};

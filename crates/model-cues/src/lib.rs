@@ -4,19 +4,24 @@
 //! `[h/14, w/14, C]`, L2-normalised), Depth Anything V2 relative inverse depth
 //! (`OUT/depth/<stem>.npy`, `[H, W]`) and the LoG edge map (`OUT/log/<stem>.npy`).
 //!
-//! Outputs are cached by model, settings and image content (`OUT/cache/<cue>/<stem>.key`): a rerun
-//! only computes what changed. Shards ([`Shard`]) may run at once on the same `OUT`. Kept apart
+//! Over a folder the work streams: the next view's image is decoded (and resized) on another thread
+//! while the models run, and a progress bar with an ETA is drawn on a terminal, or written as a log
+//! line at least every 30 s when stderr is piped. Each output is written atomically and then recorded
+//! by its key (`OUT/cache/<cue>/<stem>.key`: model, settings, image size and content, see
+//! [`cached_output`]): a rerun, after a kill too, only computes what is missing or changed. Shards ([`Shard`]) may run at once on the same `OUT`. Kept apart
 //! from `splatseg-pipeline` so that the pipeline does not depend on candle. [`args`]: the arguments of
 //! `splatseg cues` and `splatseg run` (clap's `Args` with the `cli` feature).
 
 pub mod apply_edits;
 pub mod args;
+pub mod cached_output;
 pub mod clip_objects;
 mod error;
 pub mod object_index;
 pub mod object_names;
 
 pub use args::{CuesArgs, FindArgs, RunArgs};
+use cached_output::{cue_key, is_complete, write_then_record, ImageIdentity};
 pub use error::{Context, ModelCuesError, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use splatseg_models::depth_anything::DepthAnything;
@@ -64,6 +69,9 @@ pub struct CuesRequest {
     pub shard: Option<Shard>,
     /// Draw a progress bar on stderr.
     pub show_progress: bool,
+    /// When stderr is not a terminal: a progress line at least this often
+    /// ([`splatseg_pipeline::progress_log::LOG_EVERY`] by default).
+    pub log_every: std::time::Duration,
 }
 
 impl CuesRequest {
@@ -88,6 +96,7 @@ impl CuesRequest {
             max_views: None,
             shard: None,
             show_progress: true,
+            log_every: splatseg_pipeline::progress_log::LOG_EVERY,
         }
     }
 }
@@ -199,17 +208,6 @@ impl Cue for LogCue {
     }
 }
 
-/// FNV-1a, 64 bit: a stable content hash for cache keys.
-fn fnv1a(bytes: &[u8], mut hash: u64) -> u64 {
-    for &b in bytes {
-        hash ^= b as u64;
-        hash = hash.wrapping_mul(0x100_0000_01b3);
-    }
-    hash
-}
-
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-
 /// Identity of a checkpoint: resolved path, size and modification time (hashing gigabytes per run
 /// would cost more than it saves).
 fn checkpoint_id(path: &Path) -> String {
@@ -281,7 +279,7 @@ pub fn compute_cues(args: &CuesRequest) -> crate::Result<CuesSummary> {
     if !args.show_progress {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     } else {
-        splatseg_pipeline::progress_log::log_when_piped(&bar);
+        splatseg_pipeline::progress_log::log_when_piped_every(&bar, args.log_every);
     }
     let mut computed = 0;
     std::thread::scope(|scope| -> crate::Result<()> {
@@ -298,23 +296,25 @@ pub fn compute_cues(args: &CuesRequest) -> crate::Result<CuesSummary> {
         for view in views.iter() {
             let image = receiver.recv().ok().context("the image loader stopped")??;
             let size = (image.height, image.width);
+            let identity = ImageIdentity::of(&image.data, size);
+            let computed_before = computed;
             for cue in &cues {
                 let (folder, ext) = cue.folder();
                 bar.set_message(format!("{folder} {}", view.name));
-                let key =
-                    format!("{:016x}", fnv1a(&image.data, fnv1a(cue.identity().as_bytes(), FNV_OFFSET)));
+                let key = cue_key(&cue.identity(), identity);
                 let out = args.out.join(folder).join(format!("{}.{ext}", view.stem));
                 let key_path = args.out.join("cache").join(folder).join(format!("{}.key", view.stem));
-                let cached = out.is_file()
-                    && std::fs::read_to_string(&key_path).map(|k| k.trim() == key).unwrap_or(false);
-                if !cached {
-                    cue.write(&image.data, size, &out)
+                if !is_complete(&out, &key_path, &key) {
+                    write_then_record(&out, &key_path, &key, |out| cue.write(&image.data, size, out))
                         .with_context(|| format!("{folder} for view {}", view.name))?;
-                    splatseg_scene::atomic::write_bytes_atomic(&key_path, key.as_bytes())?;
                     computed += 1;
                 }
             }
             bar.inc(1);
+            if computed == computed_before {
+                // a view from the cache (a resumed run) says nothing of how long the others take
+                bar.reset_eta();
+            }
         }
         Ok(())
     })?;

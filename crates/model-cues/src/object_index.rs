@@ -5,7 +5,8 @@
 //! another run beside it, or another checkpoint in place of the run's one is refused, naming what
 //! differs, instead of ranking the ids of other objects.
 
-use crate::{fnv1a, Context, ModelCuesError, FNV_OFFSET};
+use crate::cached_output::{fnv1a, FNV_OFFSET};
+use crate::{Context, ModelCuesError};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};

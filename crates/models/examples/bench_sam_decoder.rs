@@ -9,8 +9,10 @@
 //! head, 64 by default) in chunks of CHUNK (the automatic mask generator's, by default) in parallel
 //! over the rayon pool, then upscales all three multimask outputs of
 //! the first UPSCALED prompts (8 by default) to the low-resolution logits, then runs the automatic mask
-//! generator's per-mask post-processing on those masks (the low-resolution stability bound, upscale to
-//! a 1280×960 image, stability score, box, RLE), timing each part. Prints the time of each step and a
+//! generator's per-mask post-processing on those masks, timing each part: the low-resolution stability
+//! bound, then the plain steps (upscale to a stored 1280×960 plane, stability score, box, RLE down the
+//! columns) and the generator's row pass (upscale row by row with stability, box and mask, RLE by
+//! rows) on the same masks, side by side, asserting they agree. Prints the time of each step and a
 //! checksum of the outputs (to compare two builds; the inputs are deterministic).
 
 use std::path::Path;
@@ -98,44 +100,68 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let bound = StabilityBound::new(&rows, &cols, (256, 256));
     let nanos = |t: Instant| t.elapsed().as_nanos() as u64;
     let t = Instant::now();
-    let per_mask: Vec<[u64; 6]> = lows
+    // per mask: the plain steps (bound, upscale into a stored plane, stability, box, RLE down the
+    // columns), then the generator's (upscale row by row with stability, box and mask, RLE by rows)
+    // on the same mask, checked equal
+    let per_mask: Vec<[u64; 8]> = lows
         .par_iter()
         .flat_map(|low| low.par_chunks(256 * 256))
-        .map_init(MaskScratch::default, |scratch, low| {
-            let s = Instant::now();
-            let surely_unstable = bound.as_ref().is_some_and(|b| b.surely_unstable(low, 1.0, 0.95));
-            let bound_ns = nanos(s);
-            let s = Instant::now();
-            let logits = scratch.upscale(low, &rows, &cols, (256, 256));
-            let upscale_ns = nanos(s);
-            let s = Instant::now();
-            let stability = stability_score(logits, 0.0, 1.0);
-            let stability_ns = nanos(s);
-            let s = Instant::now();
-            let bbox = positive_box(logits, width);
-            let box_ns = nanos(s);
-            let s = Instant::now();
-            let rle = positive_rle(logits, &[0, 0, width, height], (height, width));
-            let rle_ns = nanos(s);
-            let checksum = rle.area() + (stability.is_nan() as u64) + bbox[0] as u64 + surely_unstable as u64;
-            [bound_ns, upscale_ns, stability_ns, box_ns, rle_ns, checksum]
-        })
+        .map_init(
+            || (MaskScratch::default(), MaskScratch::default()),
+            |(scratch, rows_scratch), low| {
+                let s = Instant::now();
+                let surely_unstable = bound.as_ref().is_some_and(|b| b.surely_unstable(low, 1.0, 0.95));
+                let bound_ns = nanos(s);
+                let s = Instant::now();
+                let logits = scratch.upscale(low, &rows, &cols, (256, 256));
+                let upscale_ns = nanos(s);
+                let s = Instant::now();
+                let stability = stability_score(logits, 0.0, 1.0);
+                let stability_ns = nanos(s);
+                let s = Instant::now();
+                let bbox = positive_box(logits, width);
+                let box_ns = nanos(s);
+                let s = Instant::now();
+                let rle = positive_rle(logits, &[0, 0, width, height], (height, width));
+                let rle_ns = nanos(s);
+                let s = Instant::now();
+                let measures = rows_scratch.upscale_and_measure(low, &rows, &cols, (256, 256), 1.0);
+                let measure_ns = nanos(s);
+                let s = Instant::now();
+                let by_rows = rows_scratch.positive_rle(&[0, 0, width, height], (height, width));
+                let row_rle_ns = nanos(s);
+                let same = by_rows == rle
+                    && measures.box_xyxy == bbox
+                    && measures.stability().to_bits() == stability.to_bits();
+                assert!(same, "the row pass differs from the plain steps");
+                let checksum =
+                    rle.area() + (stability.is_nan() as u64) + bbox[0] as u64 + surely_unstable as u64;
+                [bound_ns, upscale_ns, stability_ns, box_ns, rle_ns, measure_ns, row_rle_ns, checksum]
+            },
+        )
         .collect();
     let post = t.elapsed();
     let n = per_mask.len().max(1) as f64;
     let mean_ms = |i: usize| per_mask.iter().map(|p| p[i]).sum::<u64>() as f64 / n / 1e6;
+    let plain = mean_ms(1) + mean_ms(2) + mean_ms(3) + mean_ms(4);
+    let by_rows = mean_ms(5) + mean_ms(6);
     println!(
-        "post-processing of {} masks at {width}x{height}: {post:.3?}, {:.2} ms per mask; per mask (thread time): \
-         low-resolution stability bound {:.3} ms, upscaling {:.3} ms, stability {:.3} ms, box {:.3} ms, RLE {:.3} ms",
+        "post-processing of {} masks at {width}x{height}, both ways: {post:.3?}; per mask (thread time): \
+         low-resolution stability bound {:.3} ms; plain: upscaling {:.3} ms, stability {:.3} ms, box {:.3} ms, \
+         RLE down the columns {:.3} ms, sum {plain:.3} ms; row pass: upscaling with stability, box and mask \
+         {:.3} ms, RLE by rows {:.3} ms, sum {by_rows:.3} ms; ratio {:.2}x (RLE {:.2}x); same masks",
         per_mask.len(),
-        post.as_secs_f64() * 1e3 / n,
         mean_ms(0),
         mean_ms(1),
         mean_ms(2),
         mean_ms(3),
-        mean_ms(4)
+        mean_ms(4),
+        mean_ms(5),
+        mean_ms(6),
+        plain / by_rows,
+        mean_ms(4) / mean_ms(6)
     );
-    let areas: Vec<u64> = per_mask.iter().map(|p| p[5]).collect();
+    let areas: Vec<u64> = per_mask.iter().map(|p| p[7]).collect();
     let iou_sum: f64 = ious.iter().flatten().map(|&v| v as f64).sum();
     let logit_sum: f64 = lows.iter().flatten().map(|&v| v as f64).sum();
     println!("checksum: IoU sum {iou_sum:.6}, logit sum {logit_sum:.4}, areas {}", areas.iter().sum::<u64>());

@@ -294,8 +294,17 @@ pub fn resize_plane_into(
     tmp: &mut Vec<f32>,
     dst: &mut [f32],
 ) {
-    let (out_h, out_w) = (rows.out_len(), cols.out_len());
-    // columns first: [in_h, out_w]
+    let out_w = cols.out_len();
+    resize_columns_into(src, cols, (in_h, in_w), tmp);
+    for (y, dst_row) in dst.chunks_exact_mut(out_w).take(rows.out_len()).enumerate() {
+        resize_row_from_columns(tmp, rows, in_h, y, dst_row);
+    }
+}
+
+/// The first half of [`resize_plane_into`]: every input row of `src` `[in_h, in_w]` resized along
+/// its columns into `tmp` `[in_h, cols.out_len]` (resized as needed).
+pub fn resize_columns_into(src: &[f32], cols: &AxisTaps, (in_h, in_w): (usize, usize), tmp: &mut Vec<f32>) {
+    let out_w = cols.out_len();
     tmp.clear();
     tmp.resize(in_h * out_w, 0.0);
     for y in 0..in_h {
@@ -312,19 +321,68 @@ pub fn resize_plane_into(
             tmp[y * out_w + x] = acc;
         }
     }
-    for y in 0..out_h {
-        let start = rows.starts[y];
-        let w = &rows.weights[y * rows.taps_per_output..(y + 1) * rows.taps_per_output];
-        let dst_row = &mut dst[y * out_w..(y + 1) * out_w];
-        dst_row.fill(0.0);
-        for (k, wk) in w.iter().enumerate() {
-            if *wk == 0.0 || start + k >= in_h {
-                continue;
+}
+
+/// [`resize_columns_into`] computed a whole input column at a time: `src` transposed into
+/// `scratch`, each output column the weighted sum of its input columns (contiguous, so the sums run
+/// in vector registers), transposed back into `tmp` `[in_h, cols.out_len]`. Every value is the same
+/// sum in the same order (from 0, tap by tap, taps past the input skipped), so the same bits.
+pub fn resize_columns_by_columns_into(
+    src: &[f32],
+    cols: &AxisTaps,
+    (in_h, in_w): (usize, usize),
+    tmp: &mut Vec<f32>,
+    scratch: &mut Vec<f32>,
+) {
+    let out_w = cols.out_len();
+    scratch.clear();
+    scratch.resize((in_w + out_w) * in_h, 0.0);
+    let (src_t, out_t) = scratch.split_at_mut(in_w * in_h);
+    transpose_into(&src[..in_h * in_w], in_h, in_w, src_t);
+    for (x, sums) in out_t.chunks_exact_mut(in_h.max(1)).take(out_w).enumerate() {
+        let start = cols.starts[x];
+        let w = &cols.weights[x * cols.taps_per_output..(x + 1) * cols.taps_per_output];
+        for (k, &wk) in w.iter().enumerate() {
+            let Some(column) = src_t.get((start + k) * in_h..(start + k + 1) * in_h) else { break };
+            for (sum, &v) in sums.iter_mut().zip(column) {
+                *sum += wk * v;
             }
-            let src_row = &tmp[(start + k) * out_w..(start + k + 1) * out_w];
-            for (d, s) in dst_row.iter_mut().zip(src_row) {
-                *d += wk * s;
+        }
+    }
+    tmp.clear();
+    tmp.resize(in_h * out_w, 0.0);
+    transpose_into(out_t, out_w, in_h, tmp);
+}
+
+/// `dst` `[cols, rows]` = `src` `[rows, cols]` transposed, in 32 × 32 blocks.
+fn transpose_into(src: &[f32], rows: usize, cols: usize, dst: &mut [f32]) {
+    const BLOCK: usize = 32;
+    for r0 in (0..rows).step_by(BLOCK) {
+        for c0 in (0..cols).step_by(BLOCK) {
+            for r in r0..(r0 + BLOCK).min(rows) {
+                for c in c0..(c0 + BLOCK).min(cols) {
+                    dst[c * rows + r] = src[r * cols + c];
+                }
             }
+        }
+    }
+}
+
+/// The second half of [`resize_plane_into`] for one output row `y`: `dst_row` `[out_w]`
+/// (overwritten) from the column-resized rows `columns` `[in_h, out_w]`. Row by row, a caller can
+/// read each output row while it is in L1 without storing the plane.
+pub fn resize_row_from_columns(columns: &[f32], rows: &AxisTaps, in_h: usize, y: usize, dst_row: &mut [f32]) {
+    let out_w = dst_row.len();
+    let start = rows.starts[y];
+    let w = &rows.weights[y * rows.taps_per_output..(y + 1) * rows.taps_per_output];
+    dst_row.fill(0.0);
+    for (k, wk) in w.iter().enumerate() {
+        if *wk == 0.0 || start + k >= in_h {
+            continue;
+        }
+        let src_row = &columns[(start + k) * out_w..(start + k + 1) * out_w];
+        for (d, s) in dst_row.iter_mut().zip(src_row) {
+            *d += wk * s;
         }
     }
 }
@@ -356,6 +414,24 @@ pub fn resize_tensor_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn columns_by_columns_are_the_same_bits_as_row_by_row() {
+        let (mut plain, mut by_columns, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
+        let mut compared = 0;
+        for mode in [Resample::Bilinear, Resample::Bicubic, Resample::BicubicAntialias] {
+            for (in_h, in_w, out_w) in [(5, 7, 19), (9, 16, 40), (3, 33, 8), (1, 1, 5)] {
+                let src: Vec<f32> = (0..in_h * in_w).map(|i| (i as f32 * 0.731).sin() * 3.0).collect();
+                let cols = AxisTaps::new(AxisResize::to_len(in_w, out_w), mode);
+                resize_columns_into(&src, &cols, (in_h, in_w), &mut plain);
+                resize_columns_by_columns_into(&src, &cols, (in_h, in_w), &mut by_columns, &mut scratch);
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&by_columns), bits(&plain), "{mode:?} {in_h}x{in_w} -> {out_w}");
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 12);
+    }
 
     #[test]
     fn identity_when_sizes_match() {

@@ -115,8 +115,14 @@ pub fn log_lines_into(bar: &ProgressBar, sink: LogSink, every: Duration) {
 /// When stderr is not a terminal, points `bar` at log lines every [`LOG_EVERY`] through `tracing`
 /// (on a terminal the bar is drawn as it is).
 pub fn log_when_piped(bar: &ProgressBar) {
+    log_when_piped_every(bar, LOG_EVERY);
+}
+
+/// [`log_when_piped`] with lines at least every `every` (`splatseg cues` takes it from
+/// `SPLATSEG_LOG_EVERY_SECS`).
+pub fn log_when_piped_every(bar: &ProgressBar, every: Duration) {
     if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-        log_lines_into(bar, LogSink::tracing(), LOG_EVERY);
+        log_lines_into(bar, LogSink::tracing(), every);
     }
 }
 

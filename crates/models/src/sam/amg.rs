@@ -2,8 +2,12 @@
 //! crop, three masks per point, filtered by predicted IoU and stability, de-duplicated by box NMS
 //! within and across crops, optional small-region clean-up, masks at full image resolution.
 //!
-//! Memory stays bounded: points go through the decoder in small chunks, and each mask is upscaled,
-//! scored and run-length encoded on its own (no batch of full-resolution logits is materialised).
+//! Only the work that survives is done: points go through the decoder in chunks, a mask's
+//! predicted IoU is read before the mask is formed, its stability is bounded from the
+//! low-resolution logits before upscaling ([`super::stability_bound`]), and a mask that may pass is
+//! upscaled one row at a time with its stability, box and mask read off each row
+//! ([`MaskScratch::upscale_and_measure`]); only masks kept are run-length encoded, by rows. No
+//! full-resolution image of logits is stored.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -14,8 +18,8 @@ use splatseg_scene::rle::Rle;
 use splatseg_scene::sam::SamMask;
 use splatseg_scene::Plane;
 
-use super::mask_output::{positive_box, positive_rle, MaskScratch};
-use super::masks::{mask_box, near_crop_edge, nms, remove_small_regions, stability_score, RegionKind};
+use super::mask_output::MaskScratch;
+use super::masks::{mask_box, near_crop_edge, nms, remove_small_regions, RegionKind};
 use super::shared_decoder::DecoderImage;
 use super::stability_bound::StabilityBound;
 use super::{ImageEmbedding, Sam};
@@ -234,8 +238,8 @@ fn process_crop(
     tracing::debug!(
         "SAM crop {crop:?}: encoder {:.2} s, decoder {:.2} s ({} points in {} batches, {:.3} s per batch; {} \
          masks past the IoU filter), post-processing {:.2} s (thread-seconds: low-resolution stability bound {:.2}, \
-         upscaling {:.2}, stability {:.2}, box and crop edge {:.2}, RLE {:.2}; {} dropped by the bound, {} \
-         stable, {} away from crop edges), NMS {:.4} s ({} kept)",
+         upscaling with stability, box and mask {:.2}, RLE {:.2}; {} dropped by the bound, {} stable, {} away \
+         from crop edges), NMS {:.4} s ({} kept)",
         timing.encoder,
         timing.decoder,
         points.len(),
@@ -244,9 +248,7 @@ fn process_crop(
         timing.upscaled,
         timing.post,
         MaskPartTimes::seconds(&parts.low_res_bound),
-        MaskPartTimes::seconds(&parts.upscale),
-        MaskPartTimes::seconds(&parts.stability),
-        MaskPartTimes::seconds(&parts.boxes),
+        MaskPartTimes::seconds(&parts.upscale_and_measure),
         MaskPartTimes::seconds(&parts.rle),
         timing.surely_unstable,
         timing.stable,
@@ -291,13 +293,10 @@ struct StageTimes {
 struct MaskPartTimes {
     /// The stability bound read from the low-resolution logits.
     low_res_bound: AtomicU64,
-    /// Upscaling the low-resolution logits to the image.
-    upscale: AtomicU64,
-    /// The stability score.
-    stability: AtomicU64,
-    /// The box of `logits > 0` and the crop-edge test.
-    boxes: AtomicU64,
-    /// The column-major RLE of `logits > 0`.
+    /// Upscaling the low-resolution logits to the image row by row, with the stability counts, the
+    /// box and the mask read off each row, and the crop-edge test.
+    upscale_and_measure: AtomicU64,
+    /// The column-major RLE of the mask, read by rows.
     rle: AtomicU64,
 }
 
@@ -359,24 +358,22 @@ fn process_batch(
                 surely_unstable.fetch_add(1, Ordering::Relaxed);
                 return None;
             }
-            let logits = scratch.upscale(low, &rows, &cols, low_size);
-            MaskPartTimes::lap(&parts.upscale, &mut clock);
-            let stability = stability_score(logits, 0.0, offset);
-            MaskPartTimes::lap(&parts.stability, &mut clock);
+            let measures = scratch.upscale_and_measure(low, &rows, &cols, low_size, offset);
+            let stability = measures.stability();
             // NaN (empty union) fails too, as in the reference
             let passes = stability >= thresh;
+            let box_in_crop = measures.box_xyxy;
+            let near_edge = passes && near_crop_edge(&box_in_crop, crop, &image_box, 20.0);
+            MaskPartTimes::lap(&parts.upscale_and_measure, &mut clock);
             if !passes {
                 return None;
             }
             stable.fetch_add(1, Ordering::Relaxed);
-            let box_in_crop = positive_box(logits, cw);
-            let near_edge = near_crop_edge(&box_in_crop, crop, &image_box, 20.0);
-            MaskPartTimes::lap(&parts.boxes, &mut clock);
             if near_edge {
                 return None;
             }
-            debug_assert_eq!(logits.len(), cw * ch);
-            let rle = positive_rle(logits, crop, (height, width));
+            debug_assert_eq!((rows.out_len(), cols.out_len()), (ch, cw));
+            let rle = scratch.positive_rle(crop, (height, width));
             MaskPartTimes::lap(&parts.rle, &mut clock);
             Some(Candidate {
                 rle,
