@@ -51,6 +51,32 @@ TERMS = [
 ]
 
 
+def _sam(e, k):
+    return (e.get("sam") or {}).get(k, 0)
+
+
+# The terms of `crates/lift/src/decision.rs` (`--model sqrt-counts`): counts that add up over the
+# edges between two sets, each entering as its square root, two flags and the cosine. Same order
+# as its `WEIGHTS`.
+COUNT_TERMS = [
+    ("views_together", lambda e: math.sqrt(e["together"])),
+    ("views_apart", lambda e: math.sqrt(max(0, e["seeing_both"] - e["together"]))),
+    ("sam_together", lambda e: math.sqrt(_sam(e, "together"))),
+    ("sam_apart", lambda e: math.sqrt(_sam(e, "apart"))),
+    ("concave", lambda e: math.sqrt(e["concave"])),
+    ("not_concave", lambda e: math.sqrt(max(0, e["oriented"] - e["concave"]))),
+    ("convex", lambda e: math.sqrt(e["convex"])),
+    ("smooth", lambda e: math.sqrt(e["smooth"])),
+    ("not_smooth", lambda e: math.sqrt(max(0, e["measured"] - e["smooth"]))),
+    ("coplanar", lambda e: float(e["coplanar"])),
+    ("thin_line", lambda e: float(e["thin_line"])),
+    ("cos", lambda e: e["cos"]),
+]
+
+
+TERMS_IN_USE = TERMS
+
+
 def load(folder, descriptors, purity):
     """Per graph under `folder`: its edges as (terms, same, cost, today's decision, (a, b),
     labelled), `same` None for an edge left out."""
@@ -67,7 +93,7 @@ def load(folder, descriptors, purity):
             labelled = bool(truth) and all(t["object"] >= 0 and t["purity"] >= purity for t in truth)
             same = truth[0]["object"] == truth[1]["object"] if labelled else None
             today = e["outcome"] == "joined"
-            x = [f(e) for _, f in TERMS]
+            x = [f(e) for _, f in TERMS_IN_USE]
             rows.append((x, same, min(e["sizes"]), today, (e["a"], e["b"]), e))
         graphs.append((os.path.basename(path), rows))
     return graphs
@@ -261,18 +287,26 @@ def main():
     ap.add_argument("--descriptors", default="features", choices=["features", "model_free"])
     ap.add_argument("--purity", type=float, default=0.8, help="a side less pure than this is left out")
     ap.add_argument("--drop", action="append", default=[], help="a term to leave out (repeatable)")
-    ap.add_argument("--model", default="linear", choices=["linear", "stumps"],
-                    help="one weight per term (linear) or boosted stumps (a step function per term)")
+    ap.add_argument("--model", default="linear", choices=["linear", "stumps", "sqrt-counts"],
+                    help="one weight per term (linear), boosted stumps (a step function per term), or "
+                         "the square roots of counts that add up between sets (the lift's `decision`)")
+    ap.add_argument("--halves", action="store_true",
+                    help="also fit on the even seeds of the first folder and score the odd ones, and back")
     ap.add_argument("--breakdown", action="store_true", help="today's rules and outcomes against the truth")
     ap.add_argument("--thresholds", type=float, nargs="+", default=[0.0], help="join above these log-odds")
     args = ap.parse_args()
-    names = [n for n, _ in TERMS]
+    global TERMS_IN_USE
+    if args.model == "sqrt-counts":
+        TERMS_IN_USE = COUNT_TERMS
+    names = [n for n, _ in TERMS_IN_USE]
     for d in args.drop:
         if d not in names:
             sys.exit(f"unknown term {d!r}; terms: {', '.join(names)}")
     keep = [k for k, n in enumerate(names) if n not in args.drop]
     sets = [(f, load(f, args.descriptors, args.purity)) for f in args.folders]
-    w, b, mean, dev = fit(labelled(sets[0][1]), keep)
+    # The lift's weights (`--model sqrt-counts`) are the fit after 2,000 steps.
+    steps = 2000 if args.model == "sqrt-counts" else 3000
+    w, b, mean, dev = fit(labelled(sets[0][1]), keep, steps=steps)
 
     def log_odds(r):
         return b + sum(wi * xi for wi, xi in zip(w, features(r, keep, mean, dev)))
@@ -292,6 +326,24 @@ def main():
     for j, k in enumerate(keep):
         print(f"    {names[k]:<12} {w[j]:+.3f}   (mean {mean[j]:.3f}, deviation {dev[j]:.3f})")
     print(f"    {'bias':<12} {b:+.3f}")
+    if args.model == "sqrt-counts":
+        print("  per unit of each term (crates/lift/src/decision.rs WEIGHTS):")
+        for j, k in enumerate(keep):
+            print(f"    {names[k]:<16} {w[j] / dev[j]:.4f}")
+        print(f"    {'bias':<16} {b - sum(w[j] * mean[j] / dev[j] for j in range(len(keep))):.4f}")
+    if args.halves:
+        graphs = sets[0][1]
+        parity = lambda name: int(name.split("_")[-2]) % 2  # noqa: E731
+        for fit_on in (0, 1):
+            train = [g for g in graphs if parity(g[0]) == fit_on]
+            test = [g for g in graphs if parity(g[0]) != fit_on]
+            hw, hb, hmean, hdev = fit(labelled(train), keep, steps=steps)
+            half_odds = lambda e: hb + sum(  # noqa: E731
+                wi * xi for wi, xi in zip(hw, features(([f(e) for _, f in TERMS_IN_USE],), keep, hmean, hdev)))
+            label = "odd" if fit_on == 0 else "even"
+            print(f"  fitted on the {'even' if fit_on == 0 else 'odd'} seeds, scored on the {label} ones:")
+            show("today's rules", score(test, lambda r: r[3]))
+            show("agglomerative > 0", score_sets(test, lambda g: agglomerate(g, half_odds, 0.0)))
     def breakdown(graphs):
         """Labelled edges by today's (rule, outcome): how many join one object, how many two."""
         table = {}
@@ -314,7 +366,7 @@ def main():
             breakdown(rows)
         for t in args.thresholds:
             show(f"log-odds > {t:g}", score(rows, lambda r: log_odds(r) > t))
-            edge_odds = lambda e: log_odds(([f(e) for _, f in TERMS],))
+            edge_odds = lambda e: log_odds(([f(e) for _, f in TERMS_IN_USE],))
             show(f"agglomerative > {t:g}", score_sets(rows, lambda g: agglomerate(g, edge_odds, t)))
         show("join nothing", score(rows, lambda r: False))
 

@@ -41,6 +41,8 @@ pub struct LiftConfig {
     /// structure and the parts of one object meeting at convex edges joined at this cosine too;
     /// they now ask the geometry and the views alone: [`crate::touching`].)
     pub tau_seam: f32,
+    /// How touching objects are decided one or two ([`Decision`]).
+    pub decision: Decision,
     /// Split objects whose labelled Gaussians form clusters apart in 3D ([`crate::split`]).
     pub split_disconnected: bool,
     /// Objects covering fewer pixels than this over all rendered-back label maps are specks and
@@ -92,6 +94,8 @@ pub struct ObjectsTable {
     pub tau_touching: f32,
     /// [`LiftConfig::tau_seam`].
     pub tau_seam: f32,
+    /// [`LiftConfig::decision`].
+    pub decision: Decision,
     /// [`LiftConfig::split_disconnected`].
     pub split_disconnected: bool,
     /// [`LiftConfig::min_object_px`].
@@ -126,6 +130,20 @@ impl Default for FinalMapsTable {
     fn default() -> Self {
         LiftConfig::default().tables().2
     }
+}
+
+/// How touching objects are decided one or two (`[objects] decision`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Decision {
+    /// The joins and vetoes of [`crate::touching`] (the default).
+    #[default]
+    Rules,
+    /// One sum of log-odds over the evidence pooled between two sets of objects, joined
+    /// agglomeratively (`crate::decision`; issue 58's candidate, measured beside the rules in
+    /// `docs/benchmarks/38-one-decision.md`). The joins of the rules and their vetoes are not
+    /// asked; the 3D split, its rejoin and the specks after it are unchanged.
+    Evidence,
 }
 
 /// What the final per-view label maps are (`[final_maps] kind`).
@@ -192,6 +210,7 @@ impl LiftConfig {
             ObjectsTable {
                 tau_touching: self.tau_touching,
                 tau_seam: self.tau_seam,
+                decision: self.decision,
                 split_disconnected: self.split_disconnected,
                 min_object_px: self.min_object_px,
             },
@@ -211,6 +230,7 @@ impl LiftConfig {
             min_views: lift.min_views,
             tau_touching: objects.tau_touching,
             tau_seam: objects.tau_seam,
+            decision: objects.decision,
             split_disconnected: objects.split_disconnected,
             min_object_px: objects.min_object_px,
             final_maps: final_maps.kind,
@@ -266,6 +286,7 @@ impl Default for LiftConfig {
             min_views: 1,
             tau_touching: 0.95,
             tau_seam: 0.5,
+            decision: Decision::default(),
             split_disconnected: true,
             min_object_px: 64,
             final_maps: FinalMaps::default(),

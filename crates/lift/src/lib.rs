@@ -15,6 +15,7 @@
 //! - [`lifting`]: majority vote of the global ids, weighted feature fusion, variance filter.
 //! - `graph`: the object graph: touching objects as edges with their evidence (surface, views,
 //!   appearance), gathered once.
+//! - `decision`: one decision over the graph's pooled evidence (`[objects] decision = "evidence"`).
 //! - [`touching`]: objects that touch in 3D and look alike (or meet as parts of one object) become one.
 //! - [`split`]: objects whose Gaussians lie apart in 3D become several.
 //! - `shape`: the typical Gaussian size, planes, thin lines and contacts between objects in 3D.
@@ -30,6 +31,7 @@
 //! ranges in parallel with views in fixed order, so results do not depend on the thread count.
 
 pub mod config;
+mod decision;
 pub mod error;
 pub mod facing;
 pub mod final_maps;
@@ -48,7 +50,7 @@ pub mod touching;
 pub mod visibility;
 mod voxels;
 
-pub use config::{FinalMaps, LiftConfig};
+pub use config::{Decision, FinalMaps, LiftConfig};
 pub use error::{LiftError, LiftResult};
 pub use facing::Facing;
 pub use final_maps::{LiftOutput, LiftStage, MatchedViews, ViewRegions, ViewStore, VisibleGaussians};

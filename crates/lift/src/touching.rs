@@ -102,7 +102,8 @@
 //! two objects touching (different objects meet at concave edges: a box on a box, a box beside a
 //! wall), and the join is refused (`docs/benchmarks/22-one-feature-floor.md`).
 
-use crate::config::LiftConfig;
+use crate::config::{Decision, LiftConfig};
+use crate::decision::{agglomerate, Pooled};
 use crate::facing::Facing;
 use crate::graph::{EdgeRecord, Evidence, ObjectGraph, SamViews, ViewCounts};
 use crate::lifting::{Lifted, ObjectFeatures};
@@ -326,6 +327,16 @@ pub fn join_touching_objects(
             r.sam = Some(sam);
         }
     }
+    if config.decision == Decision::Evidence {
+        let edges: Vec<(u32, u32, Pooled)> = records.iter().map(|r| (r.a, r.b, Pooled::of(r))).collect();
+        let (mut sets, joins) = agglomerate(&edges, n_objects);
+        for r in &mut records {
+            r.rule = "evidence";
+            r.outcome = if sets.find(r.a) == sets.find(r.b) { "joined" } else { "no join" };
+        }
+        relabel(lifted, &mut sets, n_objects);
+        return JoinReport { joins, edges: records };
+    }
     let mut sets = DisjointSets::new(n_objects + 1);
     let mut joins = 0;
     for (cos, a, b, check, k) in pairs {
@@ -393,12 +404,17 @@ pub fn join_touching_objects(
         joins += 1;
     }
     if joins > 0 {
-        for id in lifted.object_ids.iter_mut().filter(|id| **id > 0 && (**id as usize) <= n_objects) {
-            *id = sets.find(*id as u32) as i32;
-        }
-        for id in lifted.majority_ids.iter_mut().filter(|id| **id > 0 && (**id as usize) <= n_objects) {
-            *id = sets.find(*id);
-        }
+        relabel(lifted, &mut sets, n_objects);
     }
     JoinReport { joins, edges: records }
+}
+
+/// Every object and majority id of `lifted` (`1..=n_objects`) replaced by its set's root.
+fn relabel(lifted: &mut Lifted, sets: &mut DisjointSets, n_objects: usize) {
+    for id in lifted.object_ids.iter_mut().filter(|id| **id > 0 && (**id as usize) <= n_objects) {
+        *id = sets.find(*id as u32) as i32;
+    }
+    for id in lifted.majority_ids.iter_mut().filter(|id| **id > 0 && (**id as usize) <= n_objects) {
+        *id = sets.find(*id);
+    }
 }

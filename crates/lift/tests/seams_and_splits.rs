@@ -3,8 +3,8 @@
 
 use crate::common::{gaussians, lifted};
 use splatseg_lift::{
-    join_touching_objects, split_disconnected_objects, Facing, LiftConfig, Lifted, ObjectFeatures,
-    PreparedGaussians, ViewCounts,
+    join_touching_objects, split_disconnected_objects, Decision, Facing, JoinReport, LiftConfig, Lifted,
+    ObjectFeatures, PreparedGaussians, ViewCounts,
 };
 
 /// Objects 1 and 2 with cos 0.85: alike enough for a seam (τ_seam 0.8), not for the
@@ -43,15 +43,19 @@ fn flat(means: &[[f32; 3]], normals: &[[f32; 3]]) -> PreparedGaussians {
 /// The join with no view counts (so no rule that asks the views decides) and every Gaussian
 /// facing a camera above and in front of the scene.
 fn join(prepared: &PreparedGaussians, ids: Vec<i32>) -> (usize, Lifted) {
+    let (report, l) = join_deciding(prepared, ids, &LiftConfig::default());
+    (report.joins, l)
+}
+
+/// [`join`] with `config` (e.g. the other `decision`).
+fn join_deciding(prepared: &PreparedGaussians, ids: Vec<i32>, config: &LiftConfig) -> (JoinReport, Lifted) {
     let mut l = lifted(ids);
     let features = ObjectFeatures { dim: 2, values: &FEATURES };
     let all: Vec<u32> = (0..prepared.len() as u32).collect();
     let mut facing = Facing::new(prepared.len());
     facing.add_view(prepared, &all, glam::Vec3::new(0.3, 1.5, -1.5));
-    let joins =
-        join_touching_objects(prepared, &mut l, features, &[], Some(&facing), None, &LiftConfig::default())
-            .joins;
-    (joins, l)
+    let report = join_touching_objects(prepared, &mut l, features, &[], Some(&facing), None, config);
+    (report, l)
 }
 
 const X: [f32; 3] = [1.0, 0.0, 0.0];
@@ -574,4 +578,31 @@ fn a_join_with_no_edge_waits_for_the_other_joins_and_then_sees_the_concave_edge(
     assert_eq!(joins, 1);
     assert!(l.object_ids[..600].iter().all(|&i| i == 1), "the piece joins the floor");
     assert!(l.object_ids[600..].iter().all(|&i| i == 3), "the wall stays apart");
+}
+
+/// The floor cut in two and the box side standing on it, decided by the one sum of log-odds
+/// (`[objects] decision = "evidence"`) instead of the rules: the floor's pieces join (a smooth,
+/// coplanar contact), the side stays apart (a crease: no pair of it smooth). With no views, only
+/// the surface and the cosine speak.
+#[test]
+fn the_evidence_decision_joins_the_floor_seam_and_keeps_the_side_on_the_floor_apart() {
+    let config = LiftConfig { decision: Decision::Evidence, ..LiftConfig::default() };
+    let mut floor = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    floor.extend(grid([0.4, 0.0, 0.0], X, Z, 20, 20));
+    let ids: Vec<i32> = (0..800).map(|i| if i < 400 { 1 } else { 2 }).collect();
+    let (report, l) = join_deciding(&flat(&floor, &vec![Y; 800]), ids.clone(), &config);
+    assert_eq!(report.joins, 1);
+    assert_eq!(report.edges.len(), 1);
+    assert_eq!((report.edges[0].rule, report.edges[0].outcome), ("evidence", "joined"));
+    assert!(l.object_ids.iter().all(|&i| i == 1));
+
+    let mut crease = grid([0.0, 0.0, 0.0], X, Z, 20, 20);
+    let mut normals = vec![Y; crease.len()];
+    crease.extend(grid([0.0, STEP, 0.4], X, Y, 20, 20));
+    normals.extend(vec![Z; 400]);
+    let (report, l) = join_deciding(&flat(&crease, &normals), ids.clone(), &config);
+    assert_eq!(report.joins, 0);
+    assert_eq!(report.edges.len(), 1);
+    assert_eq!((report.edges[0].rule, report.edges[0].outcome), ("evidence", "no join"));
+    assert_eq!(l.object_ids, ids);
 }

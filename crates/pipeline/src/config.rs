@@ -84,6 +84,7 @@ const KEY_DOCS: &[(&str, &str, &str)] = &[
     ("lift", "min_views", "Gaussians seen in fewer views get no id (views; ours)"),
     ("objects", "tau_touching", "objects touching in 3D join when their identity features' cosine reaches this (above 1 = off; ours, measured)"),
     ("objects", "tau_seam", "cosine at which objects continuing one plane across a smooth seam join: the pieces of a floor or wall, not a rug on the floor (ours, measured)"),
+    ("objects", "decision", "how touching objects are decided one or two: \"rules\" (the joins and vetoes) or \"evidence\" (one sum of log-odds over the pooled evidence, agglomerative; issue 58, measured)"),
     ("objects", "split_disconnected", "split objects whose Gaussians form clusters apart in 3D (true/false; ours)"),
     ("objects", "min_object_px", "objects covering fewer pixels over all views are dropped (pixels of a 320×240 view, scaled with the views; ours)"),
     ("final_maps", "kind", "the final label maps: \"snapped-raw\" (onto SAM's regions), \"snapped\" (onto the merged regions) or \"rendered\" (ours, measured)"),
