@@ -376,3 +376,15 @@ fn edits_written_by_hand_without_inputs_are_refused_naming_this_runs() {
         .expect("with the inputs");
     assert!(check_inputs(&fixed, &inputs(), path).is_ok());
 }
+
+#[test]
+fn the_readmes_example_parses() {
+    let readme = include_str!("../../../README.md");
+    let start = readme.find("```json\n{\n  \"version\"").expect("the README shows an edits.json");
+    let block = &readme[start + "```json\n".len()..];
+    let text = &block[..block.find("```").expect("the block ends")];
+    let edits = parse_edits(text, Path::new("README.md")).expect("the README's example parses");
+    let kinds: Vec<&str> = edits.operations.iter().map(Operation::kind).collect();
+    assert_eq!(kinds, ["merge", "split_box", "split_lasso", "assign", "move", "rename"]);
+    assert_eq!(Edits::new(edits.inputs.clone(), edits.operations.clone()).version, edits.version);
+}
