@@ -64,9 +64,9 @@ fn inside(p: DVec3, (lo, hi): (DVec3, DVec3)) -> bool {
     p.cmpge(lo).all() && p.cmple(hi).all()
 }
 
-/// One grow step: every row `may_hold` accepts with a selected neighbour within `radius` is
-/// selected (all at once: one ring per step).
-pub(crate) fn grow(selected: &mut [bool], means: &[[f32; 3]], radius: f64, may_hold: impl Fn(usize) -> bool) {
+/// One grow step: every row of `candidates` (the rows the selection may hold; `None`: every row)
+/// with a selected neighbour within `radius` is selected (all at once: one ring per step).
+pub(crate) fn grow(selected: &mut [bool], means: &[[f32; 3]], radius: f64, candidates: Option<&[u32]>) {
     let Some(reach) = reach_of(selected, means, radius) else { return };
     let mut grid = CellGrid::new(radius);
     for (row, m) in means.iter().enumerate().filter(|&(row, _)| selected[row]) {
@@ -75,8 +75,12 @@ pub(crate) fn grow(selected: &mut [bool], means: &[[f32; 3]], radius: f64, may_h
         }
     }
     let r2 = radius * radius;
-    let added: Vec<usize> = (0..means.len())
-        .filter(|&row| !selected[row] && may_hold(row))
+    let rows: Box<dyn Iterator<Item = usize>> = match candidates {
+        Some(rows) => Box::new(rows.iter().map(|&r| r as usize)),
+        None => Box::new(0..means.len()),
+    };
+    let added: Vec<usize> = rows
+        .filter(|&row| !selected[row])
         .filter(|&row| {
             centre(&means[row]).is_some_and(|p| {
                 inside(p, reach)
@@ -172,10 +176,11 @@ mod tests {
         let means = line();
         let mut selected = vec![false; means.len()];
         selected[4] = true;
-        grow(&mut selected, &means, 1.0, |_| true);
+        grow(&mut selected, &means, 1.0, None);
         assert_eq!(selected.iter().filter(|&&s| s).count(), 3, "{selected:?}");
         assert!(selected[3] && selected[5]);
-        grow(&mut selected, &means, 1.5, |row| row != 2);
+        let all_but_2: Vec<u32> = (0..means.len() as u32).filter(|&r| r != 2).collect();
+        grow(&mut selected, &means, 1.5, Some(&all_but_2));
         assert!(
             !selected[2] && selected[6] && !selected[7],
             "only rows the selection may hold: {selected:?}"
@@ -185,7 +190,7 @@ mod tests {
         let kept: Vec<usize> = (0..means.len()).filter(|&r| selected[r]).collect();
         assert_eq!(kept, vec![4, 5]);
         // the far centre and the NaN row are nobody's neighbour
-        grow(&mut selected, &means, 50.0, |_| true);
+        grow(&mut selected, &means, 50.0, None);
         assert!(!selected[10] && !selected[11]);
     }
 

@@ -40,14 +40,21 @@ pub(crate) fn selected_rows(
     }
     let mut selected = vec![false; ids.len()];
     for part in &selection.parts {
-        add_part(part, base, &mut selected)?;
+        add_part(part, base, &may_hold, &mut selected)?;
     }
     for (row, s) in selected.iter_mut().enumerate() {
         *s = *s && may_hold(row);
     }
+    // the rows a grow may add, listed once for every step
+    let candidates: Option<Vec<u32>> = match (&objects, selection.neighbours.is_empty()) {
+        (Some(_), false) => Some((0..ids.len()).filter(|&row| may_hold(row)).map(|row| row as u32).collect()),
+        _ => None,
+    };
     for step in &selection.neighbours {
         match *step {
-            NeighbourStep::Grow(radius) => grow(&mut selected, base.means, check_radius(radius)?, may_hold),
+            NeighbourStep::Grow(radius) => {
+                grow(&mut selected, base.means, check_radius(radius)?, candidates.as_deref())
+            }
             NeighbourStep::Shrink(radius) => shrink(&mut selected, base.means, check_radius(radius)?),
         }
     }
@@ -66,11 +73,17 @@ fn point(m: &[f32; 3]) -> DVec3 {
     DVec3::new(m[0] as f64, m[1] as f64, m[2] as f64)
 }
 
-/// Marks the rows `part` selects.
-fn add_part(part: &SelectPart, base: &EditBase, selected: &mut [bool]) -> Result<(), String> {
+/// Marks the rows `part` selects (those `may_hold` refuses are left out later; a test of
+/// positions skips them at once).
+fn add_part(
+    part: &SelectPart,
+    base: &EditBase,
+    may_hold: &dyn Fn(usize) -> bool,
+    selected: &mut [bool],
+) -> Result<(), String> {
     let mut mark = |test: &dyn Fn(DVec3) -> bool| {
-        for (s, m) in selected.iter_mut().zip(base.means) {
-            if !*s && test(point(m)) {
+        for (row, (s, m)) in selected.iter_mut().zip(base.means).enumerate() {
+            if !*s && may_hold(row) && test(point(m)) {
                 *s = true;
             }
         }
