@@ -28,4 +28,5 @@ mod thin_binary;
 mod view_browser;
 mod view_cli;
 mod view_edit_browser;
+mod view_repair_browser;
 mod view_server;

@@ -19,13 +19,17 @@ use splatseg_view::browser::Browser;
 use std::collections::BTreeSet;
 use std::path::Path;
 
+/// The brush's radius in the test, canvas pixels.
+const BRUSH_RADIUS_PX: f64 = 3.0;
+
 /// The page's script: the edits through the panel's buttons and the lasso's pointer events.
 const EDIT_SCRIPT: &str = r#"
 (async () => {
   const click = (id) => document.getElementById(id).click();
   const settle = async () => { await viewer.editor.busy; return viewer.editor.state(); };
-  const [a, b, c, d, lasso, around, threshold] = arguments_;
+  const [a, b, c, d, lasso, around, threshold, stroke, brushRadius, e] = arguments_;
   const steps = {};
+  const until = async (f) => { for (let k = 0; k < 400 && !f(); k++) await new Promise((res) => setTimeout(res, 25)); };
   viewer.select([a, b]);
   click('edit-merge');
   steps.merge = await settle();
@@ -69,6 +73,27 @@ const EDIT_SCRIPT: &str = r#"
   viewer.select([d]);
   draw(lasso);
   steps.lasso = await settle();
+  // a Gaussian selection: a brush stroke across e, grown twice (+ +) and shrunk once (-) by 3D
+  // neighbours within e, moved to a
+  viewer.select([e]);
+  click('edit-brush');
+  document.getElementById('brush-radius').value = String(brushRadius);
+  svg.dispatchEvent(new PointerEvent('pointerdown', at(stroke[0])));
+  for (const p of stroke.slice(1)) svg.dispatchEvent(new PointerEvent('pointermove', at(p)));
+  svg.dispatchEvent(new PointerEvent('pointerup', at(stroke[stroke.length - 1])));
+  await until(() => viewer.editor.selection);
+  steps.brushed = viewer.editor.selectionState();
+  for (const [key, n] of [['+', 1], ['+', 2], ['-', 3]]) {
+    window.dispatchEvent(new KeyboardEvent('keydown', { key }));
+    await until(() => viewer.editor.selection?.neighbours.length === n);
+    steps[`key${n}`] = viewer.editor.selectionState().count;
+  }
+  steps.selectionStatus = document.getElementById('selection-status').textContent;
+  click('edit-brush');
+  document.getElementById('move-to').value = String(a);
+  click('sel-move');
+  await until(() => viewer.editor.ops.length === 4);
+  steps.moved = await settle();
   viewer.select([a]);
   const name = document.getElementById('edit-name');
   name.value = 'wrong';
@@ -128,6 +153,11 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
     let xm = (x0 + x1) / 2;
     let lasso = [[x0, y0], [xm, y0], [xm, y1], [x0, y1]];
     let around = bounding_rectangle(map0, d);
+    // the brush: a stroke across the middle of the pixels of a fifth object (one Gaussians carry,
+    // not one only the label maps show) in the first view
+    let e = seen[4..].iter().map(|v| v.0 as i32).find(|id| ids_before.contains(id)).expect("a fifth object");
+    let [[cx0, cy0], [cx1, _], [_, cy1], _] = bounding_rectangle(map0, e);
+    let stroke = [[cx0 as f64, (cy0 + cy1) as f64 / 2.0], [cx1 as f64, (cy0 + cy1) as f64 / 2.0]];
 
     // an opacity threshold just above the least opaque of a's and b's Gaussians (synth's opacities
     // take few values)
@@ -143,11 +173,13 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
     browser.goto(&format!("{}?canvas=native", server.url)).expect("page opens");
     let ready = browser.await_promise("viewer.whenReady(120000)").expect("ready");
     assert!(ready["error"].is_null(), "the page failed: {ready}");
-    let script =
-        EDIT_SCRIPT.replace("arguments_", &json!([a, b, c, d, lasso, around, threshold]).to_string());
+    let script = EDIT_SCRIPT.replace(
+        "arguments_",
+        &json!([a, b, c, d, lasso, around, threshold, stroke, BRUSH_RADIUS_PX, e]).to_string(),
+    );
     let steps = browser.await_promise(&script).expect("the edit script runs");
     println!("edits in the page: {steps}");
-    for step in ["merge", "box", "lasso", "final", "saved"] {
+    for step in ["merge", "box", "lasso", "moved", "final", "saved"] {
         assert!(steps[step]["error"].is_null(), "{step}: {steps}");
     }
     let objects_after_merge: BTreeSet<i64> =
@@ -213,7 +245,8 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
     // edits.json: the four operations, made on this run
     let edits = splatseg_edit::read_edits(&run.join("edits.json")).expect("the saved edits.json");
     let saved_kinds: Vec<&str> = edits.operations.iter().map(|o| o.kind()).collect();
-    assert_eq!(saved_kinds, ["merge", "split_box", "split_lasso", "rename"]);
+    assert_eq!(saved_kinds, ["merge", "split_box", "split_lasso", "move", "rename"]);
+    assert_eq!(edits.version, 2, "a move is version 2");
     let splatseg_edit::Operation::SplitBox { region, .. } = &edits.operations[1] else { unreachable!() };
     let in_box = |p: &[f32; 3]| (0..3).all(|k| (p[k] as f64 - region.centre[k]).abs() <= region.half_size[k]);
     let boxed: BTreeSet<usize> =
@@ -307,6 +340,57 @@ fn objects_merged_split_by_box_and_lasso_and_renamed_in_the_page_are_what_apply_
         }
     }
     assert!(moved > 0 && moved < ids_before.iter().filter(|&&id| id == d).count());
+    // the brush: e's Gaussians whose centres project within the brush's radius of the stroke in
+    // the first view (as the page drew it: the saved stroke), then grown twice and shrunk once
+    // within e, moved to a
+    let splatseg_edit::Operation::Move { select, to } = &edits.operations[3] else { panic!("{edits:?}") };
+    assert_eq!(*to, splatseg_edit::MoveTarget::Id(a));
+    assert_eq!(select.objects, Some(vec![e]));
+    let steps_taken: Vec<&str> = select
+        .neighbours
+        .iter()
+        .map(|n| if matches!(n, splatseg_edit::NeighbourStep::Grow(_)) { "grow" } else { "shrink" })
+        .collect();
+    assert_eq!(steps_taken, ["grow", "grow", "shrink"]);
+    let [splatseg_edit::SelectPart::Brush { stroke_px, radius_px, .. }] = &select.parts[..] else {
+        panic!("one brush stroke: {select:?}")
+    };
+    assert_eq!(*radius_px, BRUSH_RADIUS_PX);
+    let from_stroke = |p: &[f32; 3]| {
+        projected(p).map_or(f64::INFINITY, |uv| {
+            stroke_px
+                .windows(2)
+                .map(|w| {
+                    let (a, b) = (glam::DVec2::from(w[0]), glam::DVec2::from(w[1]));
+                    let t = ((uv - a).dot(b - a) / (b - a).length_squared().max(1e-12)).clamp(0.0, 1.0);
+                    uv.distance(a + t * (b - a))
+                })
+                .fold(f64::INFINITY, f64::min)
+        })
+    };
+    let e_rows: Vec<usize> = (0..ids_before.len()).filter(|&i| ids_before[i] == e).collect();
+    let within = |r: f64| e_rows.iter().filter(|&&i| from_stroke(&before.means[i]) <= r).count();
+    let brushed = steps["brushed"]["count"].as_u64().expect("count") as usize;
+    println!(
+        "brush: {brushed} Gaussians ({} to {} by the test's projection), grown {} and {}, shrunk {}; {}",
+        within(BRUSH_RADIUS_PX - 0.01),
+        within(BRUSH_RADIUS_PX + 0.01),
+        steps["key1"],
+        steps["key2"],
+        steps["key3"],
+        steps["selectionStatus"]
+    );
+    assert!(
+        brushed > 0 && within(BRUSH_RADIUS_PX - 0.01) <= brushed && brushed <= within(BRUSH_RADIUS_PX + 0.01)
+    );
+    let counts = ["key1", "key2", "key3"].map(|k| steps[k].as_u64().expect("count") as usize);
+    assert!(
+        brushed < counts[0] && counts[0] < counts[1] && counts[2] < counts[1] && counts[2] > 0,
+        "{steps}"
+    );
+    let moved_to_a: Vec<usize> = e_rows.iter().copied().filter(|&i| ids_after[i] == a).collect();
+    assert_eq!(moved_to_a.len(), counts[2], "apply moved exactly the Gaussians the page's selection held");
+    assert!(e_rows.iter().any(|&i| ids_after[i] == e), "the rest of e stays e");
     // every view's label map: b is gone, its pixels are a's; the new objects show
     let maps_after = label_maps(&run);
     let (mut b_pixels, mut b_to_a, mut shown) = (0usize, 0usize, BTreeSet::new());

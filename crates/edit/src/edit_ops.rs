@@ -1,8 +1,9 @@
 //! Applying [`Edits`](crate::edits::Edits)' operations to a run's per-Gaussian object ids, in
 //! order, each checked against the ids as the operations before it left them.
 
-use crate::edits::{Box3, LassoCamera, Operation};
+use crate::edits::{Box3, LassoCamera, MoveTarget, Operation, Selection};
 use crate::error::EditError;
+use crate::selection::selected_rows;
 use glam::{DQuat, DVec2, DVec3};
 use splatseg_scene::{Camera, Pose};
 use std::collections::{BTreeMap, BTreeSet};
@@ -50,26 +51,7 @@ pub fn apply_operations(
     operations: &[crate::edits::Operation],
     path: &Path,
 ) -> Result<Edited, EditError> {
-    if base.ids.len() != base.means.len() {
-        return Err(EditError::LengthMismatch {
-            what: "centres",
-            got: base.means.len(),
-            expected: base.ids.len(),
-            path: None,
-        });
-    }
-    let mut state = State {
-        ids: base.ids.to_vec(),
-        present: base
-            .ids
-            .iter()
-            .copied()
-            .filter(|&id| id >= 1)
-            .chain(base.map_only_ids.iter().copied())
-            .collect(),
-        names: BTreeMap::new(),
-        merged_into: BTreeMap::new(),
-    };
+    let mut state = State::start(base)?;
     for (index, op) in operations.iter().enumerate() {
         state.apply(op, base).map_err(|message| EditError::EditOperation {
             index,
@@ -82,6 +64,32 @@ pub fn apply_operations(
     Ok(Edited { ids: state.ids, names: state.names, merged_into: state.merged_into, changed_rows })
 }
 
+/// `[N]` whether each row is in `selection` after `operations` (what a `move` appended to them
+/// would move): the viewer's highlighted selection. Errors as [`apply_operations`]'s; a selection
+/// that cannot be used is named as the operation after the last.
+pub fn selection_of(
+    base: &EditBase,
+    operations: &[Operation],
+    selection: &Selection,
+    path: &Path,
+) -> Result<Vec<bool>, EditError> {
+    let mut state = State::start(base)?;
+    for (index, op) in operations.iter().enumerate() {
+        state.apply(op, base).map_err(|message| EditError::EditOperation {
+            index,
+            kind: op.kind(),
+            message,
+            path: path.to_path_buf(),
+        })?;
+    }
+    selected_rows(selection, &state.ids, base, &state.present).map_err(|message| EditError::EditOperation {
+        index: operations.len(),
+        kind: "move",
+        message,
+        path: path.to_path_buf(),
+    })
+}
+
 /// The ids as the operations so far left them.
 struct State {
     ids: Vec<i32>,
@@ -92,6 +100,29 @@ struct State {
 }
 
 impl State {
+    fn start(base: &EditBase) -> Result<State, EditError> {
+        if base.ids.len() != base.means.len() {
+            return Err(EditError::LengthMismatch {
+                what: "centres",
+                got: base.means.len(),
+                expected: base.ids.len(),
+                path: None,
+            });
+        }
+        Ok(State {
+            ids: base.ids.to_vec(),
+            present: base
+                .ids
+                .iter()
+                .copied()
+                .filter(|&id| id >= 1)
+                .chain(base.map_only_ids.iter().copied())
+                .collect(),
+            names: BTreeMap::new(),
+            merged_into: BTreeMap::new(),
+        })
+    }
+
     fn apply(&mut self, op: &Operation, base: &EditBase) -> Result<(), String> {
         match op {
             Operation::Merge { ids, into } => self.merge(ids, *into),
@@ -107,6 +138,7 @@ impl State {
                 })
             }
             Operation::Assign { ranges, id } => self.assign(ranges, *id),
+            Operation::Move { select, to } => self.move_selection(select, *to, base),
             Operation::Rename { id, name } => {
                 self.require(*id)?;
                 if name.trim().is_empty() {
@@ -196,6 +228,30 @@ impl State {
         }
     }
 
+    fn move_selection(&mut self, select: &Selection, to: MoveTarget, base: &EditBase) -> Result<(), String> {
+        let to = match to {
+            MoveTarget::Id(-1) => -1,
+            MoveTarget::Id(id) => {
+                self.require(id).map_err(|e| format!("the target: {e} (\"new\" makes a new object)"))?;
+                id
+            }
+            MoveTarget::New(_) => self.new_id(None)?,
+        };
+        let selected = selected_rows(select, &self.ids, base, &self.present)?;
+        let mut count = 0usize;
+        for (id, _) in self.ids.iter_mut().zip(&selected).filter(|(_, &s)| s) {
+            *id = to;
+            count += 1;
+        }
+        if count == 0 {
+            return Err("the selection holds no Gaussian".to_string());
+        }
+        if to >= 1 {
+            self.present.insert(to);
+        }
+        Ok(())
+    }
+
     fn assign(&mut self, ranges: &[[u64; 2]], id: i32) -> Result<(), String> {
         if id == 0 || id < -1 {
             return Err(format!("Gaussians can be assigned an object id ≥ 1 or −1 (none), got {id}"));
@@ -249,7 +305,7 @@ pub(crate) fn box_test(b: &Box3) -> Result<impl Fn(DVec3) -> bool, String> {
 }
 
 /// Pixel position of a world point in the lasso's camera (`None`: behind it).
-fn camera_projection<'a>(
+pub(crate) fn camera_projection<'a>(
     camera: &LassoCamera,
     views: &'a [(&'a Camera, &'a Pose)],
 ) -> Result<Box<dyn Fn(DVec3) -> Option<DVec2> + 'a>, String> {
@@ -273,7 +329,7 @@ fn camera_projection<'a>(
     }
 }
 
-fn check_polygon(polygon: &[[f64; 2]]) -> Result<(), String> {
+pub(crate) fn check_polygon(polygon: &[[f64; 2]]) -> Result<(), String> {
     if polygon.len() < 3 || polygon.iter().flatten().any(|v| !v.is_finite()) {
         return Err(format!("a lasso needs at least three finite vertices, got {}", polygon.len()));
     }
@@ -281,7 +337,7 @@ fn check_polygon(polygon: &[[f64; 2]]) -> Result<(), String> {
 }
 
 /// Whether `p` lies inside `polygon` (even-odd rule; vertices in order, closed implicitly).
-fn inside_polygon(p: DVec2, polygon: &[[f64; 2]]) -> bool {
+pub(crate) fn inside_polygon(p: DVec2, polygon: &[[f64; 2]]) -> bool {
     let mut inside = false;
     let mut j = polygon.len() - 1;
     for i in 0..polygon.len() {

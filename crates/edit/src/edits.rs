@@ -17,6 +17,13 @@
 //! }
 //! ```
 //!
+//! Version 2 adds `move`: the Gaussians a [`Selection`] holds (brush strokes, lassos, boxes, rows,
+//! then grown or shrunk by 3D neighbours) go to an object, e.g.
+//! `{ "op": "move", "select": { "objects": [4], "parts": [{ "by": "brush", "camera": { "view": 0 },
+//! "stroke_px": [[10, 10], [40, 12]], "radius_px": 6 }], "neighbours": [{ "grow": 0.02 }] }, "to": "new" }`.
+//! A file is written with the lowest version its operations need ([`Edits::new`]), so a file
+//! without `move` stays version 1 and older splatseg reads it.
+//!
 //! Reading checks the syntax and the version ([`read_edits`]); what the operations select is
 //! checked when they are applied to the run's ids ([`crate::edit_ops::apply_operations`]), in
 //! order, so an id a split made may be used by a later operation.
@@ -28,8 +35,11 @@ use std::path::Path;
 /// The file's name in a run's output folder.
 pub const EDITS_FILE: &str = "edits.json";
 
-/// The version this build writes and reads; a file of a later version is refused.
-pub const EDITS_VERSION: u32 = 1;
+/// The latest version this build reads and writes; a file of a later version is refused.
+pub const EDITS_VERSION: u32 = 2;
+
+/// Most grow and shrink steps one selection takes.
+pub const MAX_NEIGHBOUR_STEPS: usize = 64;
 
 /// A run's edits.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -43,6 +53,14 @@ pub struct Edits {
     pub inputs: EditInputs,
     /// The operations, applied in order to the run's own ids (never to already edited ones).
     pub operations: Vec<Operation>,
+}
+
+impl Edits {
+    /// Edits of `operations` on `inputs`, of the lowest version that holds them.
+    pub fn new(inputs: EditInputs, operations: Vec<Operation>) -> Edits {
+        let version = operations.iter().map(Operation::version).max().unwrap_or(1);
+        Edits { version, inputs, operations }
+    }
 }
 
 /// Which run the edits were made on: ids only mean something in the run that numbered them,
@@ -101,6 +119,13 @@ pub enum Operation {
         /// The id they take: ≥ 1, or −1.
         id: i32,
     },
+    /// The Gaussians `select` holds take object `to` (version 2).
+    Move {
+        /// Which Gaussians.
+        select: Selection,
+        /// An existing object, −1 (none), or `"new"` (one more than the largest id in use).
+        to: MoveTarget,
+    },
     /// Object `id` is called `name`.
     Rename {
         /// An existing object id.
@@ -118,9 +143,98 @@ impl Operation {
             Operation::SplitBox { .. } => "split_box",
             Operation::SplitLasso { .. } => "split_lasso",
             Operation::Assign { .. } => "assign",
+            Operation::Move { .. } => "move",
             Operation::Rename { .. } => "rename",
         }
     }
+
+    /// The first version of the format that has this operation.
+    pub fn version(&self) -> u32 {
+        match self {
+            Operation::Move { .. } => 2,
+            _ => 1,
+        }
+    }
+}
+
+/// A selection of Gaussians, as the viewer builds it: the union of `parts` among the Gaussians of
+/// `objects`, then grown or shrunk by 3D neighbours, step by step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Selection {
+    /// Only Gaussians of these objects (as the operations before left them; −1: those of no
+    /// object) are selected, grown into included. Absent: any Gaussian.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects: Option<Vec<i32>>,
+    /// At least one; a Gaussian any of them selects is selected.
+    pub parts: Vec<SelectPart>,
+    /// Applied in order after the parts.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub neighbours: Vec<NeighbourStep>,
+}
+
+/// What one part of a [`Selection`] selects.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "by", rename_all = "snake_case", deny_unknown_fields)]
+pub enum SelectPart {
+    /// The Gaussians whose centres project within `radius_px` of the stroke (the polyline through
+    /// `stroke_px`; one point: a disc) in `camera`.
+    Brush {
+        /// The camera the stroke was painted in.
+        camera: LassoCamera,
+        /// At least one point, pixels (as a lasso's).
+        stroke_px: Vec<[f64; 2]>,
+        /// The brush's radius, pixels (> 0).
+        radius_px: f64,
+    },
+    /// The Gaussians whose centres project inside the polygon (as `split_lasso`).
+    Lasso {
+        /// The camera the lasso was drawn in.
+        camera: LassoCamera,
+        /// At least three vertices, pixels.
+        polygon_px: Vec<[f64; 2]>,
+    },
+    /// The Gaussians whose centres lie in the box (as `split_box`).
+    Box {
+        /// The box, world units.
+        #[serde(rename = "box")]
+        region: Box3,
+    },
+    /// Rows of `gaussians.ply` (`[start, end)`): what the viewer found itself, e.g. the Gaussians
+    /// drawn in front under a stroke (*front-most only*) or those passing an opacity filter.
+    Rows {
+        /// `[start, end)` row ranges.
+        ranges: Vec<[u64; 2]>,
+    },
+}
+
+/// One step of growing or shrinking a selection by 3D neighbours: two Gaussians are neighbours
+/// when their centres lie within the step's radius (world units) of each other.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum NeighbourStep {
+    /// Adds every Gaussian the selection may hold (its `objects`) with a selected neighbour.
+    Grow(f64),
+    /// Drops every selected Gaussian with an unselected neighbour (any Gaussian).
+    Shrink(f64),
+}
+
+/// Where a `move` sends its Gaussians.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MoveTarget {
+    /// An object id in use, or −1 (none).
+    Id(i32),
+    /// A new object.
+    New(NewObject),
+}
+
+/// `"new"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NewObject {
+    /// A new object: one more than the largest id in use.
+    New,
 }
 
 /// An oriented box: a point `p` is inside when `rotation⁻¹ · (p − centre)` lies within
@@ -207,7 +321,16 @@ pub fn parse_edits(text: &str, path: &Path) -> Result<Edits, EditError> {
              {EDITS_VERSION}: update splatseg"
         )));
     }
-    serde_json::from_str(text).map_err(|e| invalid(format!("not a valid edits file ({e})")))
+    let edits: Edits =
+        serde_json::from_str(text).map_err(|e| invalid(format!("not a valid edits file ({e})")))?;
+    if let Some((index, op)) = edits.operations.iter().enumerate().find(|(_, op)| op.version() > version) {
+        return Err(invalid(format!(
+            "operation {index} ({}) needs version {} of the format, the file says version {version}",
+            op.kind(),
+            op.version()
+        )));
+    }
+    Ok(edits)
 }
 
 /// Writes `edits` as indented JSON to `path` (atomically).

@@ -1,11 +1,15 @@
 // Editing a run's objects: the list of operations of `edits.json` (merge, split_box, split_lasso,
-// assign, rename), undo and redo, and Save. Gaussians picked by opacity or size (`/api/edits/select`)
+// assign, move, rename), undo and redo, and Save. A Gaussian selection is built by brush strokes
+// (front-most only: the rows the index pass shows under the stroke) and grown or shrunk by 3D
+// neighbours; the server says which rows it holds (`/api/edits/select`, drawn tinted), and "move"
+// appends it, as data (strokes with their camera, steps), to the operations. Gaussians picked by opacity or size (`/api/edits/select`)
 // or in front inside a lasso are moved by an `assign` of their rows. Every change asks the server for its effect
 // (`POST /api/edits/preview`: the operations applied to the run's own ids by `splatseg apply`'s
 // code), which comes back as the objects by slot and each Gaussian's slot; the page then draws
 // and lists them. Save writes the list as the run's `edits.json` (`POST /api/edits`).
 
 const LASSO_MAX_VERTICES = 128;
+const STROKE_MAX_VERTICES = 256;
 
 function token() {
   return document.querySelector('meta[name="splatseg-token"]')?.content ?? '';
@@ -49,6 +53,10 @@ export class Editor {
     this.saved = JSON.stringify(this.ops);
     this.busy = Promise.resolve();
     this.lastError = null;
+    // the Gaussian selection being built: a `move`'s `select` ({objects?, parts, neighbours}), or null
+    this.selection = null;
+    this.selectionCount = 0;
+    this.neighbourRadius = entry.neighbour_radius ?? null;
   }
 
   get dirty() {
@@ -94,6 +102,7 @@ export class Editor {
       try {
         await this.preview(this.ops);
         this.lastError = null;
+        if (this.selection) await this.showSelection(this.selection).catch(() => this.clearSelection());
       } catch (e) {
         this.ops = before;
         this.undone = beforeUndone;
@@ -146,6 +155,77 @@ export class Editor {
     if (!r.ok) throw new Error(answer.error || `selection failed (HTTP ${r.status})`);
     if (!answer.count) throw new Error('no Gaussian of the selected objects passes the filter');
     return this.push({ op: 'assign', ranges: answer.ranges, id: toNone ? -1 : this.nextId });
+  }
+
+  // Adds a brush stroke (`stroke`: [[x, y], …] canvas pixels of the current view, `radius` px) to
+  // the Gaussian selection; `frontMost`: only the Gaussians drawn in front under it. The first
+  // part limits the selection to the selected objects `objects` (none: any Gaussian).
+  async addStroke(stroke, radius, frontMost = false, objects = []) {
+    if (!(radius > 0)) throw new Error(`the brush radius must be above 0 px, got ${radius}`);
+    if (!stroke.length) throw new Error('the brush stroke has no point');
+    const points = thin(stroke, STROKE_MAX_VERTICES).map(([x, y]) => [Math.round(x * 10) / 10, Math.round(y * 10) / 10]);
+    const selection = this.selection
+      ? { ...this.selection, parts: this.selection.parts.slice() }
+      : { ...(objects.length ? { objects: objects.slice().sort((a, b) => a - b) } : {}), parts: [], neighbours: [] };
+    if (selection.neighbours.length) throw new Error('clear the grown or shrunk selection before painting again');
+    if (frontMost) {
+      const rows = this.viewer.frontRowsNear(points, radius, selection.objects ?? null);
+      if (!rows.length) throw new Error('no Gaussian is drawn in front under the stroke');
+      selection.parts.push({ by: 'rows', ranges: rowRanges(rows) });
+    } else {
+      selection.parts.push({ by: 'brush', camera: this.lassoCamera(), stroke_px: points, radius_px: radius });
+    }
+    return this.withSelection(selection);
+  }
+
+  // Grows (`steps` > 0) or shrinks (< 0) the Gaussian selection by 3D neighbours within `radius`
+  // (world units; default: the server's suggestion), one ring per step.
+  async growSelection(steps = 1, radius = this.neighbourRadius) {
+    if (!this.selection) throw new Error('paint a selection first (Brush)');
+    if (!(radius > 0)) throw new Error(`the neighbour radius must be above 0, got ${radius}`);
+    const step = steps > 0 ? { grow: radius } : { shrink: radius };
+    const more = Array.from({ length: Math.abs(steps) }, () => ({ ...step }));
+    return this.withSelection({ ...this.selection, neighbours: [...this.selection.neighbours, ...more] });
+  }
+
+  // Asks the server for the rows of `selection` (after the operations) and draws them.
+  async showSelection(selection) {
+    const r = await post('/api/edits/select', { operations: this.ops, selection });
+    const answer = await r.json().catch(() => ({}));
+    if (!r.ok) throw new Error(answer.error || `selection failed (HTTP ${r.status})`);
+    this.viewer.setPickedRows(answer.ranges);
+    this.selectionCount = answer.count;
+    return answer;
+  }
+
+  async withSelection(selection) {
+    await this.busy;
+    await this.showSelection(selection);
+    this.selection = selection;
+    this.viewer.panel?.selectionStatus();
+    return this.selectionState();
+  }
+
+  clearSelection() {
+    this.selection = null;
+    this.selectionCount = 0;
+    this.viewer.setPickedRows(null);
+    this.viewer.panel?.selectionStatus();
+  }
+
+  // Moves the Gaussian selection to object `to` (an id, −1: none, 'new': a new object), as a
+  // `move` operation, and clears it.
+  async moveSelection(to) {
+    if (!this.selection) throw new Error('paint a selection first (Brush)');
+    if (!this.selectionCount) throw new Error('the selection holds no Gaussian');
+    const selection = this.selection;
+    const done = await this.push({ op: 'move', select: selection, to });
+    this.clearSelection();
+    return done;
+  }
+
+  selectionState() {
+    return { selection: this.selection, count: this.selectionCount };
   }
 
   rename(id, name) {

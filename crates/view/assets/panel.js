@@ -1,6 +1,7 @@
 // The side panel: view toggles, the object table (id, palette colour, the name given by an edit or
 // suggested by `view --names`, Gaussian count, bounding box), selection actions, export, the edit
-// tools of a run (merge, split by a box or a lasso, rename, undo, redo, save), and the strip of
+// tools of a run (merge, split by a box or a lasso, a Gaussian selection painted with a brush, grown
+// or shrunk and moved to an object, rename, undo, redo, save), and the strip of
 // the capture's overlays (a click there selects the object under it in 3D).
 
 function el(tag, attrs = {}, children = []) {
@@ -92,6 +93,24 @@ export class Panel {
       title: "the selected objects' Gaussians less opaque than this (0–1)" });
     const sizeAbove = el('input', { id: 'filter-size', type: 'number', step: 'any', min: '0', class: 'boxfield',
       title: "the selected objects' Gaussians whose largest scale (world units) is above this" });
+    const brushRadius = el('input', { id: 'brush-radius', type: 'number', step: 'any', min: '0', value: '12', class: 'boxfield',
+      title: 'the brush radius, canvas pixels' });
+    const neighbourRadius = el('input', { id: 'sel-radius', type: 'number', step: 'any', min: '0', class: 'boxfield',
+      value: ed.neighbourRadius ? String(Number(ed.neighbourRadius.toPrecision(3))) : '',
+      title: 'grow / shrink: Gaussians whose centres lie within this distance (world units) are neighbours' });
+    const moveTo = el('input', { id: 'move-to', type: 'text', placeholder: 'new', autocomplete: 'off', class: 'boxfield',
+      title: 'an object id, -1 for none, empty for a new object' });
+    this.neighbourRadius = () => {
+      const r = Number(neighbourRadius.value);
+      if (!(r > 0)) throw new Error('give the neighbour radius (world units) to grow or shrink by');
+      return r;
+    };
+    this.moveTarget = () => {
+      const t = moveTo.value.trim();
+      if (t === '' || t === 'new') return 'new';
+      if (!/^-?\d+$/.test(t)) throw new Error(`move to: an object id, -1 or empty (a new object), got "${t}"`);
+      return Number(t);
+    };
     this.filter = () => {
       const f = {};
       if (opacityBelow.value !== '') f.opacity_below = Number(opacityBelow.value);
@@ -122,7 +141,7 @@ export class Panel {
         })),
       ]),
       el('div', { class: 'row' }, [
-        button('edit-lasso', 'Lasso', () => this.setLasso(!this.lasso)),
+        button('edit-lasso', 'Lasso', () => this.setTool(this.tool === 'lasso' ? null : 'lasso')),
         el('label', {}, [frontMost, document.createTextNode(' front-most only')]),
         button('edit-undo', 'Undo', act(() => ed.undo())),
         button('edit-redo', 'Redo', act(() => ed.redo())),
@@ -134,12 +153,33 @@ export class Panel {
         button('edit-filter-new', '→ new object', act(() => ed.moveFiltered(selected(), this.filter(), false))),
         button('edit-filter-none', '→ none', act(() => ed.moveFiltered(selected(), this.filter(), true))),
       ]),
+      el('div', { class: 'row' }, [
+        button('edit-brush', 'Brush', () => this.setTool(this.tool === 'brush' ? null : 'brush')),
+        el('span', { class: 'note', text: 'radius px' }), brushRadius,
+        button('sel-grow', 'Grow', act(() => ed.growSelection(1, this.neighbourRadius()))),
+        button('sel-shrink', 'Shrink', act(() => ed.growSelection(-1, this.neighbourRadius()))),
+        el('span', { class: 'note', text: 'by' }), neighbourRadius,
+        button('sel-clear', 'Clear', () => ed.clearSelection()),
+      ]),
+      el('div', { class: 'row' }, [
+        el('span', { class: 'note', text: 'move selection to' }), moveTo,
+        button('sel-move', 'Move', act(() => ed.moveSelection(this.moveTarget()))),
+      ]),
+      el('div', { id: 'selection-status', class: 'note' }),
       el('div', { id: 'edit-status', class: 'note' }),
     );
+    this.brushRadius = brushRadius;
     this.frontMost = frontMost;
     this.nameField = name;
     this.buildLassoOverlay(act);
     // Ctrl+Z undoes, Ctrl+Shift+Z or Ctrl+Y redoes (not while typing in a field)
+    // + grows the Gaussian selection, - shrinks it, Escape clears it (not while typing in a field)
+    window.addEventListener('keydown', (e) => {
+      if (e.ctrlKey || e.metaKey || e.altKey || e.target.tagName === 'INPUT') return;
+      if (e.key === '+' || e.key === '=') { e.preventDefault(); act(() => ed.growSelection(1, this.neighbourRadius()))(); }
+      else if (e.key === '-') { e.preventDefault(); act(() => ed.growSelection(-1, this.neighbourRadius()))(); }
+      else if (e.key === 'Escape') ed.clearSelection();
+    });
     window.addEventListener('keydown', (e) => {
       if (!(e.ctrlKey || e.metaKey) || e.target.tagName === 'INPUT') return;
       const key = e.key.toLowerCase();
@@ -147,6 +187,7 @@ export class Panel {
       else if (key === 'y' || (key === 'z' && e.shiftKey)) { e.preventDefault(); act(() => ed.redo())(); }
     });
     this.editStatus(ed.note ? `edits.json: ${ed.note}` : undefined);
+    this.selectionStatus();
   }
 
   boxFromFields() {
@@ -162,7 +203,8 @@ export class Panel {
   }
 
   // An SVG over the canvas: in lasso mode, a drag draws the polygon; on release the selected
-  // object is split by it.
+  // object is split by it. In brush mode, a drag (or a click) paints a stroke of the brush's
+  // radius, added to the Gaussian selection on release.
   buildLassoOverlay(act) {
     const v = this.viewer;
     const ns = 'http://www.w3.org/2000/svg';
@@ -178,30 +220,54 @@ export class Panel {
     };
     svg.addEventListener('pointerdown', (e) => {
       points = [canvasPoint(e)];
+      path.style.strokeWidth = '';
       try { svg.setPointerCapture(e.pointerId); } catch (_) { /* a synthetic pointer */ }
     });
     svg.addEventListener('pointermove', (e) => {
       if (!points) return;
       points.push(canvasPoint(e));
       path.setAttribute('points', points.map((p) => `${p[2]},${p[3]}`).join(' '));
+      if (this.tool === 'brush') {
+        const scale = v.canvas.getBoundingClientRect().width / v.canvas.width;
+        path.style.strokeWidth = `${2 * Number(this.brushRadius.value) * scale}px`;
+      }
     });
     svg.addEventListener('pointerup', act(async () => {
       const drawn = points;
       points = null;
       path.setAttribute('points', '');
+      if (this.tool === 'brush') {
+        if (!drawn || !drawn.length) return;
+        await v.editor.addStroke(drawn.map((p) => [p[0], p[1]]), Number(this.brushRadius.value), this.frontMost.checked, v.ids(v.selected));
+        return;
+      }
       if (!drawn || drawn.length < 3) return;
       const ids = v.ids(v.selected).filter((id) => id >= 1);
       if (ids.length !== 1) throw new Error('select the one object to split, then draw the lasso');
       await v.editor.splitLasso(ids[0], drawn.map((p) => [p[0], p[1]]), this.frontMost.checked);
-      this.setLasso(false);
+      this.setTool(null);
     }));
     this.lassoSvg = svg;
   }
 
-  setLasso(on) {
-    this.lasso = !!on;
-    this.lassoSvg.classList.toggle('on', this.lasso);
+  // The tool the pointer draws with over the canvas: 'lasso', 'brush' or null (the camera).
+  setTool(tool) {
+    this.tool = tool;
+    this.lassoSvg.classList.toggle('on', !!tool);
+    this.lassoSvg.classList.toggle('brush', tool === 'brush');
     this.refresh();
+  }
+
+  // The Gaussian selection's line: how many Gaussians, of which objects, grown or shrunk how often.
+  selectionStatus() {
+    const ed = this.viewer.editor;
+    const line = document.getElementById('selection-status');
+    if (!ed || !line) return;
+    const s = ed.selection;
+    if (!s) { line.textContent = 'no Gaussian selection (Brush paints one)'; return; }
+    const steps = s.neighbours.map((n) => ('grow' in n ? '+' : '−')).join('');
+    line.textContent = `Gaussian selection: ${ed.selectionCount.toLocaleString()} Gaussians, ${s.parts.length} strokes`
+      + `${s.objects ? ` of ${s.objects.join(', ')}` : ''}${steps ? `, ${steps}` : ''}`;
   }
 
   // The edit status line: `text`, or the operations and whether they are saved.
@@ -352,7 +418,8 @@ export class Panel {
     document.getElementById('mode-fly').classList.toggle('on', v.controls?.mode === 'fly');
     document.getElementById('toggle-frusta').classList.toggle('on', v.frusta);
     document.getElementById('toggle-palette').classList.toggle('on', v.palette);
-    document.getElementById('edit-lasso')?.classList.toggle('on', !!this.lasso);
+    document.getElementById('edit-lasso')?.classList.toggle('on', this.tool === 'lasso');
+    document.getElementById('edit-brush')?.classList.toggle('on', this.tool === 'brush');
     if (v.editor) this.editStatus();
     const sel = v.ids(v.selected);
     // the rename field suggests the selected object's name: given by an edit, or from `view --names`

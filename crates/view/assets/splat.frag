@@ -22,6 +22,7 @@ out vec4 out_colour;
 
 const uint SELECTED = 2u;
 const uint HIGHLIGHT = 8u;
+const uint PICKED = 16u;
 
 void main() {
     vec2 d = v_offset;
@@ -42,5 +43,6 @@ void main() {
     vec3 rgb = v_colour.rgb;
     if ((v_flags & SELECTED) != 0u) rgb = mix(rgb, vec3(1.0, 0.85, 0.2), 0.5);
     if ((v_flags & HIGHLIGHT) != 0u) rgb = mix(rgb, vec3(1.0), 0.35);
+    if ((v_flags & PICKED) != 0u) rgb = mix(rgb, vec3(0.1, 0.9, 1.0), 0.7);
     out_colour = vec4(rgb * alpha, alpha);
 }

@@ -7,7 +7,7 @@ precision highp int;
 precision highp usampler2D;
 
 uniform usampler2D u_data;   // 3 RGBA32UI texels per Gaussian, 1024 Gaussians per row
-uniform usampler2D u_slots;  // per Gaussian: its object slot, 1024 Gaussians per row
+uniform usampler2D u_slots;  // per Gaussian: its object slot (bit 31: in the Gaussian selection), 1024 per row
 uniform sampler2D u_state;   // per object slot: rgb = colour override, a = flags
 uniform mat3 u_cam_from_world;
 uniform vec3 u_cam_t;
@@ -29,6 +29,7 @@ const uint HIDDEN = 1u;
 const uint SELECTED = 2u;
 const uint RECOLOURED = 4u;
 const uint HIGHLIGHT = 8u;
+const uint PICKED = 16u;     // the Gaussian is in the edit's Gaussian selection
 
 void cull() {
     gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
@@ -39,9 +40,10 @@ void main() {
     uvec4 t0 = texelFetch(u_data, base, 0);
     uvec4 t1 = texelFetch(u_data, base + ivec2(1, 0), 0);
     uvec4 t2 = texelFetch(u_data, base + ivec2(2, 0), 0);
-    uint slot = texelFetch(u_slots, ivec2(int(a_index % 1024u), int(a_index / 1024u)), 0).r;
+    uint slotBits = texelFetch(u_slots, ivec2(int(a_index % 1024u), int(a_index / 1024u)), 0).r;
+    uint slot = slotBits & 0x7fffffffu;
     vec4 state = texelFetch(u_state, ivec2(int(slot % 1024u), int(slot / 1024u)), 0);
-    uint flags = uint(state.a * 255.0 + 0.5);
+    uint flags = uint(state.a * 255.0 + 0.5) | ((slotBits >> 31) != 0u ? PICKED : 0u);
     if ((flags & HIDDEN) != 0u) { cull(); return; }
 
     float opacity = uintBitsToFloat(t2.w);

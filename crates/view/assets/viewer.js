@@ -297,6 +297,7 @@ class Viewer {
       objects: this.manifest?.objects.map((o) => o.id),
       names: Object.fromEntries((this.manifest?.objects ?? []).filter((o) => o.edited_name).map((o) => [o.id, o.edited_name])),
       edits: this.editor?.state() ?? null,
+      picked: this.editor?.selectionState() ?? null,
       mode: this.controls?.mode,
       sorts: this.sorts,
       lastSortMs: this.lastSortMs,
@@ -431,8 +432,8 @@ class Viewer {
     this.highlight = -1;
     this.renderer.setObjectCount(objects.length);
     this.stateBytes = new Uint8Array(4 * objects.length);
-    this.renderer.uploadSlots(0, slots);
     this.slotsOfRows = slots;
+    this.uploadRowSlots();
     this.uploadStates();
     this.panel?.rebuildTable();
     this.panel?.refresh();
@@ -442,21 +443,58 @@ class Viewer {
   // pixels, the current view), by the id pass's rule.
   frontRows(id, polygon) {
     const slot = this.slotOfId.get(id);
+    if (slot === undefined) return [];
     const xs = polygon.map((p) => p[0]), ys = polygon.map((p) => p[1]);
-    const x0 = Math.max(0, Math.floor(Math.min(...xs))), y0 = Math.max(0, Math.floor(Math.min(...ys)));
-    const x1 = Math.min(this.canvas.width, Math.ceil(Math.max(...xs))), y1 = Math.min(this.canvas.height, Math.ceil(Math.max(...ys)));
-    if (slot === undefined || x1 <= x0 || y1 <= y0) return [];
+    return this.frontRowsIn([Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)],
+      (x, y) => insidePolygon(x, y, polygon), new Set([slot]));
+  }
+
+  // Rows of the Gaussians drawn in front at the pixels within `radius` of the polyline `stroke`
+  // (canvas pixels; one point: a disc), of the objects `ids` (all objects when null).
+  frontRowsNear(stroke, radius, ids) {
+    const xs = stroke.map((p) => p[0]), ys = stroke.map((p) => p[1]);
+    const slots = ids ? new Set(this.slots(ids)) : null;
+    return this.frontRowsIn([Math.min(...xs) - radius, Math.min(...ys) - radius, Math.max(...xs) + radius, Math.max(...ys) + radius],
+      (x, y) => nearStroke(x, y, stroke, radius), slots);
+  }
+
+  // Rows of the Gaussians drawn in front (the index pass) at the pixels of the rectangle
+  // [x0, y0, x1, y1] whose centres pass `test`, of the slots in `slots` (any when null).
+  frontRowsIn([fx0, fy0, fx1, fy1], test, slots) {
+    const x0 = Math.max(0, Math.floor(fx0)), y0 = Math.max(0, Math.floor(fy0));
+    const x1 = Math.min(this.canvas.width, Math.ceil(fx1)), y1 = Math.min(this.canvas.height, Math.ceil(fy1));
+    if (x1 <= x0 || y1 <= y0) return [];
     const [w, h] = [x1 - x0, y1 - y0];
     const indices = this.renderer.frontIndices(this.camera, x0, y0, w, h);
-    const slots = this.slotsOfRows;
+    const rowSlots = this.slotsOfRows;
     const rows = new Set();
     for (let y = 0; y < h; y++) {
       for (let x = 0; x < w; x++) {
         const i = indices[y * w + x];
-        if (i && insidePolygon(x0 + x + 0.5, y0 + y + 0.5, polygon) && slots[i - 1] === slot) rows.add(i - 1);
+        if (i && test(x0 + x + 0.5, y0 + y + 0.5) && (!slots || slots.has(rowSlots[i - 1]))) rows.add(i - 1);
       }
     }
     return [...rows];
+  }
+
+  // Marks the rows in `ranges` ([start, end) pairs; null: none) as the Gaussian selection, drawn
+  // tinted.
+  setPickedRows(ranges) {
+    this.pickedRanges = ranges && ranges.length ? ranges : null;
+    this.uploadRowSlots();
+    this.dirty = true;
+  }
+
+  // Uploads every Gaussian's slot, with bit 31 set on the rows of the Gaussian selection.
+  uploadRowSlots() {
+    let slots = this.slotsOfRows;
+    if (this.pickedRanges) {
+      slots = slots.slice();
+      for (const [start, end] of this.pickedRanges) {
+        for (let i = start; i < end; i++) slots[i] = (slots[i] | 0x80000000) >>> 0;
+      }
+    }
+    this.renderer.uploadSlots(0, slots);
   }
 
   // Moves to capture camera `index` (its intrinsics, scaled to the canvas).
@@ -546,6 +584,21 @@ function boxSegments(box) {
     }
   }
   return new Float32Array(out);
+}
+
+// Whether (x, y) lies within `radius` of the polyline `stroke` (one point: of it), as `splatseg
+// apply` tests a brush.
+function nearStroke(x, y, stroke, radius) {
+  const r2 = radius * radius;
+  if (stroke.length === 1) return (x - stroke[0][0]) ** 2 + (y - stroke[0][1]) ** 2 <= r2;
+  for (let k = 1; k < stroke.length; k++) {
+    const [ax, ay] = stroke[k - 1], [bx, by] = stroke[k];
+    const [dx, dy] = [bx - ax, by - ay];
+    const len2 = dx * dx + dy * dy;
+    const t = len2 > 0 ? Math.min(1, Math.max(0, ((x - ax) * dx + (y - ay) * dy) / len2)) : 0;
+    if ((x - ax - t * dx) ** 2 + (y - ay - t * dy) ** 2 <= r2) return true;
+  }
+  return false;
 }
 
 // Even-odd rule, as `splatseg apply` tests a lasso.

@@ -1,7 +1,8 @@
 //! Benchmark of the viewer's edit endpoints on 1M Gaussians (issue 60: ≤ 200 ms per answer): the
 //! whole `POST /api/edits/preview` (the page's operations applied to the run's ids with edit's
 //! `apply_operations`, the objects by slot, the reply's 4 MB of slots) for a merge, a box split,
-//! a lasso split in a pinhole camera and a list of all of them with a rename, through
+//! a lasso split in a pinhole camera, a list of all of them with a rename, and a `move` of a brush
+//! selection (plain, and grown twice and shrunk once by 3D neighbours), through
 //! `Site::respond` as the server calls it. Prints a Markdown table for BENCHMARKS.md.
 //!
 //! `cargo run --release -p splatseg-view --features bench --example edit_bench -- [N]`
@@ -78,6 +79,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r#"{"op":"split_box","object":45,"box":{"centre":[-0.1,-0.1,0],"half_size":[0.05,0.05,0.5]}}"#;
     let lasso = r#"{"op":"split_lasso","object":56,"camera":{"fx":800,"fy":800,"cx":480,"cy":360,"world_from_cam":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]]},"polygon_px":[[470,350],[530,352],[520,420],[480,400],[465,380]]}"#;
     let rename = r#"{"op":"rename","id":12,"name":"table"}"#;
+    let brush_move = r#"{"op":"move","select":{"objects":[56],"parts":[{"by":"brush","camera":{"fx":800,"fy":800,"cx":480,"cy":360,"world_from_cam":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]]},"stroke_px":[[470,350],[530,352],[520,420]],"radius_px":12}]},"to":"new"}"#;
+    let grown_move = r#"{"op":"move","select":{"objects":[56],"parts":[{"by":"brush","camera":{"fx":800,"fy":800,"cx":480,"cy":360,"world_from_cam":[[1,0,0,0],[0,1,0,0],[0,0,1,-3],[0,0,0,1]]},"stroke_px":[[470,350],[530,352],[520,420]],"radius_px":12}],"neighbours":[{"grow":0.02},{"grow":0.02},{"shrink":0.02}]},"to":12}"#;
     let all = format!("{merge},{split_box},{lasso},{rename}");
     println!("| edit preview on {n} Gaussians (100 objects), through Site::respond | median of 9 | reply |");
     println!("| --- | ---: | ---: |");
@@ -86,6 +89,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("box split", split_box),
         ("lasso split (pinhole camera, 5 vertices)", lasso),
         ("the three and a rename", all.as_str()),
+        ("move: a brush stroke (3 points, 12 px) among one object's Gaussians, to a new object", brush_move),
+        ("move: the same stroke grown twice and shrunk once by neighbours within 0.02", grown_move),
     ] {
         let body = format!(r#"{{"operations":[{ops}]}}"#);
         let (ms, bytes) = median_ms(

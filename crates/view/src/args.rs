@@ -4,7 +4,8 @@ use crate::SourceOptions;
 use std::path::PathBuf;
 
 /// Open a labelled scene in the browser: see it, click objects, hide / isolate / recolour them,
-/// export a selection, a box crop or the scene coloured by object as a PLY, and fix a run's objects: merge, split by a box or a lasso, rename,
+/// export a selection, a box crop or the scene coloured by object as a PLY, and fix a run's objects: merge, split by a box or a lasso,
+/// paint Gaussians with a brush, grow or shrink that selection by 3D neighbours and move it to an object, rename,
 /// undo, redo, and Save them as the run's edits.json for `splatseg apply`.
 ///
 /// PATH is `splatseg run`'s or `train`'s output folder (e.g. `out/demo/run`), an INRIA 3DGS output

@@ -258,3 +258,46 @@ fn gaussians_are_selected_by_opacity_and_size_among_the_objects() {
     let unauthorised = request_bytes(&site, &access, &post("/api/edits/select", merged, Some(&page()), None));
     assert_eq!(status(&unauthorised), 403);
 }
+
+/// A `move`'s selection, after the page's operations: the rows it holds (the page's highlight),
+/// and a saved list holding a move is written as version 2.
+#[test]
+fn a_selection_grown_by_neighbours_answers_its_rows_and_a_move_saves_as_version_2() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let identity = Arc::new(Mutex::new(EditInputs::default()));
+    let (site, access, inputs) = editing_site(tmp.path(), identity);
+    let ask = |json: &str| {
+        request_bytes(&site, &access, &post("/api/edits/select", json, Some(&page()), Some(TOKEN)))
+    };
+    // the manifest suggests twice the spacing of the centres (√3 apart)
+    let radius = site.manifest().editing.as_ref().and_then(|e| e.neighbour_radius).expect("a radius");
+    assert!((radius - 2.0 * 3f64.sqrt()).abs() < 1e-6, "{radius}");
+    let seed = r#"{"operations":[],"selection":{"parts":[{"by":"rows","ranges":[[0,1]]}]}}"#;
+    let got: serde_json::Value = serde_json::from_slice(&body(&ask(seed))).expect("json");
+    assert_eq!(got, serde_json::json!({ "ranges": [[0, 1]], "count": 1 }));
+    let grown = r#"{"operations":[],"selection":{"parts":[{"by":"rows","ranges":[[0,1]]}],"neighbours":[{"grow":2.0}]}}"#;
+    let got: serde_json::Value = serde_json::from_slice(&body(&ask(grown))).expect("json");
+    assert_eq!(got["ranges"], serde_json::json!([[0, 2]]), "grown by one ring: the centre √3 away, not 2√3");
+    let within_one = r#"{"operations":[],"selection":{"objects":[1],"parts":[{"by":"rows","ranges":[[0,1]]}],"neighbours":[{"grow":2.0},{"grow":2.0}]}}"#;
+    let got: serde_json::Value = serde_json::from_slice(&body(&ask(within_one))).expect("json");
+    assert_eq!(
+        got["ranges"],
+        serde_json::json!([[0, 1]]),
+        "object 1's other Gaussian is reached only through object 2's"
+    );
+    let bad = r#"{"operations":[],"selection":{"parts":[{"by":"brush","camera":{"view":0},"stroke_px":[],"radius_px":3}]}}"#;
+    let reply = ask(bad);
+    assert_eq!(status(&reply), 400);
+    assert!(text(&reply).contains("a brush stroke needs at least one finite point"), "{}", text(&reply));
+    let both = r#"{"operations":[],"objects":[1],"opacity_below":0.6,"selection":{"parts":[{"by":"rows","ranges":[[0,1]]}]}}"#;
+    assert_eq!(status(&ask(both)), 400, "a filter and a selection at once");
+    let save = serde_json::json!({
+        "inputs": inputs,
+        "operations": [{ "op": "move", "select": { "parts": [{ "by": "rows", "ranges": [[1, 2]] }] }, "to": "new" }],
+    })
+    .to_string();
+    let reply = request_bytes(&site, &access, &post("/api/edits", &save, Some(&page()), Some(TOKEN)));
+    assert_eq!(status(&reply), 200, "{}", text(&reply));
+    let saved = read_edits(&tmp.path().join("edits.json")).expect("saved");
+    assert_eq!((saved.version, saved.operations.len()), (2, 1));
+}

@@ -1,5 +1,6 @@
 //! Editing a run's objects in the viewer (issue 60): the page keeps the list of operations
-//! (`splatseg_edit::edits::Operation`: merge, split by a box or a lasso, assign, rename), asks
+//! (`splatseg_edit::edits::Operation`: merge, split by a box or a lasso, assign, move a
+//! selection, rename), asks
 //! for their effect ([`Editing::preview`]: the same `apply_operations` as `splatseg apply`, on the
 //! run's own ids) and saves them as `OUT/edits.json` ([`Editing::save`]), the file `splatseg
 //! apply OUT` reads.
@@ -19,7 +20,7 @@
 use crate::manifest::{slots_of_ids, ObjectEntry};
 use serde::{Deserialize, Serialize};
 use splatseg_edit::edits::{centres_digest, parse_edits, write_edits};
-use splatseg_edit::{apply_operations, EditBase, EditInputs, Edits, Operation, EDITS_VERSION};
+use splatseg_edit::{apply_operations, selection_of, EditBase, EditInputs, Edits, Operation, Selection};
 use splatseg_scene::{Camera, Gaussians, Pose};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -51,6 +52,7 @@ pub struct Editing {
     map_only_ids: BTreeSet<i32>,
     edits_path: PathBuf,
     identity_now: RunIdentity,
+    neighbour_radius: Option<f64>,
     /// The operations of `edits.json` when the viewer started, then as last saved (a page opened
     /// starts from them).
     start: Mutex<Vec<Operation>>,
@@ -72,6 +74,10 @@ pub struct EditingEntry {
     pub path: String,
     /// The id a new object takes before any operation (the page's preview says it after).
     pub next_id: i32,
+    /// The radius (world units) the page suggests for growing and shrinking a selection: twice
+    /// the median distance between neighbouring centres (`splatseg_edit::neighbours::typical_spacing`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub neighbour_radius: Option<f64>,
     /// Something to tell the user (e.g. an `edits.json` the viewer cannot use).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
@@ -109,15 +115,20 @@ pub struct Preview {
     pub next_id: i32,
 }
 
-/// A selection of Gaussians by their own properties (`POST /api/edits/select`): the rows of
-/// `objects` (after `operations`) whose opacity and size lie in the bounds given.
+/// A selection of Gaussians (`POST /api/edits/select`), after `operations`: by their own
+/// properties, the rows of `objects` whose opacity and size lie in the bounds given; or the rows
+/// a `move`'s `selection` holds (brush strokes, grown or shrunk: the page's highlight).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SelectRequest {
     /// The page's operations so far.
     pub operations: Vec<Operation>,
-    /// The objects whose Gaussians are looked at.
+    /// The objects whose Gaussians are looked at (with a filter).
+    #[serde(default)]
     pub objects: Vec<i32>,
+    /// A `move`'s selection, instead of a filter.
+    #[serde(default)]
+    pub selection: Option<Selection>,
     /// Opacity (after the sigmoid) below this.
     #[serde(default)]
     pub opacity_below: Option<f32>,
@@ -164,12 +175,14 @@ impl Editing {
             Some(Ok(operations)) => (operations, None),
             Some(Err(why)) => (Vec::new(), Some((why, bytes.clone().unwrap_or_default()))),
         };
+        let neighbour_radius = splatseg_edit::neighbours::typical_spacing(&g.means).map(|s| 2.0 * s);
         Ok(Editing {
             inputs,
             base_ids,
             map_only_ids,
             edits_path,
             identity_now,
+            neighbour_radius,
             start: Mutex::new(start),
             on_disk: Mutex::new(bytes),
             foreign_file,
@@ -183,6 +196,7 @@ impl Editing {
             operations: self.start.lock().map(|s| s.clone()).unwrap_or_default(),
             path: self.edits_path.display().to_string(),
             next_id: self.base_ids.iter().chain(&self.map_only_ids).copied().max().unwrap_or(0).max(0) + 1,
+            neighbour_radius: self.neighbour_radius,
             note: self.foreign_file.as_ref().map(|(why, _)| why.clone()),
         }
     }
@@ -213,10 +227,22 @@ impl Editing {
         views: &[(&Camera, &Pose)],
         request: &SelectRequest,
     ) -> Result<Vec<[u64; 2]>, Refused> {
-        if request.opacity_below.is_none() && request.size_above.is_none() {
-            return Err(refused(400, "give opacity_below or size_above (or both)"));
-        }
         let base = EditBase { ids: &self.base_ids, means: &g.means, map_only_ids: &self.map_only_ids, views };
+        let filtered = request.opacity_below.is_some() || request.size_above.is_some();
+        if let Some(selection) = &request.selection {
+            if filtered || !request.objects.is_empty() {
+                return Err(refused(
+                    400,
+                    "give a selection, or objects with opacity_below or size_above, not both",
+                ));
+            }
+            let rows = selection_of(&base, &request.operations, selection, &self.edits_path)
+                .map_err(|e| refused(400, e.to_string()))?;
+            return Ok(row_ranges(rows.iter().enumerate().filter(|(_, &s)| s).map(|(i, _)| i)));
+        }
+        if !filtered {
+            return Err(refused(400, "give opacity_below or size_above (or both), or a selection"));
+        }
         let edited = apply_operations(&base, &request.operations, &self.edits_path)
             .map_err(|e| refused(400, e.to_string()))?;
         let objects: BTreeSet<i32> = request.objects.iter().copied().collect();
@@ -227,14 +253,7 @@ impl Editing {
                 && request.opacity_below.is_none_or(|t| opacity < t)
                 && request.size_above.is_none_or(|t| size > t)
         };
-        let mut ranges: Vec<[u64; 2]> = Vec::new();
-        for i in (0..g.len()).filter(|&i| picked(i)) {
-            match ranges.last_mut() {
-                Some(last) if last[1] == i as u64 => last[1] += 1,
-                _ => ranges.push([i as u64, i as u64 + 1]),
-            }
-        }
-        Ok(ranges)
+        Ok(row_ranges((0..g.len()).filter(|&i| picked(i))))
     }
 
     /// Writes `request` as `edits.json` (checked as the module doc says); the path written.
@@ -293,8 +312,7 @@ impl Editing {
                 ));
             }
         }
-        let edits =
-            Edits { version: EDITS_VERSION, inputs: self.inputs.clone(), operations: request.operations };
+        let edits = Edits::new(self.inputs.clone(), request.operations);
         write_edits(&self.edits_path, &edits).map_err(|e| refused(500, e.to_string()))?;
         *on_disk = std::fs::read(&self.edits_path).ok();
         if let Ok(mut start) = self.start.lock() {
@@ -302,6 +320,18 @@ impl Editing {
         }
         Ok(self.edits_path.clone())
     }
+}
+
+/// Ascending rows as `[start, end)` ranges.
+fn row_ranges(rows: impl Iterator<Item = usize>) -> Vec<[u64; 2]> {
+    let mut ranges: Vec<[u64; 2]> = Vec::new();
+    for i in rows {
+        match ranges.last_mut() {
+            Some(last) if last[1] == i as u64 => last[1] += 1,
+            _ => ranges.push([i as u64, i as u64 + 1]),
+        }
+    }
+    ranges
 }
 
 /// The operations of an existing `edits.json` when they are this run's, else why not.

@@ -308,7 +308,7 @@ impl Site {
                 return Reply::error(
                     400,
                     &format!(
-                        "bad selection (expected {{\"operations\": [...], \"objects\": [ids], \"opacity_below\": x, \"size_above\": y}}): {e}"
+                        "bad selection (expected {{\"operations\": [...], \"objects\": [ids], \"opacity_below\": x, \"size_above\": y}} or {{\"operations\": [...], \"selection\": {{...}}}}): {e}"
                     ),
                 )
             }

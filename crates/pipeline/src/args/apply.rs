@@ -7,7 +7,8 @@ use std::path::PathBuf;
 /// OUT/edits.json lists corrections to the automatic result in order (the viewer saves them, or
 /// write them by hand; the format is in README.md): `merge` object ids into one, `split_box` an
 /// object by a 3D box, `split_lasso` it by a polygon drawn in a view, `assign` Gaussian index
-/// ranges to an object, `rename` an object. apply rewrites gaussians.ply's object_id, every
+/// ranges to an object, `move` the Gaussians a selection holds (brush strokes in a view, grown or
+/// shrunk by 3D neighbours) to an object, `rename` an object. apply rewrites gaussians.ply's object_id, every
 /// view's label map and overlay (rendered from the edited Gaussians, so a fix made in one view
 /// holds in all), objects.json (the objects with their names) and report.md, staged and moved in
 /// together as `run` writes them. The edits always start from the run's own result (kept in
