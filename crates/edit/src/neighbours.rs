@@ -194,6 +194,81 @@ mod tests {
         assert!(!selected[10] && !selected[11]);
     }
 
+    /// Centres scattered by a fixed linear congruential sequence in a 4 × 4 × 4 box, with a
+    /// cluster, rows outside the box and a NaN.
+    fn scattered(n: usize) -> Vec<[f32; 3]> {
+        let mut state = 0x2545_f491_u64;
+        let mut next = move || {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 4.0
+        };
+        let mut m: Vec<[f32; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
+        m.extend((0..50).map(|k| [1.0 + 0.01 * k as f32, 1.0, 1.0]));
+        m.push([-30.0, 2.0, 2.0]);
+        m.push([f32::NAN, 1.0, 1.0]);
+        m
+    }
+
+    /// Grow and shrink by testing every pair: what the grid must find.
+    fn brute(selected: &[bool], means: &[[f32; 3]], radius: f64, growing: bool) -> Vec<bool> {
+        let near = |a: usize, b: usize| match (centre(&means[a]), centre(&means[b])) {
+            (Some(p), Some(q)) => p.distance_squared(q) <= radius * radius,
+            _ => false,
+        };
+        (0..means.len())
+            .map(|a| {
+                let other = (0..means.len()).any(|b| selected[b] != selected[a] && near(a, b));
+                if growing {
+                    selected[a] || other
+                } else {
+                    selected[a] && !other
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn grow_and_shrink_find_exactly_the_neighbours_every_pair_finds() {
+        let means = scattered(1500);
+        for radius in [0.05, 0.2, 0.7] {
+            let mut selected: Vec<bool> =
+                (0..means.len()).map(|r| r % 7 == 0 || (1500..1520).contains(&r)).collect();
+            for step in 0..3 {
+                let want = brute(&selected, &means, radius, step != 1);
+                if step == 1 {
+                    shrink(&mut selected, &means, radius);
+                } else {
+                    grow(&mut selected, &means, radius, None);
+                }
+                assert_eq!(selected, want, "radius {radius}, step {step}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_typical_spacing_is_the_median_of_every_pairs_nearest_distances() {
+        // 3,000 finite centres (the far one left out: the cells are then small enough that some
+        // nearest centres lie two cells away): 1,000 samples, every third one
+        let mut means = scattered(2950);
+        means.retain(|m| !(m[0] < -1.0));
+        let finite: Vec<DVec3> = means.iter().filter_map(centre).collect();
+        assert_eq!(finite.len(), 3000);
+        let (lo, hi) = finite.iter().fold((finite[0], finite[0]), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let cell = (hi - lo).length() / (finite.len() as f64).sqrt();
+        let mut nearest: Vec<f64> = (0..1000)
+            .map(|k| {
+                let p = finite[k * 3];
+                (0..finite.len())
+                    .filter(|&j| j != k * 3)
+                    .map(|j| finite[j].distance(p))
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .filter(|&d| d <= 2.0 * cell)
+            .collect();
+        nearest.sort_by(f64::total_cmp);
+        assert_eq!(typical_spacing(&means), Some(nearest[nearest.len() / 2]));
+    }
+
     #[test]
     fn the_typical_spacing_is_the_median_nearest_distance() {
         let spacing = typical_spacing(&line()).expect("a spacing");
