@@ -250,7 +250,7 @@ mod tests {
         // 3,000 finite centres (the far one left out: the cells are then small enough that some
         // nearest centres lie two cells away): 1,000 samples, every third one
         let mut means = scattered(2950);
-        means.retain(|m| !(m[0] < -1.0));
+        means.retain(|m| m[0] >= -1.0 || m[0].is_nan());
         let finite: Vec<DVec3> = means.iter().filter_map(centre).collect();
         assert_eq!(finite.len(), 3000);
         let (lo, hi) = finite.iter().fold((finite[0], finite[0]), |(lo, hi), &p| (lo.min(p), hi.max(p)));
