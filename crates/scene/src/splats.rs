@@ -10,6 +10,7 @@
 
 mod compressed_ply;
 mod ksplat;
+mod prefault;
 mod quantise;
 mod splat;
 mod spz;
