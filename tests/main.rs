@@ -11,6 +11,7 @@ mod bench_scale;
 mod chromium;
 mod cli;
 mod clip_objects;
+mod compact_formats;
 mod cues_models;
 mod golden_outputs;
 mod kill_harness;

@@ -15,6 +15,18 @@ pub enum EditError {
         /// The PLY, when known.
         path: Option<PathBuf>,
     },
+    /// A file of a format that holds no `object_id` (SPZ, `.splat`, `.ksplat`, compressed PLY)
+    /// given where objects are needed.
+    #[error(
+        "{} is {}, which holds no `object_id`, so there are no objects to edit: label it with `splatseg run SCENE --gaussians {} --out OUT` and give OUT/gaussians.ply instead (the same Gaussians, row for row, with `object_id`; `--out NAME{}` writes {} again): {}",
+        .path.display(), described(*.format), .path.display(), .format.extension(), described(*.format), .path.display()
+    )]
+    IdsNotHeld {
+        /// The file's format.
+        format: splatseg_scene::splats::SplatFormat,
+        /// The file.
+        path: PathBuf,
+    },
     /// Requested ids that no Gaussian carries.
     #[error("no Gaussian has object id {}; ids present: {}{}", list(.missing), list(.available), location(.path))]
     UnknownIds {
@@ -94,6 +106,14 @@ impl EditError {
             other => other,
         }
     }
+}
+
+/// "an SPZ", "a .splat file", "a compressed PLY": a format as a sentence names a file of it.
+fn described(format: splatseg_scene::splats::SplatFormat) -> String {
+    let name = format.name();
+    let article = if name.starts_with('S') { "an" } else { "a" };
+    let file = if name.starts_with('.') { " file" } else { "" };
+    format!("{article} {name}{file}")
 }
 
 fn location(path: &Option<PathBuf>) -> String {

@@ -14,8 +14,16 @@ pub fn read_labelled_ply(path: &Path) -> Result<Gaussians, EditError> {
     require_labels(splatseg_scene::splats::read_gaussians(path)?, path)
 }
 
-/// `g` (read from `path`) if it carries `object_id`; the error says to run `splatseg run` if not.
+/// `g` (read from `path`) if it carries `object_id`; the error says to run `splatseg run` if not,
+/// and for a file of a format that cannot hold ids (SPZ, `.splat`, `.ksplat`, compressed PLY) names
+/// the format and where the ids go ([`EditError::IdsNotHeld`]).
 pub fn require_labels(g: Gaussians, path: &Path) -> Result<Gaussians, EditError> {
+    if g.object_ids.is_none() {
+        let format = splatseg_scene::splats::detect_file_format(path)?;
+        if format != SplatFormat::Ply {
+            return Err(EditError::IdsNotHeld { format, path: path.to_path_buf() });
+        }
+    }
     object_ids(&g).map_err(|e| e.with_path(path))?;
     Ok(g)
 }

@@ -10,6 +10,7 @@
 
 mod compressed_ply;
 mod ksplat;
+mod prefault;
 mod quantise;
 mod splat;
 mod spz;
@@ -50,6 +51,18 @@ impl SplatFormat {
             SplatFormat::Splat => splat::FORMAT,
             SplatFormat::CompressedPly => compressed_ply::FORMAT,
             SplatFormat::Ksplat => ksplat::FORMAT,
+        }
+    }
+
+    /// The extension a file of this format is named with (what [`SplatFormat::from_extension`]
+    /// reads back): `.ply`, `.spz`, `.splat`, `.compressed.ply`, `.ksplat`.
+    pub fn extension(self) -> &'static str {
+        match self {
+            SplatFormat::Ply => ".ply",
+            SplatFormat::Spz => ".spz",
+            SplatFormat::Splat => ".splat",
+            SplatFormat::CompressedPly => ".compressed.ply",
+            SplatFormat::Ksplat => ".ksplat",
         }
     }
 
@@ -137,13 +150,20 @@ pub fn read_gaussian_rows(path: &Path) -> SceneResult<PlyRows> {
     Ok(read_gaussian_rows_with_format(path)?.1)
 }
 
+/// The format of the file at `path`, from its first bytes and its name ([`SplatFormat::detect`]);
+/// an error names the file when it is none of them or cannot be read.
+pub fn detect_file_format(path: &Path) -> SceneResult<SplatFormat> {
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(DETECT_BYTES as u64).read_to_end(&mut head))
+        .map_err(|e| SceneError::io("cannot read", path, e))?;
+    SplatFormat::detect(&head, path).map_err(|reason| SceneError::invalid(ANY_FORMAT, path, reason))
+}
+
 /// [`read_gaussian_rows`] and the format the file was in.
 pub fn read_gaussian_rows_with_format(path: &Path) -> SceneResult<(SplatFormat, PlyRows)> {
     let io = |e| SceneError::io("cannot read", path, e);
-    let mut head = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(DETECT_BYTES as u64).read_to_end(&mut head)).map_err(io)?;
-    let format =
-        SplatFormat::detect(&head, path).map_err(|reason| SceneError::invalid(ANY_FORMAT, path, reason))?;
+    let format = detect_file_format(path)?;
     match format {
         SplatFormat::Ply => return Ok((format, crate::ply::read_ply_rows(path)?)),
         SplatFormat::Spz => return Ok((format, compact_rows(format, read_spz_file(path)?))),

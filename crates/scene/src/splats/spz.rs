@@ -280,11 +280,11 @@ impl<R: Read> Body<'_, R> {
                 let count = left.min(chunk_rows);
                 let len = count * element;
                 let mut bytes = spare().unwrap_or_default();
-                bytes.clear();
-                bytes.reserve(len);
-                (&mut *self.stream).take(len as u64).read_to_end(&mut bytes).map_err(gzip_error)?;
-                self.done += bytes.len() as u64;
-                if bytes.len() < len {
+                // A recycled buffer is only zeroed where it grows (not once per read).
+                bytes.resize(len, 0);
+                let filled = fill(&mut *self.stream, &mut bytes).map_err(gzip_error)?;
+                self.done += filled as u64;
+                if filled < len {
                     return Err(truncated(&self.header, self.done, section));
                 }
                 take(rows.next(section, count), bytes)?;
@@ -293,6 +293,20 @@ impl<R: Read> Body<'_, R> {
         }
         Ok(())
     }
+}
+
+/// Reads `stream` into `buffer` until it is full or the stream ends; the bytes read.
+fn fill(stream: &mut impl Read, buffer: &mut [u8]) -> std::io::Result<usize> {
+    let mut filled = 0;
+    while filled < buffer.len() {
+        match stream.read(&mut buffer[filled..]) {
+            Ok(0) => break,
+            Ok(read) => filled += read,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(filled)
 }
 
 /// The error for a file too short to inflate to the body its header declares: the stream

@@ -4,6 +4,7 @@
 //! through a 256-entry table made with the same expression the value has, so the decoded floats
 //! are bit for bit those of decoding each byte on its own.
 
+use super::prefault::prefault;
 use super::quantise::logit_of_byte;
 use crate::gaussians::Gaussians;
 
@@ -92,6 +93,17 @@ pub(super) enum Rows<'a> {
     Sh(&'a mut [f32]),
 }
 
+impl Rows<'_> {
+    /// Makes the rows' pages writable in one call before they are written ([`prefault`]).
+    fn prefault(&mut self) {
+        match self {
+            Rows::Means(out) | Rows::Colours(out) | Rows::Scales(out) => prefault(out),
+            Rows::Opacities(out) | Rows::Sh(out) => prefault(out),
+            Rows::Rotations(out) => prefault(out),
+        }
+    }
+}
+
 /// The arrays of `g` (made for every Gaussian) handed out a chunk of rows at a time, section
 /// after section, in the body's order.
 pub(super) struct RowsOf<'a> {
@@ -156,8 +168,10 @@ impl SpzDecoder {
         }
     }
 
-    /// Decodes `bytes`, whole elements of one section, into `rows` (as many).
-    pub(super) fn decode(&self, rows: Rows<'_>, bytes: &[u8]) {
+    /// Decodes `bytes`, whole elements of one section, into `rows` (as many), their pages made
+    /// writable first in one call ([`prefault`]).
+    pub(super) fn decode(&self, mut rows: Rows<'_>, bytes: &[u8]) {
+        rows.prefault();
         match rows {
             Rows::Means(out) => {
                 let unit = 1.0 / (1u32 << self.shape.fractional_bits) as f32;
