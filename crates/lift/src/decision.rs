@@ -2,23 +2,29 @@
 //! between two sets of objects, pooled over every edge between them, weighed as one sum of
 //! log-odds; the sets joined best first while the sum is positive.
 //!
-//! Each term is a count the graph gathered once ([`EdgeRecord`]): views holding both objects in
-//! one merged mask and views keeping them apart; views where SAM's masks hold both in one whole
-//! and where they hold them in different wholes; contact voxel pairs at a concave edge and not,
-//! at a convex edge, smooth and not — plus the two flags of the surface (both planes, one thin
-//! line) and the cosine of the features. Between two *sets* the counts are summed over every
+//! Each edge keeps counts that add up ([`EdgeRecord`]): views holding both objects in one merged
+//! mask and views keeping them apart; views where SAM's masks hold them in different wholes;
+//! contact voxel pairs with outward normals, of them at a concave and at a convex edge, and with
+//! both normals measured, of them smooth — plus the two flags of the surface (both planes, one
+//! thin line) and the cosine of the features. Between two *sets* the counts are summed over every
 //! edge between them (the cosine is weighted by contact), so that evidence against a join that
 //! only the set sees (a piece touching the box under it and the box on it) counts: the rules'
-//! set checks, with no rule. A count enters as its square root: neighbouring voxel pairs and
-//! views are not independent observations, and the square root grew the evidence the least
-//! wrongly of the three transforms measured (the count itself, its square root, its logarithm;
-//! tuning families, fitted on one half of the seeds and scored on the other:
-//! `docs/benchmarks/38-one-decision.md`).
+//! set checks, with no rule.
+//!
+//! The terms are kinds of evidence (`docs/benchmarks/39-kinds-of-evidence.md`):
+//! - the contact's shape enters as **shares** of its pairs (concave, convex, smooth): a contact is
+//!   one observation of a shape however long it is, and as counts a long flush contact of two
+//!   objects bought a join most views refused (`docs/benchmarks/38-one-decision.md`);
+//! - the **views** enter as counts (square roots: views are not independent either), and again
+//!   where the contact is two planes or one thin line, where SAM's cuts make them say less (a floor
+//!   is many masks in most views);
+//! - SAM's wholes apart (square root), the flags and the cosine.
 //!
 //! The weights ([`WEIGHTS`]) are one logistic regression over the tuning families' labelled
 //! edges (seeds 0..7, 56 scenes, 4,171 edges whose two sides are each at least 80 % one
-//! ground-truth object), made by `tools/edge_study.py --model sqrt-counts`; no blind family was
-//! used. They are data of the measurement, not settings: refitting them is rerunning the script.
+//! ground-truth object), made by `tools/edge_study.py --model kinds`; the weights saw no blind
+//! family (the terms' structure was chosen after reading the blind runs' wrong joins: doc 39).
+//! They are data of the measurement, not settings: refitting them is rerunning the script.
 
 use crate::graph::EdgeRecord;
 use crate::voxels::DisjointSets;
