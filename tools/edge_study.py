@@ -74,6 +74,35 @@ COUNT_TERMS = [
 ]
 
 
+def _share(part, whole):
+    return part / whole if whole else 0.0
+
+
+# The terms of `crates/lift/src/decision.rs` (`--model kinds`, the lift's decision since
+# docs/benchmarks/39): the views as counts (square roots), again where the contact is two planes or
+# one thin line (SAM cuts a floor or a post into many masks, so there the views say less); SAM's
+# wholes apart; the contact's shape as shares of its pairs (one observation, whatever the contact's
+# size); the two flags and the cosine. Same order as its `WEIGHTS`.
+def _views(e):
+    return math.sqrt(e["together"]), math.sqrt(max(0, e["seeing_both"] - e["together"]))
+
+
+KIND_TERMS = [
+    ("views_together", lambda e: _views(e)[0]),
+    ("views_apart", lambda e: _views(e)[1]),
+    ("planes_x_together", lambda e: float(e["coplanar"]) * _views(e)[0]),
+    ("planes_x_apart", lambda e: float(e["coplanar"]) * _views(e)[1]),
+    ("sam_apart", lambda e: math.sqrt(_sam(e, "apart"))),
+    ("concave_share", lambda e: _share(e["concave"], e["oriented"])),
+    ("convex_share", lambda e: _share(e["convex"], e["oriented"])),
+    ("smooth_share", lambda e: _share(e["smooth"], e["measured"])),
+    ("coplanar", lambda e: float(e["coplanar"])),
+    ("thin_line", lambda e: float(e["thin_line"])),
+    ("line_x_apart", lambda e: float(e["thin_line"]) * _views(e)[1]),
+    ("cos", lambda e: e["cos"]),
+]
+
+
 TERMS_IN_USE = TERMS
 
 
@@ -287,9 +316,10 @@ def main():
     ap.add_argument("--descriptors", default="features", choices=["features", "model_free"])
     ap.add_argument("--purity", type=float, default=0.8, help="a side less pure than this is left out")
     ap.add_argument("--drop", action="append", default=[], help="a term to leave out (repeatable)")
-    ap.add_argument("--model", default="linear", choices=["linear", "stumps", "sqrt-counts"],
-                    help="one weight per term (linear), boosted stumps (a step function per term), or "
-                         "the square roots of counts that add up between sets (the lift's `decision`)")
+    ap.add_argument("--model", default="linear", choices=["linear", "stumps", "sqrt-counts", "kinds"],
+                    help="one weight per term (linear), boosted stumps (a step function per term), the "
+                         "square roots of counts that add up between sets (docs/benchmarks/38), or the views "
+                         "as counts per kind of contact and its shape as shares (kinds: the lift's `decision`)")
     ap.add_argument("--halves", action="store_true",
                     help="also fit on the even seeds of the first folder and score the odd ones, and back")
     ap.add_argument("--breakdown", action="store_true", help="today's rules and outcomes against the truth")
@@ -298,14 +328,16 @@ def main():
     global TERMS_IN_USE
     if args.model == "sqrt-counts":
         TERMS_IN_USE = COUNT_TERMS
+    if args.model == "kinds":
+        TERMS_IN_USE = KIND_TERMS
     names = [n for n, _ in TERMS_IN_USE]
     for d in args.drop:
         if d not in names:
             sys.exit(f"unknown term {d!r}; terms: {', '.join(names)}")
     keep = [k for k, n in enumerate(names) if n not in args.drop]
     sets = [(f, load(f, args.descriptors, args.purity)) for f in args.folders]
-    # The lift's weights (`--model sqrt-counts`) are the fit after 2,000 steps.
-    steps = 2000 if args.model == "sqrt-counts" else 3000
+    # The lift's weights (`--model kinds`; `sqrt-counts` before) are the fit after 2,000 steps.
+    steps = 2000 if args.model in ("sqrt-counts", "kinds") else 3000
     w, b, mean, dev = fit(labelled(sets[0][1]), keep, steps=steps)
 
     def log_odds(r):
@@ -326,7 +358,7 @@ def main():
     for j, k in enumerate(keep):
         print(f"    {names[k]:<12} {w[j]:+.3f}   (mean {mean[j]:.3f}, deviation {dev[j]:.3f})")
     print(f"    {'bias':<12} {b:+.3f}")
-    if args.model == "sqrt-counts":
+    if args.model in ("sqrt-counts", "kinds"):
         print("  per unit of each term (crates/lift/src/decision.rs WEIGHTS):")
         for j, k in enumerate(keep):
             print(f"    {names[k]:<16} {w[j] / dev[j]:.4f}")

@@ -141,7 +141,7 @@ pub enum Decision {
     Rules,
     /// One sum of log-odds over the evidence pooled between two sets of objects, joined
     /// agglomeratively (`crate::decision`; issue 58's candidate, measured beside the rules in
-    /// `docs/benchmarks/38-one-decision.md`). The joins of the rules and their vetoes are not
+    /// `docs/benchmarks/38-one-decision.md` and `39-kinds-of-evidence.md`). The joins of the rules and their vetoes are not
     /// asked; the 3D split, its rejoin and the specks after it are unchanged.
     Evidence,
 }
